@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Installs what a fresh Debian 12 machine lacks to build, test and run dqn_dovs:
+# Debian's ROS 1 packages and build tools (apt) and the project's Python venv.
+# Idempotent and quiet: a second run only checks and returns.
+set -euo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+
+APT_PACKAGES=(
+  build-essential cmake ninja-build pkg-config clang-format
+  catkin colcon python3-colcon-ros python3-colcon-test-result python3-colcon-cmake
+  python3-catkin-pkg python3-rospkg python3-empy
+  ros-base-dev libroscpp-dev librosbag-dev libtf2-ros-dev libtf2-geometry-msgs-dev libtf2-eigen-dev
+  librostest-dev python3-rostest python3-roslaunch python3-rosbag python3-rospy python3-rosnode
+  python3-rostopic python3-rosservice python3-rosparam rosout python3-rosmaster
+  ros-message-generation ros-message-runtime
+  libstd-msgs-dev libstd-srvs-dev libsensor-msgs-dev libnav-msgs-dev libgeometry-msgs-dev
+  libvisualization-msgs-dev python3-std-srvs python3-sensor-msgs python3-nav-msgs
+  python3-geometry-msgs python3-visualization-msgs python3-tf2-ros
+  libcv-bridge-dev libimage-transport-dev libopencv-dev
+  libeigen3-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
+  librviz-dev rviz pluginlib-dev libclass-loader-dev
+  googletest libgtest-dev libgmock-dev
+  pybind11-dev python3-pybind11 python3-dev python3-venv python3-numpy python3-yaml
+)
+
+missing=()
+for p in "${APT_PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "[setup] installing ${#missing[@]} Debian packages: ${missing[*]}"
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO=sudo
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq >/dev/null
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/tmp/dqn_dovs_apt.log 2>&1 || {
+    echo "[setup] apt-get install failed; see /tmp/dqn_dovs_apt.log" >&2; tail -20 /tmp/dqn_dovs_apt.log >&2; exit 1; }
+fi
+
+# Python venv for the trainer and the Python tests (Debian's python3, so ROS python
+# modules stay importable through --system-site-packages).
+venv="$here/.venv"
+stamp="$venv/.requirements.stamp"
+req="$here/python/requirements.txt"
+if [ ! -x "$venv/bin/python" ]; then
+  echo "[setup] creating Python venv in .venv"
+  /usr/bin/python3 -m venv --system-site-packages "$venv"
+fi
+if [ -f "$req" ] && { [ ! -f "$stamp" ] || ! cmp -s "$req" "$stamp"; }; then
+  echo "[setup] installing Python requirements into .venv"
+  "$venv/bin/pip" install -q --disable-pip-version-check -r "$req"
+  cp "$req" "$stamp"
+fi
+exit 0

@@ -1,0 +1,88 @@
+#include "dqn_dovs/robot_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace dqn_dovs {
+
+std::string RobotLimits::validate() const {
+  auto bad = [](const char* name, double value, const char* why) {
+    std::ostringstream os;
+    os << "robot parameter '" << name << "' = " << value << ": " << why;
+    return os.str();
+  };
+  if (!(std::isfinite(v_max) && v_max > 0.0)) return bad("v_max", v_max, "must be a finite positive speed (m/s)");
+  if (!(std::isfinite(w_max) && w_max > 0.0)) return bad("w_max", w_max, "must be a finite positive turn rate (rad/s)");
+  if (!(std::isfinite(a_v) && a_v > 0.0)) return bad("a_v", a_v, "must be a finite positive acceleration (m/s^2)");
+  if (!(std::isfinite(a_w) && a_w > 0.0)) return bad("a_w", a_w, "must be a finite positive acceleration (rad/s^2)");
+  if (!(std::isfinite(dt) && dt > 0.0 && dt <= 2.0)) return bad("dt", dt, "control period must be in (0, 2] s");
+  if (!(std::isfinite(radius) && radius > 0.0 && radius < 5.0)) return bad("radius", radius, "must be in (0, 5) m");
+  return {};
+}
+
+double RobotLimits::wLimitAt(double v) const { return std::max(0.0, w_max * (1.0 - std::clamp(v, 0.0, v_max) / v_max)); }
+
+bool RobotLimits::feasible(const Twist2& t, double tol) const {
+  if (!std::isfinite(t.v) || !std::isfinite(t.w)) return false;
+  if (t.v < -tol || t.v > v_max + tol) return false;
+  // |w| / w_max + v / v_max <= 1
+  return std::abs(t.w) / w_max + t.v / v_max <= 1.0 + tol;
+}
+
+Twist2 RobotLimits::clipToFeasible(const Twist2& t) const {
+  if (!std::isfinite(t.v) || !std::isfinite(t.w)) return {0.0, 0.0};
+  if (feasible(t, 0.0)) return t;
+  // Work in normalised coordinates (a = v / v_max, b = |w| / w_max): feasible set is a >= 0, b >= 0, a + b <= 1.
+  const double sign = t.w < 0.0 ? -1.0 : 1.0;
+  double a = t.v / v_max, b = std::abs(t.w) / w_max;
+  if (a < 0.0) a = 0.0;
+  if (a + b > 1.0) {
+    // Project onto the line a + b = 1, then clamp to its ends.
+    const double excess = (a + b - 1.0) / 2.0;
+    a -= excess;
+    b -= excess;
+    if (a < 0.0) {
+      a = 0.0;
+      b = 1.0;
+    } else if (b < 0.0) {
+      b = 0.0;
+      a = 1.0;
+    }
+  }
+  return {a * v_max, sign * b * w_max};
+}
+
+std::array<Twist2, 4> DynamicWindow::corners() const {
+  return {Twist2{center.v + dv, center.w}, Twist2{center.v - dv, center.w}, Twist2{center.v, center.w - dw},
+          Twist2{center.v, center.w + dw}};
+}
+
+bool DynamicWindow::containsRhombus(const Twist2& t, double tol) const {
+  return std::abs(t.v - center.v) / dv + std::abs(t.w - center.w) / dw <= 1.0 + tol;
+}
+
+bool DynamicWindow::contains(const Twist2& t, const RobotLimits& limits, double tol) const {
+  return containsRhombus(t, tol) && limits.feasible(t, tol);
+}
+
+DynamicWindow makeDynamicWindow(const Twist2& current, const RobotLimits& limits) {
+  return {current, limits.dv(), limits.dw()};
+}
+
+Twist2 applyAccelerationLimits(const Twist2& current, const Twist2& command, const RobotLimits& limits, double dt_s) {
+  if (!std::isfinite(command.v) || !std::isfinite(command.w)) return limits.clipToFeasible(current);
+  const double max_dv = limits.a_v * dt_s, max_dw = limits.a_w * dt_s;
+  Twist2 out;
+  out.v = current.v + std::clamp(command.v - current.v, -max_dv, max_dv);
+  out.w = current.w + std::clamp(command.w - current.w, -max_dw, max_dw);
+  out.v = std::clamp(out.v, 0.0, limits.v_max);
+  // Keep inside the triangle by reducing |w| first (w can always change by a_w dt, so this is reachable
+  // whenever the current state was feasible and the limit shrank only through v).
+  const double wl = limits.wLimitAt(out.v);
+  out.w = std::clamp(out.w, -wl, wl);
+  return out;
+}
+
+}  // namespace dqn_dovs
+
