@@ -1,0 +1,44 @@
+# dqn_dovs — every target does its own prerequisites, so each works as the first command on a fresh machine.
+SHELL := /bin/bash
+# Debian's python3 and ROS tools first: another python3 on PATH breaks catkin, rostest and roslaunch.
+export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
+export PYTHONNOUSERSITE := 1
+JOBS ?= 2
+BENCHES := sim tracker dovs inference
+
+.PHONY: all setup build test test-cpp test-python bench demo clean format help
+all: build
+
+help:
+	@echo "make setup   install Debian ROS 1 packages and the Python venv (idempotent)"
+	@echo "make build   colcon build of the dqn_dovs package (+ the Python module)"
+	@echo "make test    every test: gtest, rostest, Python"
+	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES))"
+	@echo "make demo    the ROS pipeline in simulation on shared scenarios"
+
+setup:
+	@bash scripts/setup.sh
+
+build: setup
+	@bash scripts/build.sh
+
+test: build
+	@bash scripts/run_tests.sh
+
+bench: build
+	@set -e; for b in $(BENCHES); do $(MAKE) --no-print-directory bench-run-$$b; done
+
+bench-%: build
+	@$(MAKE) --no-print-directory bench-run-$*
+
+bench-run-%:
+	@bash scripts/bench.sh $*
+
+demo: build
+	@bash scripts/demo.sh
+
+format:
+	@find include src test bench tools -name '*.cpp' -o -name '*.h' | xargs clang-format -i
+
+clean:
+	rm -rf build install log

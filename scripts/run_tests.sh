@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Runs every test (core gtests, rostests, Python tests) and ends with one line "N passed, N failed".
+# Exits non-zero when any test fails or errors, or when no test ran.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+root="$(pwd)"
+export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+export PYTHONNOUSERSITE=1
+# shellcheck disable=SC1091
+. install/setup.sh
+export ROS_HOME="$root/log/ros_home"
+export ROS_LOG_DIR="$ROS_HOME/log"
+mkdir -p "$ROS_LOG_DIR"
+
+rm -rf build/dqn_dovs/test_results
+echo "[test] C++ gtests and rostests (colcon test)"
+colcon test --base-paths . --build-base build --install-base install --parallel-workers 1 \
+  --event-handlers console_direct- console_stderr- summary- status- --ctest-args --output-on-failure \
+  >log/test.last.txt 2>&1
+summary=$(colcon test-result --test-result-base build/dqn_dovs/test_results --all --verbose 2>&1 | tee log/test-result.last.txt | tail -n 1)
+failed_lines=$(grep -E "^build/.*: [0-9]+ tests?, [0-9]+ errors?, [1-9][0-9]* failures?|^build/.*: [0-9]+ tests?, [1-9][0-9]* errors?" log/test-result.last.txt || true)
+read -r c_tests c_err c_fail c_skip < <(echo "$summary" | sed -E 's/Summary: ([0-9]+) tests?, ([0-9]+) errors?, ([0-9]+) failures?, ([0-9]+) skipped.*/\1 \2 \3 \4/')
+if ! [[ "$c_tests" =~ ^[0-9]+$ ]]; then
+  echo "[test] could not read colcon test results: $summary" >&2; c_tests=0; c_err=1; c_fail=0; c_skip=0
+fi
+if [ "$c_err" -gt 0 ] || [ "$c_fail" -gt 0 ]; then
+  echo "[test] C++/ROS test failures:"; echo "$failed_lines"
+  grep -B2 -A20 -E "\[  FAILED  \]|FAILURE|Failure|failures=\"[1-9]" log/test-result.last.txt | head -120
+fi
+echo "[test] C++/ROS: $c_tests tests, $c_fail failures, $c_err errors, $c_skip skipped"
+
+echo "[test] Python tests (pytest)"
+py_pass=0; py_fail=0; py_skip=0
+if ls test/python/test_*.py >/dev/null 2>&1; then
+  PYTHONPATH="$root/python${PYTHONPATH:+:$PYTHONPATH}" DQN_DOVS_BIN_DIR="$root/install/lib/dqn_dovs" \
+    DQN_DOVS_REQUIRE_CORE="${DQN_DOVS_REQUIRE_CORE:-1}" MPLBACKEND=Agg \
+    .venv/bin/python -m pytest -q -p no:cacheprovider --junitxml=log/pytest.xml test/python >log/pytest.last.txt 2>&1
+  tail -n 30 log/pytest.last.txt
+  read -r py_total py_err py_fail0 py_skip < <(.venv/bin/python - <<'PY'
+import xml.etree.ElementTree as ET
+r = ET.parse("log/pytest.xml").getroot()
+s = r if r.tag == "testsuite" else r.find("testsuite")
+print(s.get("tests"), s.get("errors"), s.get("failures"), s.get("skipped"))
+PY
+)
+  py_fail=$((py_fail0 + py_err)); py_skip=$py_skip; py_pass=$((py_total - py_fail - py_skip))
+fi
+c_pass=$((c_tests - c_fail - c_err - c_skip))
+passed=$((c_pass + py_pass)); failed=$((c_fail + c_err + py_fail)); skipped=$((c_skip + py_skip))
+echo
+echo "$passed passed, $failed failed, $skipped skipped"
+[ "$failed" -eq 0 ] && [ "$passed" -gt 0 ]

@@ -1,0 +1,247 @@
+#include "conversions.h"
+
+#include <tf2/utils.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace dqn_dovs {
+
+std::string laserScanFromMsg(const sensor_msgs::LaserScan& msg, LaserScan2& out, size_t* invalid_beams) {
+  std::ostringstream why;
+  if (msg.header.frame_id.empty()) return "scan has an empty header.frame_id";
+  if (msg.ranges.empty()) return "scan has no ranges";
+  if (!std::isfinite(msg.angle_min) || !std::isfinite(msg.angle_max) || !std::isfinite(msg.angle_increment)) {
+    return "scan angle_min / angle_max / angle_increment is not finite";
+  }
+  if (std::abs(msg.angle_increment) < 1e-9) return "scan angle_increment is zero";
+  if (!std::isfinite(msg.range_max) || msg.range_max <= 0.0f || !std::isfinite(msg.range_min) ||
+      msg.range_min < 0.0f || msg.range_min >= msg.range_max) {
+    why << "scan range limits are invalid (range_min " << msg.range_min << ", range_max " << msg.range_max << ")";
+    return why.str();
+  }
+  const double span = static_cast<double>(msg.angle_increment) * static_cast<double>(msg.ranges.size() - 1);
+  if (std::abs(span) > 2.0 * kPi + 1e-3) {
+    why << "scan has " << msg.ranges.size() << " beams of " << msg.angle_increment
+        << " rad: more than one turn";
+    return why.str();
+  }
+  out.stamp_s = msg.header.stamp.toSec();
+  out.angle_min = msg.angle_min;
+  out.angle_increment = msg.angle_increment;
+  out.range_min = msg.range_min;
+  out.range_max = msg.range_max;
+  out.ranges.assign(msg.ranges.begin(), msg.ranges.end());
+  if (invalid_beams) {
+    size_t bad = 0;
+    for (float r : msg.ranges) {
+      if (!std::isfinite(r) || r < msg.range_min || r > msg.range_max) ++bad;
+    }
+    *invalid_beams = bad;
+  }
+  return {};
+}
+
+void laserScanToMsg(const LaserScan2& scan, sensor_msgs::LaserScan& msg) {
+  msg.angle_min = static_cast<float>(scan.angle_min);
+  msg.angle_increment = static_cast<float>(scan.angle_increment);
+  msg.angle_max = static_cast<float>(scan.angleOf(scan.ranges.empty() ? 0 : scan.ranges.size() - 1));
+  msg.range_min = static_cast<float>(scan.range_min);
+  msg.range_max = static_cast<float>(scan.range_max);
+  msg.time_increment = 0.0f;
+  msg.scan_time = 0.0f;
+  msg.ranges = scan.ranges;
+  msg.intensities.clear();
+}
+
+bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out) {
+  const auto& q = t.rotation;
+  if (!std::isfinite(t.translation.x) || !std::isfinite(t.translation.y) || !std::isfinite(q.x) ||
+      !std::isfinite(q.y) || !std::isfinite(q.z) || !std::isfinite(q.w)) {
+    return false;
+  }
+  const double n = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  if (n < 1e-9) return false;
+  out.x = t.translation.x;
+  out.y = t.translation.y;
+  out.theta = std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+  return true;
+}
+
+geometry_msgs::Pose poseToMsg(const Pose2& p) {
+  geometry_msgs::Pose m;
+  m.position.x = p.x;
+  m.position.y = p.y;
+  m.orientation.z = std::sin(p.theta / 2.0);
+  m.orientation.w = std::cos(p.theta / 2.0);
+  return m;
+}
+
+namespace {
+ObstacleSegment segmentToMsg(const Segment& s) {
+  ObstacleSegment m;
+  m.first_point.x = s.a.x();
+  m.first_point.y = s.a.y();
+  m.last_point.x = s.b.x();
+  m.last_point.y = s.b.y();
+  return m;
+}
+}  // namespace
+
+TrackedObstacleArray trackedSceneToMsg(const TrackedScene& scene) {
+  TrackedObstacleArray msg;
+  msg.obstacles.reserve(scene.obstacles.size());
+  for (const auto& o : scene.obstacles) {
+    ObstacleTrack m;
+    m.id = o.id;
+    m.center.x = o.center.x();
+    m.center.y = o.center.y();
+    m.radius = o.radius;
+    m.heading = o.heading;
+    m.speed = o.speed;
+    m.turn_rate = o.turn_rate;
+    for (int r = 0; r < 5; ++r)
+      for (int c = 0; c < 5; ++c) m.covariance[static_cast<size_t>(r * 5 + c)] = o.covariance(r, c);
+    m.is_static = o.is_static;
+    m.age = o.age_s;
+    m.hits = static_cast<uint32_t>(std::max(0, o.hits));
+    msg.obstacles.push_back(m);
+  }
+  for (const auto& s : scene.segments) msg.segments.push_back(segmentToMsg(s));
+  return msg;
+}
+
+TrackedObstacleArray movingObstaclesToMsg(const std::vector<MovingObstacle>& obstacles,
+                                          const std::vector<Segment>& segments) {
+  TrackedObstacleArray msg;
+  int id = 0;
+  for (const auto& o : obstacles) {
+    ObstacleTrack m;
+    m.id = id++;
+    m.center.x = o.center.x();
+    m.center.y = o.center.y();
+    m.radius = o.radius;
+    m.heading = o.heading;
+    m.speed = o.speed;
+    m.turn_rate = o.turn_rate;
+    m.is_static = o.is_static;
+    for (int i = 0; i < 5; ++i) m.covariance[static_cast<size_t>(i * 6)] = 0.0;
+    msg.obstacles.push_back(m);
+  }
+  for (const auto& s : segments) msg.segments.push_back(segmentToMsg(s));
+  return msg;
+}
+
+std::string observationObstaclesFromMsg(const TrackedObstacleArray& msg, std::vector<MovingObstacle>& obstacles,
+                                        std::vector<Segment>& segments) {
+  obstacles.clear();
+  segments.clear();
+  for (size_t i = 0; i < msg.obstacles.size(); ++i) {
+    const auto& m = msg.obstacles[i];
+    std::ostringstream why;
+    if (!std::isfinite(m.center.x) || !std::isfinite(m.center.y) || !std::isfinite(m.heading) ||
+        !std::isfinite(m.speed) || !std::isfinite(m.turn_rate) || !std::isfinite(m.radius)) {
+      why << "obstacle " << i << " (id " << m.id << ") has a NaN/inf field";
+      return why.str();
+    }
+    if (m.radius <= 0.0) {
+      why << "obstacle " << i << " (id " << m.id << ") has a non-positive radius " << m.radius;
+      return why.str();
+    }
+    MovingObstacle o;
+    o.center = {m.center.x, m.center.y};
+    o.radius = m.radius;
+    o.heading = m.heading;
+    o.speed = m.is_static ? 0.0 : m.speed;
+    o.turn_rate = m.is_static ? 0.0 : m.turn_rate;
+    o.is_static = m.is_static;
+    obstacles.push_back(o);
+  }
+  for (size_t i = 0; i < msg.segments.size(); ++i) {
+    const auto& s = msg.segments[i];
+    if (!std::isfinite(s.first_point.x) || !std::isfinite(s.first_point.y) || !std::isfinite(s.last_point.x) ||
+        !std::isfinite(s.last_point.y)) {
+      return "segment " + std::to_string(i) + " has a NaN/inf end point";
+    }
+    segments.push_back({{s.first_point.x, s.first_point.y}, {s.last_point.x, s.last_point.y}});
+  }
+  return {};
+}
+
+visualization_msgs::MarkerArray obstacleMarkers(const TrackedObstacleArray& msg, const std::string& ns, float r,
+                                                float g, float b) {
+  visualization_msgs::MarkerArray out;
+  visualization_msgs::Marker clear;
+  clear.header = msg.header;
+  clear.ns = ns;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  out.markers.push_back(clear);
+  int marker_id = 0;
+  for (const auto& o : msg.obstacles) {
+    visualization_msgs::Marker cyl;
+    cyl.header = msg.header;
+    cyl.ns = ns;
+    cyl.id = marker_id++;
+    cyl.type = visualization_msgs::Marker::CYLINDER;
+    cyl.pose.position = o.center;
+    cyl.pose.position.z = 0.15;
+    cyl.pose.orientation.w = 1.0;
+    cyl.scale.x = cyl.scale.y = 2.0 * o.radius;
+    cyl.scale.z = 0.3;
+    cyl.color.r = r;
+    cyl.color.g = g;
+    cyl.color.b = b;
+    cyl.color.a = o.is_static ? 0.4f : 0.8f;
+    out.markers.push_back(cyl);
+
+    visualization_msgs::Marker text = cyl;
+    text.id = marker_id++;
+    text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+    text.pose.position.z = 0.45;
+    text.scale.x = text.scale.y = 0.0;
+    text.scale.z = 0.18;
+    text.color.r = text.color.g = text.color.b = 1.0f;
+    text.color.a = 1.0f;
+    std::ostringstream label;
+    label.precision(2);
+    label << std::fixed << o.id << ": " << o.speed << " m/s";
+    text.text = label.str();
+    out.markers.push_back(text);
+
+    if (!o.is_static && o.speed > 0.05) {
+      visualization_msgs::Marker arrow = cyl;
+      arrow.id = marker_id++;
+      arrow.type = visualization_msgs::Marker::ARROW;
+      arrow.pose = geometry_msgs::Pose();
+      arrow.pose.orientation.w = 1.0;
+      geometry_msgs::Point p0 = o.center, p1 = o.center;
+      p0.z = p1.z = 0.3;
+      p1.x += o.speed * std::cos(o.heading);  // one second ahead
+      p1.y += o.speed * std::sin(o.heading);
+      arrow.points = {p0, p1};
+      arrow.scale.x = 0.04;
+      arrow.scale.y = 0.08;
+      arrow.scale.z = 0.1;
+      arrow.color.a = 1.0f;
+      out.markers.push_back(arrow);
+    }
+  }
+  for (size_t i = 0; i < msg.segments.size(); ++i) {
+    visualization_msgs::Marker line;
+    line.header = msg.header;
+    line.ns = ns + "_segments";
+    line.id = static_cast<int>(i);
+    line.type = visualization_msgs::Marker::LINE_STRIP;
+    line.pose.orientation.w = 1.0;
+    line.points = {msg.segments[i].first_point, msg.segments[i].last_point};
+    line.scale.x = 0.05;
+    line.color.r = r;
+    line.color.g = g;
+    line.color.b = b;
+    line.color.a = 0.9f;
+    out.markers.push_back(line);
+  }
+  return out;
+}
+
+}  // namespace dqn_dovs

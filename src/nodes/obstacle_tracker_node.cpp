@@ -1,0 +1,91 @@
+#include "obstacle_tracker_node.h"
+
+#include <tf2/exceptions.h>
+
+#include "conversions.h"
+#include "dqn_dovs/TrackedObstacleArray.h"
+#include "ros_params.h"
+
+namespace dqn_dovs {
+
+namespace {
+
+TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
+  TrackerConfig c;
+  const std::string p = "tracker/";
+  c.cluster_distance_base_m = param<double>(pnh, p + "cluster_distance_base", c.cluster_distance_base_m);
+  c.cluster_distance_range_factor = param<double>(pnh, p + "cluster_distance_range_factor", c.cluster_distance_range_factor);
+  c.min_cluster_points = param<int>(pnh, p + "min_cluster_points", c.min_cluster_points);
+  c.max_circle_radius_m = param<double>(pnh, p + "max_circle_radius", c.max_circle_radius_m);
+  c.gate_mahalanobis = param<double>(pnh, p + "gate_mahalanobis", c.gate_mahalanobis);
+  c.confirm_hits = param<int>(pnh, p + "confirm_hits", c.confirm_hits);
+  c.delete_after_s = param<double>(pnh, p + "delete_after", c.delete_after_s);
+  c.static_speed_mps = param<double>(pnh, p + "static_speed", c.static_speed_mps);
+  const std::string error = c.validate();
+  if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);
+  return c;
+}
+
+}  // namespace
+
+ObstacleTrackerNode::ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
+  fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
+  if (fixed_frame_.empty()) throw ParameterError("parameter '" + pnh_.resolveName("fixed_frame") + "' is empty");
+  tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.1, 0.0, 2.0);
+  publish_markers_ = param<bool>(pnh_, "publish_markers", true);
+  tracker_ = std::make_unique<ObstacleTracker>(loadTrackerConfig(pnh_));
+
+  obstacles_pub_ = nh_.advertise<TrackedObstacleArray>("obstacles", 5);
+  markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("obstacles/markers", 5);
+  scan_sub_ = nh_.subscribe("scan", 5, &ObstacleTrackerNode::onScan, this, ros::TransportHints().tcpNoDelay());
+  ROS_INFO("obstacle_tracker: tracking in frame '%s'", fixed_frame_.c_str());
+}
+
+void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  LaserScan2 scan;
+  size_t invalid_beams = 0;
+  const std::string scan_error = laserScanFromMsg(*msg, scan, &invalid_beams);
+  if (!scan_error.empty()) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: dropping scan: %s", scan_error.c_str());
+    return;
+  }
+  if (invalid_beams == scan.ranges.size()) {
+    ROS_WARN_THROTTLE(5.0, "obstacle_tracker: every beam of the scan is NaN/inf or out of range");
+  }
+
+  geometry_msgs::TransformStamped tf;
+  try {
+    tf = tf_buffer_.lookupTransform(fixed_frame_, msg->header.frame_id, msg->header.stamp,
+                                    ros::Duration(tf_timeout_s_));
+  } catch (const tf2::TransformException& e) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: no transform %s <- %s at the scan time: %s", fixed_frame_.c_str(),
+                      msg->header.frame_id.c_str(), e.what());
+    return;
+  }
+  Pose2 laser_pose;
+  if (!poseFromTransform(tf.transform, laser_pose)) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: transform %s <- %s has NaN/inf; scan dropped", fixed_frame_.c_str(),
+                      msg->header.frame_id.c_str());
+    return;
+  }
+
+  const TrackerResult result = tracker_->update(scan, laser_pose);
+  if (result.status == TrackerStatus::Rejected) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: scan rejected: %s", result.message.c_str());
+    return;
+  }
+  if (result.status == TrackerStatus::Reset) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: tracks reset: %s", result.message.c_str());
+  }
+
+  TrackedObstacleArray out = trackedSceneToMsg(result.scene);
+  out.header.stamp = msg->header.stamp;
+  out.header.frame_id = fixed_frame_;
+  obstacles_pub_.publish(out);
+  if (publish_markers_ && markers_pub_.getNumSubscribers() > 0) {
+    markers_pub_.publish(obstacleMarkers(out, "tracks", 0.9f, 0.4f, 0.1f));
+  }
+}
+
+}  // namespace dqn_dovs

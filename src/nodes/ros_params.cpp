@@ -1,0 +1,30 @@
+#include "ros_params.h"
+
+#include <sstream>
+
+namespace dqn_dovs {
+
+double paramInRange(const ros::NodeHandle& pnh, const std::string& name, double fallback, double lo, double hi) {
+  const double value = param<double>(pnh, name, fallback);
+  if (value < lo || value > hi) {
+    std::ostringstream os;
+    os << "parameter '" << pnh.resolveName(name) << "' = " << value << " is outside [" << lo << ", " << hi << "]";
+    throw ParameterError(os.str());
+  }
+  return value;
+}
+
+RobotLimits loadRobotLimits(const ros::NodeHandle& pnh) {
+  RobotLimits limits;
+  limits.v_max = param<double>(pnh, "robot/v_max", limits.v_max);
+  limits.w_max = param<double>(pnh, "robot/w_max", limits.w_max);
+  limits.a_v = param<double>(pnh, "robot/a_v", limits.a_v);
+  limits.a_w = param<double>(pnh, "robot/a_w", limits.a_w);
+  limits.dt = param<double>(pnh, "robot/dt", limits.dt);
+  limits.radius = param<double>(pnh, "robot/radius", limits.radius);
+  const std::string error = limits.validate();
+  if (!error.empty()) throw ParameterError(pnh.resolveName("robot") + ": " + error);
+  return limits;
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,39 @@
+// Parameter loading shared by the nodes: one place that reads, checks and reports.
+#pragma once
+
+#include <ros/ros.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "dqn_dovs/robot_model.h"
+
+namespace dqn_dovs {
+
+/// Thrown when a node's parameter is missing a valid value; the message names the parameter and the reason.
+class ParameterError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Reads `name` from the private handle, falling back to `fallback`; numbers must be finite.
+template <typename T>
+T param(const ros::NodeHandle& pnh, const std::string& name, const T& fallback) {
+  T value = fallback;
+  if (pnh.hasParam(name) && !pnh.getParam(name, value)) {
+    throw ParameterError("parameter '" + pnh.resolveName(name) + "' has the wrong type");
+  }
+  if constexpr (std::is_floating_point_v<T>) {
+    if (!std::isfinite(value)) throw ParameterError("parameter '" + pnh.resolveName(name) + "' is not finite");
+  }
+  return value;
+}
+
+/// Reads a number and checks lo <= value <= hi.
+double paramInRange(const ros::NodeHandle& pnh, const std::string& name, double fallback, double lo, double hi);
+
+/// Reads the robot limits from `robot/*` (config/robot.yaml) and validates them.
+RobotLimits loadRobotLimits(const ros::NodeHandle& pnh);
+
+}  // namespace dqn_dovs
