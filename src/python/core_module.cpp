@@ -1,0 +1,223 @@
+// dqn_dovs._core: the C++ core as a vectorised training environment for the Python trainer.
+// Each environment is an Episode (simulator -> LIDAR -> tracker -> DOVS -> state), so training runs the
+// code the robot runs. Environments are stepped in parallel threads with the GIL released.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <future>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "dqn_dovs/episode.h"
+#include "dqn_dovs/sim/scenario.h"
+
+namespace py = pybind11;
+using namespace dqn_dovs;
+
+namespace {
+
+uint64_t splitmix64(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+
+sim::ObstacleType parseObstacleType(const std::string& s) {
+  if (s == "none") return sim::ObstacleType::None;
+  if (s == "static") return sim::ObstacleType::Static;
+  if (s == "dynamic") return sim::ObstacleType::Dynamic;
+  if (s == "both") return sim::ObstacleType::Both;
+  throw std::invalid_argument("obstacle_type '" + s + "' is not one of none, static, dynamic, both");
+}
+
+class VecEnv {
+ public:
+  VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads) : seed_(seed) {
+    if (num_envs < 1 || num_envs > 4096) throw std::invalid_argument("num_envs must be in [1, 4096]");
+    EpisodeConfig config;
+    config.perfect_info = perfect_info;
+    for (int i = 0; i < num_envs; ++i) envs_.push_back(std::make_unique<Env>(config));
+    const int hw = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    threads_ = std::clamp(threads > 0 ? threads : hw, 1, num_envs);
+    generator_.obstacle_count_min = 0;
+    generator_.obstacle_count_max = 0;
+    generator_.obstacle_type = sim::ObstacleType::None;
+  }
+
+  void setStage(double goal_min, double goal_max, int obstacles_min, int obstacles_max, const std::string& type) {
+    sim::GeneratorConfig g = generator_;
+    g.goal_distance_min_m = goal_min;
+    g.goal_distance_max_m = goal_max;
+    g.obstacle_count_min = obstacles_min;
+    g.obstacle_count_max = obstacles_max;
+    g.obstacle_type = parseObstacleType(type);
+    const std::string error = g.validate();
+    if (!error.empty()) throw std::invalid_argument("set_stage: " + error);
+    generator_ = g;
+  }
+
+  void seed(uint64_t s) {
+    seed_ = s;
+    for (auto& e : envs_) e->episodes = 0;
+  }
+
+  py::tuple reset() {
+    const size_t n = envs_.size();
+    {
+      py::gil_scoped_release release;
+      parallelFor([&](size_t i) { resetEnv(i); });
+    }
+    py::array_t<float> state({n, static_cast<size_t>(kStateSize)});
+    py::array_t<bool> mask({n, static_cast<size_t>(kNumActions)});
+    for (size_t i = 0; i < n; ++i) {
+      copyState(envs_[i]->episode, state.mutable_data(i, 0));
+      copyMask(envs_[i]->episode, mask.mutable_data(i, 0));
+    }
+    return py::make_tuple(state, mask);
+  }
+
+  py::dict step(py::array_t<int64_t, py::array::c_style | py::array::forcecast> actions) {
+    const size_t n = envs_.size();
+    if (actions.ndim() != 1 || static_cast<size_t>(actions.shape(0)) != n) {
+      throw std::invalid_argument("step: actions must have shape (" + std::to_string(n) + ",)");
+    }
+    std::vector<int64_t> a(actions.data(), actions.data() + n);
+    for (size_t i = 0; i < n; ++i) {
+      if (a[i] < 0 || a[i] >= kNumActions) {
+        throw std::invalid_argument("step: action " + std::to_string(a[i]) + " of environment " + std::to_string(i) +
+                                    " is not in [0, 8)");
+      }
+    }
+    py::array_t<float> next_state({n, static_cast<size_t>(kStateSize)}), state({n, static_cast<size_t>(kStateSize)});
+    py::array_t<bool> next_mask({n, static_cast<size_t>(kNumActions)}), mask({n, static_cast<size_t>(kNumActions)});
+    py::array_t<float> reward(n);
+    py::array_t<bool> terminated(n), truncated(n);
+    py::array_t<int8_t> outcome(n);
+    py::array_t<int32_t> episode_steps(n);
+    float* ns = next_state.mutable_data();
+    float* st = state.mutable_data();
+    bool* nm = next_mask.mutable_data();
+    bool* mk = mask.mutable_data();
+    float* rw = reward.mutable_data();
+    bool* te = terminated.mutable_data();
+    bool* tr = truncated.mutable_data();
+    int8_t* oc = outcome.mutable_data();
+    int32_t* es = episode_steps.mutable_data();
+    std::vector<std::string> errors(n);
+    {
+      py::gil_scoped_release release;
+      parallelFor([&](size_t i) {
+        Episode& ep = envs_[i]->episode;
+        try {
+          const int act = static_cast<int>(a[i]);
+          // A masked action falls back to "keep" (always valid); the trainer never sends one.
+          const StepResult r = ep.actions().valid[static_cast<size_t>(act)] ? ep.stepAction(act) : ep.stepAction(kActionKeep);
+          rw[i] = static_cast<float>(r.reward);
+          te[i] = r.terminated;
+          tr[i] = r.truncated;
+          oc[i] = static_cast<int8_t>(r.outcome);
+          es[i] = ep.steps();
+          copyState(ep, ns + i * kStateSize);
+          copyMask(ep, nm + i * kNumActions);
+          if (ep.done()) resetEnv(i);
+          copyState(envs_[i]->episode, st + i * kStateSize);
+          copyMask(envs_[i]->episode, mk + i * kNumActions);
+        } catch (const std::exception& e) {
+          errors[i] = e.what();
+        }
+      });
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (!errors[i].empty()) throw std::runtime_error("environment " + std::to_string(i) + ": " + errors[i]);
+    }
+    py::dict out;
+    out["next_state"] = next_state;
+    out["next_mask"] = next_mask;
+    out["reward"] = reward;
+    out["terminated"] = terminated;
+    out["truncated"] = truncated;
+    out["outcome"] = outcome;
+    out["state"] = state;
+    out["mask"] = mask;
+    out["episode_steps"] = episode_steps;
+    return out;
+  }
+
+  py::dict normalization() const {
+    py::dict d;
+    for (const auto& [name, value] : envs_.front()->episode.normalization().fields()) d[py::str(name)] = value;
+    return d;
+  }
+
+  int numEnvs() const { return static_cast<int>(envs_.size()); }
+  int threads() const { return threads_; }
+
+ private:
+  struct Env {
+    explicit Env(const EpisodeConfig& c) : episode(c) {}
+    Episode episode;
+    uint64_t episodes = 0;
+  };
+
+  void resetEnv(size_t i) {
+    Env& env = *envs_[i];
+    // Scenario seeds depend on (seed, environment, episode count) only: deterministic whatever the threads.
+    const uint64_t s = splitmix64(seed_ ^ splitmix64(i * 0x100000001B3ULL + env.episodes++));
+    env.episode.reset(sim::generateScenario(generator_, s), splitmix64(s));
+  }
+
+  static void copyState(const Episode& ep, float* dst) {
+    std::memcpy(dst, ep.state().data(), sizeof(float) * kStateSize);
+  }
+  static void copyMask(const Episode& ep, bool* dst) {
+    for (int k = 0; k < kNumActions; ++k) dst[k] = ep.actions().valid[static_cast<size_t>(k)];
+  }
+
+  template <typename F>
+  void parallelFor(F&& f) {
+    const size_t n = envs_.size();
+    if (threads_ <= 1) {
+      for (size_t i = 0; i < n; ++i) f(i);
+      return;
+    }
+    std::vector<std::future<void>> jobs;
+    for (int t = 0; t < threads_; ++t) {
+      jobs.push_back(std::async(std::launch::async, [&, t] {
+        for (size_t i = static_cast<size_t>(t); i < n; i += static_cast<size_t>(threads_)) f(i);
+      }));
+    }
+    for (auto& j : jobs) j.get();
+  }
+
+  std::vector<std::unique_ptr<Env>> envs_;
+  sim::GeneratorConfig generator_;
+  uint64_t seed_ = 0;
+  int threads_ = 1;
+};
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "dqn_dovs C++ core: vectorised training environment (simulator -> LIDAR -> tracker -> DOVS -> state)";
+  m.attr("STATE_SIZE") = kStateSize;
+  m.attr("NUM_ACTIONS") = kNumActions;
+  py::class_<VecEnv>(m, "VecEnv")
+      .def(py::init<int, uint64_t, bool, int>(), py::arg("num_envs"), py::arg("seed"), py::arg("perfect_info") = false,
+           py::arg("threads") = 0)
+      .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),
+           py::arg("obstacles_min"), py::arg("obstacles_max"), py::arg("obstacle_type"))
+      .def("seed", &VecEnv::seed, py::arg("seed"), "Restarts the scenario sequence from a new seed.")
+      .def("reset", &VecEnv::reset)
+      .def("step", &VecEnv::step, py::arg("actions"))
+      .def("normalization", &VecEnv::normalization)
+      .def_property_readonly("num_envs", &VecEnv::numEnvs)
+      .def_property_readonly("threads", &VecEnv::threads);
+}
