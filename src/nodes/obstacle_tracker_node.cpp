@@ -14,13 +14,18 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   TrackerConfig c;
   const std::string p = "tracker/";
   c.cluster_distance_base_m = param<double>(pnh, p + "cluster_distance_base", c.cluster_distance_base_m);
-  c.cluster_distance_range_factor = param<double>(pnh, p + "cluster_distance_range_factor", c.cluster_distance_range_factor);
+  c.cluster_distance_beam_factor = param<double>(pnh, p + "cluster_distance_beam_factor", c.cluster_distance_beam_factor);
   c.min_cluster_points = param<int>(pnh, p + "min_cluster_points", c.min_cluster_points);
+  c.segment_min_length_m = param<double>(pnh, p + "segment_min_length", c.segment_min_length_m);
   c.max_circle_radius_m = param<double>(pnh, p + "max_circle_radius", c.max_circle_radius_m);
-  c.gate_mahalanobis = param<double>(pnh, p + "gate_mahalanobis", c.gate_mahalanobis);
+  c.measurement_noise_m = param<double>(pnh, p + "measurement_noise", c.measurement_noise_m);
+  c.accel_noise_mps2 = param<double>(pnh, p + "accel_noise", c.accel_noise_mps2);
+  c.turn_accel_noise_radps2 = param<double>(pnh, p + "turn_accel_noise", c.turn_accel_noise_radps2);
+  c.gate_mahalanobis2 = param<double>(pnh, p + "gate_mahalanobis2", c.gate_mahalanobis2);
   c.confirm_hits = param<int>(pnh, p + "confirm_hits", c.confirm_hits);
-  c.delete_after_s = param<double>(pnh, p + "delete_after", c.delete_after_s);
-  c.static_speed_mps = param<double>(pnh, p + "static_speed", c.static_speed_mps);
+  c.deletion_timeout_s = param<double>(pnh, p + "deletion_timeout", c.deletion_timeout_s);
+  c.max_time_gap_s = param<double>(pnh, p + "max_time_gap", c.max_time_gap_s);
+  c.static_speed_threshold_mps = param<double>(pnh, p + "static_speed_threshold", c.static_speed_threshold_mps);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);
   return c;
@@ -71,11 +76,11 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
   }
 
   const TrackerResult result = tracker_->update(scan, laser_pose);
-  if (result.status == TrackerStatus::Rejected) {
+  if (result.status == TrackerStatus::kRejected) {
     ROS_WARN_THROTTLE(2.0, "obstacle_tracker: scan rejected: %s", result.message.c_str());
     return;
   }
-  if (result.status == TrackerStatus::Reset) {
+  if (result.status == TrackerStatus::kReset) {
     ROS_WARN_THROTTLE(2.0, "obstacle_tracker: tracks reset: %s", result.message.c_str());
   }
 

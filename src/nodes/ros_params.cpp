@@ -28,3 +28,28 @@ RobotLimits loadRobotLimits(const ros::NodeHandle& pnh) {
 }
 
 }  // namespace dqn_dovs
+
+#include "robot_description.h"
+
+namespace dqn_dovs {
+
+bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits, const std::string& base_frame,
+                           const std::string& laser_frame) {
+  std::string xml;
+  if (!nh.getParam("robot_description", xml)) return false;
+  RobotGeometry g;
+  try {
+    g = readRobotGeometry(xml, base_frame, laser_frame);
+  } catch (const RobotDescriptionError& e) {
+    throw ParameterError(std::string("robot_description: ") + e.what());
+  }
+  if (std::abs(g.radius_m - limits.radius) > 1e-3) {
+    std::ostringstream os;
+    os << "robot radius " << limits.radius << " m (robot/radius) disagrees with the robot description's footprint "
+       << g.radius_m << " m";
+    throw ParameterError(os.str());
+  }
+  return true;
+}
+
+}  // namespace dqn_dovs

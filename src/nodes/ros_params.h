@@ -37,3 +37,10 @@ double paramInRange(const ros::NodeHandle& pnh, const std::string& name, double 
 RobotLimits loadRobotLimits(const ros::NodeHandle& pnh);
 
 }  // namespace dqn_dovs
+
+namespace dqn_dovs {
+/// When `robot_description` is on the parameter server, checks that its footprint radius equals
+/// limits.radius (throws ParameterError naming both values otherwise). Returns false when there is none.
+bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits, const std::string& base_frame,
+                           const std::string& laser_frame);
+}  // namespace dqn_dovs

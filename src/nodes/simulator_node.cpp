@@ -97,7 +97,9 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   odom_pub_ = nh_.advertise<nav_msgs::Odometry>("odom", 10);
   truth_pub_ = nh_.advertise<TrackedObstacleArray>("ground_truth/obstacles", 5);
   truth_markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("ground_truth/markers", 5);
-  goal_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("sim/goal", 1, true);
+  // Latched: the scenario's goal, for the planner when publish_goal is set (sim.launch), else for tools.
+  const bool publish_goal = param<bool>(pnh_, "publish_goal", false);
+  goal_pub_ = nh_.advertise<geometry_msgs::PoseStamped>(publish_goal ? "move_base_simple/goal" : "sim/goal", 1, true);
   status_pub_ = nh_.advertise<SimStatus>("sim/status", 10);
   if (publish_clock_) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
 

@@ -1,0 +1,68 @@
+// ROS wrapper of the DQN-DOVS planner: Dovs -> one of the 8 actions per control period -> cmd_vel ramp.
+// Owns the goal life cycle (new goal, cancel, reached) and the watchdog that stops the robot on stale
+// input, missing tf or a planner error.
+#pragma once
+
+#include <geometry_msgs/PoseStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <std_msgs/Empty.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/PlannerStatus.h"
+#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/robot_model.h"
+
+namespace dqn_dovs {
+
+class PlannerNode {
+ public:
+  /// Loads the model and validates parameters; throws (ParameterError, WeightFileError) naming the culprit.
+  PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+ private:
+  void onDovs(const Dovs::ConstPtr& msg);
+  void onOdom(const nav_msgs::Odometry::ConstPtr& msg);
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
+  void onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg);
+  void onCancel(const std_msgs::Empty::ConstPtr& msg);
+  void onDecide(const ros::TimerEvent& event);  // once per control period
+  void onRamp(const ros::TimerEvent& event);    // >= 20 Hz command ramp
+  /// Picks the target velocity for the next period; returns why it must stop instead (empty when fine).
+  std::string decide(const ros::Time& now, std::optional<double>& goal_distance);
+  void stop(const std::string& reason);
+  void publishStatus(const ros::Time& now, double goal_distance);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string fixed_frame_, base_frame_;
+  RobotLimits limits_;
+  double max_input_age_s_ = 0.5, goal_tolerance_m_ = 0.15, goal_speed_mps_ = 0.2, ramp_rate_hz_ = 50.0;
+  double tf_timeout_s_ = 0.05;
+  std::unique_ptr<QNetwork> network_;
+
+  uint8_t state_ = PlannerStatus::IDLE;
+  std::string reason_;
+  int action_ = -1;
+  std::optional<Vec2> goal_;  // fixed frame
+  Dovs::ConstPtr last_dovs_;
+  ros::Time last_odom_stamp_, last_scan_stamp_, last_ramp_;
+  bool have_odom_ = false, have_scan_ = false;
+  Twist2 target_;   // velocity to reach by the end of the current period
+  Twist2 command_;  // last published command (the ramp's state)
+  int idle_zero_messages_ = 0;
+
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_;
+  ros::Publisher cmd_pub_, status_pub_, action_pub_;
+  ros::Timer decide_timer_, ramp_timer_;
+};
+
+}  // namespace dqn_dovs
