@@ -4,10 +4,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 name="$1"
+file_name="${name//-/_}"
 mkdir -p bench/results
-exe="install/lib/dqn_dovs/bench_${name}"
-py="bench/bench_${name}.py"
-sh="bench/bench_${name}.sh"
+exe="install/lib/dqn_dovs/bench_${file_name}"
+py="bench/bench_${file_name}.py"
+sh="bench/bench_${file_name}.sh"
 echo "=== bench ${name} ==="
 if [ -x "$exe" ]; then
   "$exe" --out "bench/results/${name}.json"

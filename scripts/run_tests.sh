@@ -14,8 +14,8 @@ mkdir -p "$ROS_LOG_DIR"
 
 rm -rf build/dqn_dovs/test_results
 echo "[test] C++ gtests and rostests (colcon test)"
-colcon test --base-paths . --build-base build --install-base install --parallel-workers 1 \
-  --event-handlers console_direct- console_stderr- summary- status- --ctest-args --output-on-failure \
+colcon test --base-paths . --build-base build --install-base install \
+  --event-handlers console_direct- console_start_end- --ctest-args --output-on-failure \
   >log/test.last.txt 2>&1
 summary=$(colcon test-result --test-result-base build/dqn_dovs/test_results --all --verbose 2>&1 | tee log/test-result.last.txt | tail -n 1)
 failed_lines=$(grep -E "^build/.*: [0-9]+ tests?, [0-9]+ errors?, [1-9][0-9]* failures?|^build/.*: [0-9]+ tests?, [1-9][0-9]* errors?" log/test-result.last.txt || true)

@@ -70,7 +70,7 @@ class Episode {
 
   // Decision context for the current step.
   const Observation& observation() const { return observation_; }
-  const Dovs& dovs() const { return dovs_; }
+  const VelocitySpace& dovs() const { return dovs_; }
   const ActionSet& actions() const { return actions_; }
   const Eigen::VectorXf& state() const { return state_; }
   const StateNormalization& normalization() const { return normalization_; }
@@ -99,7 +99,7 @@ class Episode {
   StateNormalization normalization_;
   LaserScan2 scan_;
   Observation observation_;
-  Dovs dovs_;
+  VelocitySpace dovs_;
   ActionSet actions_;
   Eigen::VectorXf state_;
   Outcome outcome_ = Outcome::Running;

@@ -23,7 +23,7 @@ class PlannerError : public std::runtime_error {
 /// are built once per decision by the caller (episode runner or ROS node) and shared by all planners.
 struct PlannerInput {
   const Observation* observation = nullptr;  ///< fixed-frame view of the world (tracked or true obstacles)
-  const Dovs* dovs = nullptr;                ///< the dynamic object velocity space at this instant
+  const VelocitySpace* dovs = nullptr;                ///< the dynamic object velocity space at this instant
   const ActionSet* actions = nullptr;        ///< the 8 dynamic-window actions and their mask
   const Eigen::VectorXf* state = nullptr;    ///< the 408-float network state (may be null for classic planners)
   RobotLimits limits;

@@ -59,7 +59,10 @@ struct DynamicWindow {
 DynamicWindow makeDynamicWindow(const Twist2& current, const RobotLimits& limits);
 
 /// Moves `current` toward `command` as far as the acceleration limits allow in time dt_s (each axis
-/// limited separately), then clips to the feasible set. Used by the simulator and the command ramp.
+/// limited separately), then clips to the feasible set without breaking either acceleration limit (when the
+/// turn rate cannot shrink fast enough to fit the triangle, the speed is lowered instead). A non-finite
+/// command keeps the current velocity; a non-finite current velocity gives (0, 0). Used by the simulator and
+/// the command ramp.
 Twist2 applyAccelerationLimits(const Twist2& current, const Twist2& command, const RobotLimits& limits, double dt_s);
 
 }  // namespace dqn_dovs

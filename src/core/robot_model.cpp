@@ -71,16 +71,30 @@ DynamicWindow makeDynamicWindow(const Twist2& current, const RobotLimits& limits
 }
 
 Twist2 applyAccelerationLimits(const Twist2& current, const Twist2& command, const RobotLimits& limits, double dt_s) {
+  if (!std::isfinite(current.v) || !std::isfinite(current.w)) return {0.0, 0.0};
   if (!std::isfinite(command.v) || !std::isfinite(command.w)) return limits.clipToFeasible(current);
-  const double max_dv = limits.a_v * dt_s, max_dw = limits.a_w * dt_s;
+  const double step_s = std::isfinite(dt_s) ? std::max(0.0, dt_s) : 0.0;
+  const double max_dv = limits.a_v * step_s, max_dw = limits.a_w * step_s;
   Twist2 out;
   out.v = current.v + std::clamp(command.v - current.v, -max_dv, max_dv);
   out.w = current.w + std::clamp(command.w - current.w, -max_dw, max_dw);
   out.v = std::clamp(out.v, 0.0, limits.v_max);
-  // Keep inside the triangle by reducing |w| first (w can always change by a_w dt, so this is reachable
-  // whenever the current state was feasible and the limit shrank only through v).
   const double wl = limits.wLimitAt(out.v);
-  out.w = std::clamp(out.w, -wl, wl);
+  if (std::abs(out.w) > wl) {
+    // Reduce |w| into the triangle, but only as far as the angular acceleration allows; when that is not
+    // enough, give up speed instead: from a feasible state the turn rate nearest zero within reach always
+    // fits under the limit of some v between current.v and out.v.
+    const double w_lo = current.w - max_dw, w_hi = current.w + max_dw;
+    const double w_smallest = std::clamp(0.0, w_lo, w_hi);
+    if (std::abs(w_smallest) <= wl) {
+      out.w = std::clamp(out.w, -wl, wl);
+    } else {
+      out.w = w_smallest;
+      out.v = std::min(out.v, limits.v_max * (1.0 - std::abs(out.w) / limits.w_max));
+    }
+  }
+  // Only reachable when `current` itself was infeasible: then feasibility wins over the acceleration limits.
+  if (!limits.feasible(out)) out = limits.clipToFeasible(out);
   return out;
 }
 

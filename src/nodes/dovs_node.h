@@ -37,7 +37,7 @@ class DovsNode {
   RobotLimits limits_;
   DovsBuilder builder_;
   StateNormalization normalization_;
-  Dovs dovs_;
+  VelocitySpace dovs_;
 
   std::optional<Vec2> goal_;         // in fixed_frame_
   nav_msgs::Odometry last_odom_;

@@ -98,10 +98,11 @@ class VecEnv {
     }
     py::array_t<float> next_state({n, static_cast<size_t>(kStateSize)}), state({n, static_cast<size_t>(kStateSize)});
     py::array_t<bool> next_mask({n, static_cast<size_t>(kNumActions)}), mask({n, static_cast<size_t>(kNumActions)});
-    py::array_t<float> reward(n);
-    py::array_t<bool> terminated(n), truncated(n);
-    py::array_t<int8_t> outcome(n);
-    py::array_t<int32_t> episode_steps(n);
+    const std::vector<py::ssize_t> shape1{static_cast<py::ssize_t>(n)};
+    py::array_t<float> reward(shape1);
+    py::array_t<bool> terminated(shape1), truncated(shape1);
+    py::array_t<int8_t> outcome(shape1);
+    py::array_t<int32_t> episode_steps(shape1);
     float* ns = next_state.mutable_data();
     float* st = state.mutable_data();
     bool* nm = next_mask.mutable_data();
@@ -170,8 +171,14 @@ class VecEnv {
   void resetEnv(size_t i) {
     Env& env = *envs_[i];
     // Scenario seeds depend on (seed, environment, episode count) only: deterministic whatever the threads.
-    const uint64_t s = splitmix64(seed_ ^ splitmix64(i * 0x100000001B3ULL + env.episodes++));
-    env.episode.reset(sim::generateScenario(generator_, s), splitmix64(s));
+    // A drawn scenario can end during the sensor warm-up (an obstacle runs into the still robot): such
+    // episodes teach nothing, so the next scenario of the sequence is drawn instead.
+    for (int attempt = 0; attempt < 100; ++attempt) {
+      const uint64_t s = splitmix64(seed_ ^ splitmix64(i * 0x100000001B3ULL + env.episodes++));
+      env.episode.reset(sim::generateScenario(generator_, s), splitmix64(s));
+      if (!env.episode.done()) return;
+    }
+    throw std::runtime_error("100 scenarios in a row ended before their first step: check the stage settings");
   }
 
   static void copyState(const Episode& ep, float* dst) {

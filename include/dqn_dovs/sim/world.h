@@ -1,0 +1,146 @@
+// The simulated world: a square room with walls, a differential-drive robot with the limits of
+// robot_model.h, disc obstacles on constant-(v, w) motions that turn around at the room border, and a LIDAR.
+// Deterministic: the same scenario, configuration, seed and command sequence give the same trajectory and
+// the same scans, bit for bit.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/geometry.h"
+#include "dqn_dovs/robot_model.h"
+#include "dqn_dovs/sim/errors.h"
+#include "dqn_dovs/sim/lidar.h"
+#include "dqn_dovs/sim/scenario.h"
+#include "dqn_dovs/types.h"
+
+namespace dqn_dovs::sim {
+
+/// Parameters of the world's physics and sensing.
+struct WorldConfig {
+  /// Robot kinodynamic limits (speeds, accelerations, radius). `robot.dt` is not used by the world: the
+  /// caller chooses each step's duration.
+  RobotLimits robot;
+  /// Longest physics sub-step (s). Each step() is split into equal sub-steps no longer than this, at which
+  /// obstacle border events and collisions are checked.
+  double physics_step_s = 0.05;
+  /// Tunnelling guard: sub-steps are also short enough that the robot and the fastest obstacle together
+  /// move at most this far in one (m), so that no contact can be stepped over.
+  double max_substep_travel_m = 0.05;
+  /// The LIDAR mounted on the robot.
+  LidarConfig lidar = LidarConfig::simProfile();
+  /// Turn rate of an obstacle turning around in place at the room border (rad/s).
+  double border_turn_rate_radps = 0.65;
+  /// An obstacle starts its turn-around when its disc comes within this distance of a room wall (m).
+  double border_margin_m = 0.0;
+  /// false: at the start of each step the robot takes the velocity nearest the command that the
+  /// acceleration limits allow over the whole step and holds it (the planners' model: a command inside the
+  /// dynamic window is reached at once); true: the velocity ramps toward the command at the acceleration
+  /// limits, sub-step by sub-step.
+  bool ramp_velocity = false;
+  /// true: on its first collision the robot is put back to its last collision-free sub-step pose, its
+  /// velocity drops to zero and it ignores commands until reset(); false: it keeps driving through.
+  bool stop_on_collision = true;
+
+  /// Empty string when consistent, otherwise a message naming the offending field and why.
+  std::string validate() const;
+};
+
+/// Motion phase of one obstacle.
+enum class ObstacleMotion {
+  Moving,           ///< following its nominal (speed, turn_rate)
+  TurningAtBorder,  ///< stopped at the room border, turning in place before resuming its nominal motion
+};
+
+/// The true state of one simulated obstacle.
+struct SimObstacle {
+  /// Current centre and heading; speed and turn_rate are the nominal motion (unchanged by border turns).
+  MovingObstacle body;
+  ObstacleMotion motion = ObstacleMotion::Moving;
+  /// Heading change still to do in the current border turn (rad, >= 0).
+  double turn_remaining_rad = 0.0;
+  /// +1 turns counter-clockwise, -1 clockwise (the sense of the nominal turn rate; CCW when it is 0).
+  double turn_direction = 1.0;
+  /// How many border turn-arounds this obstacle has started since reset.
+  int border_turns = 0;
+};
+
+/// What the robot hit first.
+struct CollisionInfo {
+  enum class Kind { None, Obstacle, Wall };
+  Kind kind = Kind::None;
+  /// Index into obstacles() or walls().
+  int index = -1;
+  /// Simulation time of the sub-step at which the contact was found (s).
+  double time_s = 0.0;
+};
+
+class World {
+ public:
+  /// Throws SimConfigError when config.validate() fails and ScenarioError when the scenario is unusable.
+  World(const Scenario& scenario, const WorldConfig& config, uint64_t seed);
+
+  /// Restarts from `scenario` at time 0 with the robot at rest; `seed` drives the sensor noise.
+  /// Throws ScenarioError (naming the scenario) for non-finite values, non-positive radii or room size,
+  /// or a robot start outside the room.
+  void reset(const Scenario& scenario, uint64_t seed);
+
+  /// Advances the world by dt_s seconds with robot command `cmd` (held for the whole step). The command is
+  /// limited by the robot's accelerations and feasible set; a non-finite command keeps the current velocity.
+  /// dt_s = 0 does nothing; a negative or non-finite dt_s throws SimConfigError.
+  void step(const Twist2& cmd, double dt_s);
+
+  double time_s() const { return time_s_; }
+  const Pose2& robotPose() const { return robot_pose_; }
+  const Twist2& robotTwist() const { return robot_twist_; }
+  const Vec2& goal() const { return scenario_.goal; }
+  const Scenario& scenario() const { return scenario_; }
+  const WorldConfig& config() const { return config_; }
+  double roomHalfSize() const { return scenario_.room_half_size_m; }
+
+  /// True states of the obstacles, including the border state machine.
+  const std::vector<SimObstacle>& obstacles() const { return obstacles_; }
+  /// The obstacles with their instantaneous motion: while turning at the border, speed 0 and turn rate
+  /// +-border_turn_rate_radps; otherwise the nominal (speed, turn_rate).
+  std::vector<MovingObstacle> groundTruthObstacles() const;
+  /// The four room walls (counter-clockwise from the bottom wall) followed by the scenario's static segments.
+  const std::vector<Segment>& walls() const { return walls_; }
+
+  /// True once the robot has touched an obstacle or a wall (latched until reset()).
+  bool collided() const { return collision_.kind != CollisionInfo::Kind::None; }
+  const CollisionInfo& collision() const { return collision_; }
+  /// Distance from the robot's surface to the nearest obstacle or wall surface (m); negative when overlapping.
+  double minClearance() const;
+
+  /// Pose of the laser in the room frame: the robot pose composed with the LIDAR mount.
+  Pose2 laserPose() const { return robot_pose_.compose(config_.lidar.mount); }
+  /// A noisy scan at the current time (advances the noise stream).
+  LaserScan2 scan();
+  /// Same as scan(), reusing `out`'s storage.
+  void scanInto(LaserScan2& out);
+  const Lidar& lidar() const { return lidar_; }
+
+ private:
+  void advanceObstacle(SimObstacle& o, double dt_s) const;
+  void startBorderTurn(SimObstacle& o) const;
+  /// Earliest time in [0, dt_s] at which the obstacle, moving nominally, reaches the border while heading
+  /// out of the room; a negative value when it does not within dt_s.
+  double borderEventTime(const SimObstacle& o, double dt_s) const;
+  /// Fills collision_ (first contact only) and returns true when the robot overlaps something now.
+  bool checkCollision();
+
+  WorldConfig config_;
+  Scenario scenario_;
+  Lidar lidar_;
+  double time_s_ = 0.0;
+  Pose2 robot_pose_;
+  Twist2 robot_twist_;
+  bool robot_stopped_ = false;
+  std::vector<SimObstacle> obstacles_;
+  std::vector<Segment> walls_;
+  CollisionInfo collision_;
+  LidarScene lidar_scene_;
+};
+
+}  // namespace dqn_dovs::sim

@@ -1,0 +1,198 @@
+"""The DQN-DOVS learning agent: masked epsilon-greedy behaviour and the Double-DQN update.
+
+Invalid actions (the goal-line actions 5-7 when the goal line misses the dynamic
+window) are excluded twice: when acting, and in the bootstrap of the learning target,
+where the online network's argmax over the *next* state's valid actions picks the
+action that the target network evaluates (Double DQN). Without the second mask the
+target could bootstrap from an action the robot can never take.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from .replay import SampledBatch
+
+
+@dataclass
+class AgentConfig:
+    """Hyper-parameters of the learning step (defaults: DESIGN section 8)."""
+
+    # Adam step size at the start of training; the trainer lowers it linearly to lr_end.
+    lr_start: float = 3e-4
+    # Adam step size at the end of training.
+    lr_end: float = 1e-4
+    # Adam epsilon; larger than PyTorch's default to damp steps on rarely-seen states.
+    adam_eps: float = 1e-5
+    # Learning steps between hard copies of the online network into the target network.
+    target_update_period: int = 100
+    # Huber loss: quadratic for |TD error| below this, linear above.
+    huber_delta: float = 1.0
+    # Gradient norm clip (0 disables); guards against the +-15 terminal rewards' spikes.
+    grad_clip_norm: float = 10.0
+    # Double DQN (online argmax, target evaluation); False gives the plain max of the target net.
+    double_dqn: bool = True
+
+    def validate(self) -> str:
+        """Returns an empty string when consistent, else a message naming the field."""
+        for name in ("lr_start", "lr_end", "adam_eps", "huber_delta"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                return f"agent.{name} must be a positive number, got {value}"
+        if self.target_update_period < 1:
+            return f"agent.target_update_period must be >= 1, got {self.target_update_period}"
+        if not (np.isfinite(self.grad_clip_norm) and self.grad_clip_norm >= 0):
+            return f"agent.grad_clip_norm must be >= 0, got {self.grad_clip_norm}"
+        return ""
+
+
+@dataclass
+class LearnResult:
+    loss: float  # importance-weighted Huber loss of the batch
+    td_errors: np.ndarray  # float32 [B], target - Q(s, a), for the new priorities
+    mean_q: float  # mean Q(s, a) of the batch, a divergence indicator for the logs
+
+
+def masked_argmax_torch(q: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Argmax over the valid entries of each row; rows must have at least one valid entry."""
+    return q.masked_fill(~mask, float("-inf")).argmax(dim=1)
+
+
+class DQNAgent:
+    """Online and target Q-networks, Adam, and the behaviour policy."""
+
+    def __init__(self, model: nn.Module, config: AgentConfig | None = None, device: str | torch.device = "cpu",
+                 seed: int = 0):
+        self.config = config or AgentConfig()
+        error = self.config.validate()
+        if error:
+            raise ValueError(error)
+        self.device = torch.device(device)
+        self.online = model.to(self.device)
+        self.target = copy.deepcopy(self.online)
+        for p in self.target.parameters():
+            p.requires_grad_(False)
+        self.optimizer = torch.optim.Adam(self.online.parameters(), lr=self.config.lr_start, eps=self.config.adam_eps)
+        self.updates = 0
+        self._rng = np.random.default_rng(seed)
+
+    # ---- behaviour -------------------------------------------------------------------
+
+    def q_values(self, state: np.ndarray) -> np.ndarray:
+        with torch.inference_mode():
+            return self.online(self._tensor(state)).float().cpu().numpy()
+
+    def act(self, state: np.ndarray, mask: np.ndarray, epsilon: float | np.ndarray) -> np.ndarray:
+        """Masked epsilon-greedy: with probability epsilon a uniformly random valid action,
+        otherwise the valid action of highest Q. One network call for all environments."""
+        mask = np.asarray(mask, bool)
+        self._check_masks(mask, "act")
+        n = mask.shape[0]
+        epsilon = np.broadcast_to(np.asarray(epsilon, np.float64), (n,))
+        # The draws are made for every row whatever epsilon is, so the random stream (and
+        # with it every later episode) does not depend on the values of epsilon.
+        explore = self._rng.random(n) < epsilon
+        random_scores = np.where(mask, self._rng.random(mask.shape), -1.0)
+        actions = random_scores.argmax(axis=1)
+        if not np.all(explore):
+            greedy = self.greedy(state, mask)
+            actions = np.where(explore, actions, greedy)
+        return actions.astype(np.int64)
+
+    def greedy(self, state: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        mask = np.asarray(mask, bool)
+        self._check_masks(mask, "greedy")
+        q = self.q_values(state)
+        if not np.all(np.isfinite(q)):
+            raise FloatingPointError("DQNAgent.greedy: the Q-network returned NaN/inf (non-finite state or "
+                                     "diverged weights)")
+        return np.where(mask, q, -np.inf).argmax(axis=1).astype(np.int64)
+
+    # ---- learning --------------------------------------------------------------------
+
+    def set_learning_rate(self, lr: float) -> None:
+        for group in self.optimizer.param_groups:
+            group["lr"] = float(lr)
+
+    @property
+    def learning_rate(self) -> float:
+        return float(self.optimizer.param_groups[0]["lr"])
+
+    def compute_targets(self, reward: torch.Tensor, discount: torch.Tensor, next_state: torch.Tensor,
+                        next_mask: torch.Tensor) -> torch.Tensor:
+        """reward + discount * Q_target(s', argmax_{valid a'} Q_online(s', a')).
+
+        The bootstrap is taken only where discount > 0, so a terminal transition's target
+        is its reward even if the next-state values were NaN or every action were masked.
+        """
+        with torch.no_grad():
+            q_target_next = self.target(next_state)
+            if self.config.double_dqn:
+                best = masked_argmax_torch(self.online(next_state), next_mask)
+            else:
+                best = masked_argmax_torch(q_target_next, next_mask)
+            bootstrap = q_target_next.gather(1, best[:, None]).squeeze(1)
+            return reward + torch.where(discount > 0, discount * bootstrap, torch.zeros_like(bootstrap))
+
+    def learn(self, batch: SampledBatch) -> LearnResult:
+        t = batch.transitions
+        state = self._tensor(t.state)
+        action = torch.from_numpy(np.ascontiguousarray(t.action)).to(self.device)
+        reward = self._tensor(t.reward)
+        discount = self._tensor(t.discount)
+        weights = self._tensor(batch.weights)
+        next_state = self._tensor(t.next_state)
+        next_mask = torch.from_numpy(np.ascontiguousarray(t.next_mask)).to(self.device)
+
+        target = self.compute_targets(reward, discount, next_state, next_mask)
+        q = self.online(state).gather(1, action[:, None]).squeeze(1)
+        per_sample = F.huber_loss(q, target, reduction="none", delta=self.config.huber_delta)
+        loss = (weights * per_sample).mean()
+        if not torch.isfinite(loss):
+            raise FloatingPointError(f"DQNAgent.learn: non-finite loss at update {self.updates} "
+                                     "(the Q-network has diverged; lower the learning rate)")
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        if self.config.grad_clip_norm > 0:
+            nn.utils.clip_grad_norm_(self.online.parameters(), self.config.grad_clip_norm)
+        self.optimizer.step()
+        self.updates += 1
+        if self.updates % self.config.target_update_period == 0:
+            self.sync_target()
+        td = (target - q).detach()
+        return LearnResult(loss=float(loss.item()), td_errors=td.float().cpu().numpy(),
+                           mean_q=float(q.detach().mean().item()))
+
+    def sync_target(self) -> None:
+        self.target.load_state_dict(self.online.state_dict())
+
+    # ---- checkpoints -----------------------------------------------------------------
+
+    def state_dict(self) -> dict:
+        return {"online": self.online.state_dict(), "target": self.target.state_dict(),
+                "optimizer": self.optimizer.state_dict(), "updates": self.updates,
+                "rng": self._rng.bit_generator.state}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.online.load_state_dict(state["online"])
+        self.target.load_state_dict(state["target"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        self.updates = int(state["updates"])
+        self._rng.bit_generator.state = state["rng"]
+
+    # ---- helpers ---------------------------------------------------------------------
+
+    def _tensor(self, array: np.ndarray) -> torch.Tensor:
+        return torch.from_numpy(np.ascontiguousarray(array, dtype=np.float32)).to(self.device)
+
+    @staticmethod
+    def _check_masks(mask: np.ndarray, where: str) -> None:
+        empty = np.flatnonzero(~mask.any(axis=1))
+        if empty.size:
+            raise ValueError(f"DQNAgent.{where}: no valid action in the mask of environment {int(empty[0])}")

@@ -1,0 +1,184 @@
+"""Typed wrapper of the vectorised training environment implemented in C++ (`dqn_dovs._core`).
+
+The compiled module runs the same core as the robot: simulator -> LIDAR -> obstacle
+tracker -> DOVS -> 408-float state, with the 8 actions of DESIGN section 6 and the
+reward of section 7. This module only checks and types what crosses the boundary; it
+holds no simulation of its own.
+
+Contract of `dqn_dovs._core.VecEnv` (n = num_envs, all arrays numpy):
+
+    core = dqn_dovs._core.VecEnv(num_envs: int, seed: int, perfect_info: bool = False)
+        Deterministic given the seed. perfect_info=True feeds the DOVS with ground-truth
+        obstacles instead of the tracker (for comparisons only).
+    core.set_stage(goal_distance_min: float, goal_distance_max: float,
+                   obstacles_min: int, obstacles_max: int, obstacle_type: str) -> None
+        obstacle_type in {'none', 'static', 'dynamic', 'both'}. Applies to every episode
+        reset from now on; each episode draws its goal distance and obstacle count
+        uniformly in the given ranges.
+    state, mask = core.reset()      # float32 [n, 408], bool [n, 8]
+    out = core.step(actions)        # actions: int64 [n]; returns a dict:
+        'next_state'    float32 [n, 408]  true successor (the final state for ended episodes)
+        'next_mask'     bool    [n, 8]    valid actions in next_state
+        'reward'        float32 [n]       DESIGN section 7
+        'terminated'    bool    [n]       goal reached and stopped, or collision
+        'truncated'     bool    [n]       500-step timeout (not a terminal state)
+        'outcome'       int8    [n]       0 running, 1 success, 2 collision, 3 timeout
+        'state'         float32 [n, 408]  what to act on next: the first state of a new
+                                          episode where one ended (automatic reset)
+        'mask'          bool    [n, 8]    valid actions in 'state'
+        'episode_steps' int32   [n]       steps of the episode that this step belongs to
+    core.normalization() -> dict[str, float]
+        The state normaliser's named constants; the weight file stores them so that the
+        planner can check that it builds states the same way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .curriculum import OBSTACLE_TYPES, StageSettings
+
+STATE_DIM = 408
+NUM_ACTIONS = 8
+
+OUTCOME_RUNNING = 0
+OUTCOME_SUCCESS = 1
+OUTCOME_COLLISION = 2
+OUTCOME_TIMEOUT = 3
+OUTCOME_NAMES = {OUTCOME_RUNNING: "running", OUTCOME_SUCCESS: "success", OUTCOME_COLLISION: "collision",
+                 OUTCOME_TIMEOUT: "timeout"}
+
+
+class CoreUnavailableError(ImportError):
+    """The compiled module dqn_dovs._core is missing (the C++ package has not been built)."""
+
+
+class EnvContractError(RuntimeError):
+    """The environment returned something outside the contract above; the message names it."""
+
+
+def import_core():
+    """Imports dqn_dovs._core, or raises CoreUnavailableError saying how to build it."""
+    try:
+        from . import _core  # noqa: PLC0415 - imported lazily: most of the package works without it
+    except ImportError as error:
+        raise CoreUnavailableError(
+            "dqn_dovs._core (the C++ training environment) cannot be imported: "
+            f"{error}. Build it with `make build` (scripts/build.sh links the compiled module "
+            "into python/dqn_dovs/)") from error
+    return _core
+
+
+@dataclass
+class StepResult:
+    next_state: np.ndarray
+    next_mask: np.ndarray
+    reward: np.ndarray
+    terminated: np.ndarray
+    truncated: np.ndarray
+    outcome: np.ndarray
+    state: np.ndarray
+    mask: np.ndarray
+    episode_steps: np.ndarray
+
+
+_STEP_FIELDS = {
+    # name: (dtype the trainer uses, trailing shape)
+    "next_state": (np.float32, (STATE_DIM,)),
+    "next_mask": (np.bool_, (NUM_ACTIONS,)),
+    "reward": (np.float32, ()),
+    "terminated": (np.bool_, ()),
+    "truncated": (np.bool_, ()),
+    "outcome": (np.int8, ()),
+    "state": (np.float32, (STATE_DIM,)),
+    "mask": (np.bool_, (NUM_ACTIONS,)),
+    "episode_steps": (np.int32, ()),
+}
+
+
+class VecEnv:
+    """`num_envs` training environments stepped together.
+
+    `core` is an object with the contract above; by default a new
+    dqn_dovs._core.VecEnv. Every array that comes back is checked for shape and
+    finiteness, so a broken environment stops training with a message naming the field
+    instead of poisoning the replay buffer.
+    """
+
+    def __init__(self, num_envs: int, seed: int, perfect_info: bool = False, core: Any = None):
+        if num_envs < 1:
+            raise ValueError(f"VecEnv: num_envs must be >= 1, got {num_envs}")
+        self.num_envs = int(num_envs)
+        self.seed = int(seed)
+        if core is None:
+            core = import_core().VecEnv(self.num_envs, self.seed, bool(perfect_info))
+        self._core = core
+
+    def set_stage(self, settings: StageSettings) -> None:
+        if settings.obstacle_type not in OBSTACLE_TYPES:
+            raise ValueError(f"VecEnv.set_stage: obstacle_type {settings.obstacle_type!r} not in {OBSTACLE_TYPES}")
+        self._core.set_stage(float(settings.goal_distance_min), float(settings.goal_distance_max),
+                             int(settings.obstacles_min), int(settings.obstacles_max), settings.obstacle_type)
+
+    def reset(self) -> tuple[np.ndarray, np.ndarray]:
+        result = self._core.reset()
+        if not isinstance(result, tuple) or len(result) != 2:
+            raise EnvContractError("VecEnv.reset: expected (state, mask)")
+        state = self._checked("reset", "state", result[0])
+        mask = self._checked("reset", "mask", result[1])
+        self._check_masks("reset", "mask", mask)
+        return state, mask
+
+    def step(self, actions: np.ndarray) -> StepResult:
+        actions = np.ascontiguousarray(actions, dtype=np.int64)
+        if actions.shape != (self.num_envs,):
+            raise ValueError(f"VecEnv.step: actions has shape {actions.shape}, expected ({self.num_envs},)")
+        out = self._core.step(actions)
+        missing = [k for k in _STEP_FIELDS if k not in out]
+        if missing:
+            raise EnvContractError(f"VecEnv.step: result lacks {missing}")
+        values = {k: self._checked("step", k, out[k]) for k in _STEP_FIELDS}
+        self._check_masks("step", "mask", values["mask"])
+        outcome = values["outcome"]
+        done = values["terminated"] | values["truncated"]
+        if np.any((outcome != OUTCOME_RUNNING) != done):
+            i = int(np.flatnonzero((outcome != OUTCOME_RUNNING) != done)[0])
+            raise EnvContractError(f"VecEnv.step: environment {i} has outcome {int(outcome[i])} but "
+                                   f"terminated={bool(values['terminated'][i])}, "
+                                   f"truncated={bool(values['truncated'][i])}")
+        return StepResult(**values)
+
+    def normalization(self) -> dict[str, float]:
+        norm = self._core.normalization()
+        try:
+            result = {str(k): float(v) for k, v in dict(norm).items()}
+        except (TypeError, ValueError) as error:
+            raise EnvContractError(f"VecEnv.normalization: expected a dict of str -> float ({error})") from None
+        bad = [k for k, v in result.items() if not np.isfinite(v)]
+        if bad:
+            raise EnvContractError(f"VecEnv.normalization: non-finite value for {bad[0]!r}")
+        return result
+
+    def _checked(self, where: str, name: str, value: Any) -> np.ndarray:
+        dtype, tail = _STEP_FIELDS[name]
+        array = np.asarray(value)
+        if array.shape != (self.num_envs, *tail):
+            raise EnvContractError(f"VecEnv.{where}: {name} has shape {array.shape}, "
+                                   f"expected {(self.num_envs, *tail)}")
+        if any(stride == 0 and size > 1 for stride, size in zip(array.strides, array.shape)):
+            # A zero stride means one element seen n times: every environment would share it.
+            raise EnvContractError(f"VecEnv.{where}: {name} is a broadcast view (stride 0): the environments "
+                                   "share one value instead of having one each")
+        array = np.ascontiguousarray(array, dtype=dtype)
+        if dtype is np.float32 and not np.all(np.isfinite(array)):
+            i = int(np.flatnonzero(~np.isfinite(array).reshape(self.num_envs, -1).all(axis=1))[0])
+            raise EnvContractError(f"VecEnv.{where}: {name} of environment {i} contains NaN or inf")
+        return array
+
+    def _check_masks(self, where: str, name: str, mask: np.ndarray) -> None:
+        empty = np.flatnonzero(~mask.any(axis=1))
+        if empty.size:
+            raise EnvContractError(f"VecEnv.{where}: {name} of environment {int(empty[0])} has no valid action")

@@ -1,0 +1,393 @@
+"""Writes and reads the `.dqnw` weight file of the Q-network (docs/weight_format.md).
+
+    python -m dqn_dovs.export CHECKPOINT OUT.dqnw [--normalization FILE] [--note TEXT]
+
+CHECKPOINT is a `torch.save`d dict with the keys
+  "model"          state_dict of a DuelingQNet (required; a bare state_dict is accepted too),
+  "model_config"   DuelingQNet constructor arguments (optional; defaults otherwise),
+  "normalization"  {name: float} of the state normaliser (optional if --normalization is given),
+  "command"        the training command line (optional, copied into the metadata).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import math
+import os
+import struct
+import subprocess
+import sys
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import torch
+from torch import nn
+
+from .model import DuelingQNet
+
+MAGIC = b"DQNDOVSW"
+FORMAT_VERSION = 1
+
+LAYER_CONV2D = 1
+LAYER_LINEAR = 2
+LAYER_RELU = 3
+LAYER_TYPE_NAMES = {LAYER_CONV2D: "conv2d", LAYER_LINEAR: "linear", LAYER_RELU: "relu"}
+
+STREAM_GRID = 0
+STREAM_FEATURE = 1
+STREAM_TRUNK = 2
+STREAM_VALUE = 3
+STREAM_ADVANTAGE = 4
+STREAM_NAMES = {STREAM_GRID: "grid", STREAM_FEATURE: "feature", STREAM_TRUNK: "trunk",
+                STREAM_VALUE: "value", STREAM_ADVANTAGE: "advantage"}
+
+MAX_NAME_LENGTH = 255
+MAX_METADATA_LENGTH = 1 << 20
+
+
+class WeightFileError(RuntimeError):
+    """A weight file that cannot be written or read; the message names the file and the field."""
+
+    def __init__(self, path: str | os.PathLike, field_name: str, reason: str) -> None:
+        super().__init__(f"weight file '{path}': field '{field_name}': {reason}")
+        self.path = str(path)
+        self.field = field_name
+
+
+@dataclass
+class LayerRecord:
+    stream: int
+    type: int
+    # conv2d: in_channels, out_channels, kernel_h, kernel_w, stride_h, stride_w, pad_h, pad_w
+    # linear: in_features, out_features
+    shape: dict = field(default_factory=dict)
+    weight: np.ndarray | None = None  # float32, PyTorch layout
+    bias: np.ndarray | None = None
+
+    @property
+    def name(self) -> str:
+        return f"{STREAM_NAMES.get(self.stream, '?')} {LAYER_TYPE_NAMES.get(self.type, '?')}"
+
+
+@dataclass
+class WeightFile:
+    format_version: int
+    grid_rows: int
+    grid_cols: int
+    feature_count: int
+    normalization: dict[str, float]
+    action_count: int
+    layers: list[LayerRecord]
+    metadata: str
+
+
+# --------------------------------------------------------------------------------------------- writing
+
+def _layer_records(model: DuelingQNet) -> list[LayerRecord]:
+    """Turns the model's modules into file records, refusing anything the C++ reader cannot run."""
+    records: list[LayerRecord] = []
+
+    def add(stream: int, module: nn.Module, where: str) -> None:
+        if isinstance(module, nn.Sequential):
+            for i, sub in enumerate(module):
+                add(stream, sub, f"{where}.{i}")
+        elif isinstance(module, nn.Conv2d):
+            if stream != STREAM_GRID:
+                raise ValueError(f"{where}: conv2d is only supported in the grid stream")
+            if module.dilation != (1, 1) or module.groups != 1 or module.bias is None:
+                raise ValueError(f"{where}: only conv2d with dilation 1, one group and a bias can be exported")
+            if isinstance(module.padding, str) or module.padding_mode != "zeros":
+                raise ValueError(f"{where}: only explicit zero padding can be exported")
+            shape = dict(in_channels=module.in_channels, out_channels=module.out_channels,
+                         kernel_h=module.kernel_size[0], kernel_w=module.kernel_size[1],
+                         stride_h=module.stride[0], stride_w=module.stride[1],
+                         pad_h=module.padding[0], pad_w=module.padding[1])
+            records.append(LayerRecord(stream, LAYER_CONV2D, shape, _tensor(module.weight), _tensor(module.bias)))
+        elif isinstance(module, nn.Linear):
+            if module.bias is None:
+                raise ValueError(f"{where}: linear layers without bias cannot be exported")
+            shape = dict(in_features=module.in_features, out_features=module.out_features)
+            records.append(LayerRecord(stream, LAYER_LINEAR, shape, _tensor(module.weight), _tensor(module.bias)))
+        elif isinstance(module, nn.ReLU):
+            records.append(LayerRecord(stream, LAYER_RELU))
+        elif isinstance(module, (nn.Flatten, nn.Identity)):
+            pass  # the grid stream's flatten is implicit in the format
+        else:
+            raise ValueError(f"{where}: module type {type(module).__name__} has no weight-file record")
+
+    add(STREAM_GRID, model.grid, "grid")
+    add(STREAM_FEATURE, model.features, "features")
+    add(STREAM_TRUNK, model.trunk, "trunk")
+    add(STREAM_VALUE, model.value, "value")
+    add(STREAM_ADVANTAGE, model.advantage, "advantage")
+    return records
+
+
+def _tensor(t: torch.Tensor) -> np.ndarray:
+    return t.detach().to(device="cpu", dtype=torch.float32).contiguous().numpy().copy()
+
+
+def _string(data: bytes) -> bytes:
+    return struct.pack("<I", len(data)) + data
+
+
+def serialize(weights: WeightFile, path_for_errors: str = "<memory>") -> bytes:
+    """The complete file image of `weights`, checksum included."""
+    out = bytearray(MAGIC)
+    out += struct.pack("<IIIII", weights.format_version, weights.grid_rows, weights.grid_cols,
+                       weights.feature_count, len(weights.normalization))
+    for name, value in weights.normalization.items():
+        encoded = name.encode("utf-8")
+        if not 1 <= len(encoded) <= MAX_NAME_LENGTH:
+            raise WeightFileError(path_for_errors, "normalization name", f"'{name}' must have 1..255 bytes")
+        out += _string(encoded) + struct.pack("<f", value)
+    out += struct.pack("<II", weights.action_count, len(weights.layers))
+    for i, layer in enumerate(weights.layers):
+        out += struct.pack("<II", layer.stream, layer.type)
+        if layer.type == LAYER_CONV2D:
+            keys = ("in_channels", "out_channels", "kernel_h", "kernel_w", "stride_h", "stride_w", "pad_h", "pad_w")
+            dims = [int(layer.shape[k]) for k in keys]
+            out += struct.pack("<8I", *dims)
+            weight_shape = (dims[1], dims[0], dims[2], dims[3])
+            bias_len = dims[1]
+        elif layer.type == LAYER_LINEAR:
+            dims = [int(layer.shape["in_features"]), int(layer.shape["out_features"])]
+            out += struct.pack("<2I", *dims)
+            weight_shape = (dims[1], dims[0])
+            bias_len = dims[1]
+        else:
+            continue
+        weight = np.asarray(layer.weight, dtype="<f4")
+        bias = np.asarray(layer.bias, dtype="<f4")
+        if weight.shape != weight_shape or bias.shape != (bias_len,):
+            raise WeightFileError(path_for_errors, f"layer {i} ({layer.name}) tensors",
+                                  f"weight {weight.shape} / bias {bias.shape} do not match the declared shape "
+                                  f"{weight_shape} / ({bias_len},)")
+        out += weight.tobytes(order="C") + bias.tobytes(order="C")
+    meta = weights.metadata.encode("utf-8")
+    if len(meta) > MAX_METADATA_LENGTH:
+        raise WeightFileError(path_for_errors, "metadata", "longer than 1 MiB")
+    out += _string(meta)
+    out += struct.pack("<I", zlib.crc32(bytes(out)) & 0xFFFFFFFF)
+    return bytes(out)
+
+
+def weights_from_model(model: DuelingQNet, normalization: Mapping[str, float], metadata: str) -> WeightFile:
+    if not normalization:
+        raise ValueError("normalization must name at least one constant of the state normaliser")
+    norm: dict[str, float] = {}
+    for name, value in normalization.items():
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"normalization constant '{name}' is not finite ({value})")
+        norm[str(name)] = value
+    records = _layer_records(model)
+    for i, layer in enumerate(records):
+        for label, tensor in (("weight", layer.weight), ("bias", layer.bias)):
+            if tensor is not None and not np.isfinite(tensor).all():
+                raise ValueError(f"layer {i} ({layer.name}) {label} contains NaN or inf: refusing to export")
+    return WeightFile(FORMAT_VERSION, model.grid_rows, model.grid_cols, model.feature_count, norm,
+                      model.action_count, records, metadata)
+
+
+def export_model(model: DuelingQNet, path: str | os.PathLike, normalization: Mapping[str, float],
+                 metadata: str) -> Path:
+    """Writes `model` to `path` (.dqnw). The file is written next to its target and renamed into place,
+    so a reader never sees half a file."""
+    path = Path(path)
+    data = serialize(weights_from_model(model, normalization, metadata), str(path))
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+    return path
+
+
+# --------------------------------------------------------------------------------------------- reading
+
+class _Reader:
+    def __init__(self, data: bytes, path: str) -> None:
+        self.data = data
+        self.end = len(data) - 4  # the checksum
+        self.pos = 0
+        self.path = path
+
+    def take(self, n: int, field_name: str) -> bytes:
+        if n > self.end - self.pos:
+            raise WeightFileError(self.path, field_name,
+                                  f"truncated: needs {n} bytes at offset {self.pos}, {max(self.end - self.pos, 0)} remain")
+        out = self.data[self.pos:self.pos + n]
+        self.pos += n
+        return out
+
+    def u32(self, field_name: str) -> int:
+        return struct.unpack("<I", self.take(4, field_name))[0]
+
+    def f32(self, count: int, field_name: str) -> np.ndarray:
+        return np.frombuffer(self.take(4 * count, field_name), dtype="<f4").astype(np.float32)
+
+
+def parse(data: bytes, path: str = "<memory>") -> WeightFile:
+    """Parses a file image with the same checks, in the same order, as the C++ reader."""
+    if len(data) < 8:
+        raise WeightFileError(path, "magic", f"truncated: file has {len(data)} bytes")
+    if data[:8] != MAGIC:
+        raise WeightFileError(path, "magic", f"expected {MAGIC!r}, found {data[:8]!r}")
+    if len(data) < 12:
+        raise WeightFileError(path, "format version", "truncated: file ends right after the magic")
+    version = struct.unpack("<I", data[8:12])[0]
+    if version != FORMAT_VERSION:
+        raise WeightFileError(path, "format version", f"file has version {version}, this reader supports {FORMAT_VERSION}")
+    r = _Reader(data, path)
+    r.take(8, "magic")
+    r.u32("format version")
+    rows, cols, features = r.u32("state layout: grid rows"), r.u32("state layout: grid cols"), r.u32("state layout: feature count")
+    normalization: dict[str, float] = {}
+    for i in range(r.u32("normalization count")):
+        length = r.u32(f"normalization entry {i} name length")
+        if not 1 <= length <= MAX_NAME_LENGTH:
+            raise WeightFileError(path, f"normalization entry {i} name length", f"{length} outside [1, 255]")
+        name = r.take(length, f"normalization entry {i} name").decode("utf-8", errors="replace")
+        normalization[name] = float(r.f32(1, f"normalization entry {i} value")[0])
+    action_count = r.u32("action count")
+    layers: list[LayerRecord] = []
+    for i in range(r.u32("layer count")):
+        stream, kind = r.u32(f"layer {i} stream"), r.u32(f"layer {i} type")
+        if stream not in STREAM_NAMES:
+            raise WeightFileError(path, f"layer {i} stream", f"unknown stream id {stream}")
+        if kind not in LAYER_TYPE_NAMES:
+            raise WeightFileError(path, f"layer {i} type", f"unknown layer type id {kind}")
+        layer = LayerRecord(stream, kind)
+        if kind == LAYER_CONV2D:
+            keys = ("in_channels", "out_channels", "kernel_h", "kernel_w", "stride_h", "stride_w", "pad_h", "pad_w")
+            layer.shape = {k: r.u32(f"layer {i} {k}") for k in keys}
+            s = layer.shape
+            w_shape = (s["out_channels"], s["in_channels"], s["kernel_h"], s["kernel_w"])
+            b_len = s["out_channels"]
+        elif kind == LAYER_LINEAR:
+            layer.shape = {k: r.u32(f"layer {i} {k}") for k in ("in_features", "out_features")}
+            w_shape = (layer.shape["out_features"], layer.shape["in_features"])
+            b_len = layer.shape["out_features"]
+        if kind != LAYER_RELU:
+            layer.weight = r.f32(int(np.prod(w_shape)), f"layer {i} ({layer.name}) weight").reshape(w_shape)
+            layer.bias = r.f32(b_len, f"layer {i} ({layer.name}) bias")
+        layers.append(layer)
+    meta_len = r.u32("metadata length")
+    metadata = r.take(meta_len, "metadata").decode("utf-8", errors="replace")
+    if r.pos != r.end:
+        raise WeightFileError(path, "trailing bytes", f"{r.end - r.pos} unexpected bytes before the checksum")
+    stored = struct.unpack("<I", data[-4:])[0]
+    computed = zlib.crc32(data[:-4]) & 0xFFFFFFFF
+    if stored != computed:
+        raise WeightFileError(path, "checksum", f"CRC-32 stored 0x{stored:08x} but the content gives 0x{computed:08x}")
+    return WeightFile(version, rows, cols, features, normalization, action_count, layers, metadata)
+
+
+def load_weights(path: str | os.PathLike) -> WeightFile:
+    """Reads a `.dqnw` file (magic, version, truncation and checksum checked)."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise WeightFileError(path, "file", f"cannot open: {exc.strerror}") from exc
+    return parse(data, str(path))
+
+
+def model_from_weights(weights: WeightFile) -> DuelingQNet:
+    """Rebuilds the DuelingQNet a file describes and loads its tensors (for round-trip checks)."""
+    by_stream: dict[int, list[LayerRecord]] = {s: [] for s in STREAM_NAMES}
+    for layer in weights.layers:
+        by_stream[layer.stream].append(layer)
+    convs = [l for l in by_stream[STREAM_GRID] if l.type == LAYER_CONV2D]
+    feature_linears = [l for l in by_stream[STREAM_FEATURE] if l.type == LAYER_LINEAR]
+    trunk_linears = [l for l in by_stream[STREAM_TRUNK] if l.type == LAYER_LINEAR]
+    if not convs or len(feature_linears) != 1:
+        raise ValueError("the file's layers do not follow the DuelingQNet structure")
+    model = DuelingQNet(
+        grid_rows=weights.grid_rows, grid_cols=weights.grid_cols, feature_count=weights.feature_count,
+        action_count=weights.action_count, conv_channels=[c.shape["out_channels"] for c in convs],
+        conv_strides=[c.shape["stride_h"] for c in convs], conv_kernel=convs[0].shape["kernel_h"],
+        feature_hidden=feature_linears[0].shape["out_features"],
+        trunk_hidden=[l.shape["out_features"] for l in trunk_linears])
+    expected = _layer_records(model)
+    if [(l.stream, l.type, l.shape) for l in expected] != [(l.stream, l.type, l.shape) for l in weights.layers]:
+        raise ValueError("the file's layers do not follow the DuelingQNet structure")
+    params = [m for m in model.modules() if isinstance(m, (nn.Conv2d, nn.Linear))]
+    weighted = [l for l in weights.layers if l.type != LAYER_RELU]
+    with torch.no_grad():
+        for module, layer in zip(params, weighted):
+            module.weight.copy_(torch.from_numpy(layer.weight))
+            module.bias.copy_(torch.from_numpy(layer.bias))
+    return model
+
+
+# --------------------------------------------------------------------------------------------- CLI
+
+def _git_describe() -> str:
+    try:
+        here = Path(__file__).resolve().parent
+        out = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=here, capture_output=True,
+                             text=True, timeout=10)
+        return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def build_metadata(training_command: str | None, checkpoint: str | None, note: str | None = None) -> str:
+    lines = [
+        f"training command: {training_command or 'unknown'}",
+        f"exported: {datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}",
+        f"source revision: {_git_describe()}",
+    ]
+    if checkpoint:
+        lines.append(f"checkpoint: {checkpoint}")
+    if note:
+        lines.append(f"note: {note}")
+    return "\n".join(lines)
+
+
+def _load_mapping(path: str) -> dict[str, float]:
+    text = Path(path).read_text()
+    if path.endswith((".yaml", ".yml")):
+        import yaml
+        data = yaml.safe_load(text)
+    else:
+        data = json.loads(text)
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected a mapping of name -> number")
+    return {str(k): float(v) for k, v in data.items()}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m dqn_dovs.export",
+                                     description="Export a DQN-DOVS checkpoint to a .dqnw weight file.")
+    parser.add_argument("checkpoint", help="torch.save'd checkpoint (see the module docstring for its keys)")
+    parser.add_argument("out", help="output .dqnw path")
+    parser.add_argument("--normalization", help="JSON or YAML mapping name -> value; overrides the checkpoint's")
+    parser.add_argument("--note", help="extra text for the metadata")
+    args = parser.parse_args(argv)
+    try:
+        ckpt = torch.load(args.checkpoint, map_location="cpu", weights_only=True)
+        if not isinstance(ckpt, dict):
+            raise ValueError(f"{args.checkpoint}: expected a dict checkpoint, got {type(ckpt).__name__}")
+        state_dict = ckpt.get("model", ckpt)
+        model = DuelingQNet(**dict(ckpt.get("model_config") or {}))
+        model.load_state_dict(state_dict)
+        normalization = _load_mapping(args.normalization) if args.normalization else ckpt.get("normalization")
+        if not normalization:
+            raise ValueError(f"{args.checkpoint} has no 'normalization' entry: pass --normalization FILE")
+        metadata = build_metadata(ckpt.get("command"), os.path.abspath(args.checkpoint), args.note)
+        path = export_model(model.eval(), args.out, normalization, metadata)
+    except (OSError, ValueError, RuntimeError, KeyError, TypeError) as exc:
+        print(f"export failed: {exc}", file=sys.stderr)
+        return 1
+    n_params = sum(p.numel() for p in model.parameters())
+    print(f"wrote {path} ({path.stat().st_size} bytes, {n_params} parameters)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

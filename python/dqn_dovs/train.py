@@ -1,0 +1,772 @@
+"""DQN-DOVS trainer: `python -m dqn_dovs.train --config config/curriculum.yaml --out runs/NAME`.
+
+Double DQN with a dueling network, prioritized replay, 5-step returns and invalid-action
+masks, trained through the paper's curriculum on the vectorised C++ environment. See
+docs/training.md for the algorithm, every configuration field and the files written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import csv
+import json
+import math
+import os
+import random
+import shlex
+import sys
+import time
+from collections import deque
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any, Callable
+
+import numpy as np
+import torch
+import yaml
+
+from .agent import AgentConfig, DQNAgent
+from .curriculum import Curriculum, CurriculumError
+from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
+from .replay import NStepAccumulator, PrioritizedReplay
+
+TRAIN_LOG = "train_log.csv"
+EVAL_LOG = "eval_log.csv"
+CHECKPOINT = "checkpoint.pt"
+REPLAY_FILE = "replay.pt"
+CONFIG_COPY = "config.yaml"
+SUMMARY = "summary.json"
+MODEL_FILE = "model.dqnw"
+BEST_MODEL_FILE = "best.dqnw"
+
+TRAIN_COLUMNS = ["episode", "stage", "stage_name", "steps", "env_steps", "return", "outcome", "epsilon", "loss",
+                 "mean_q", "lr", "beta", "updates", "wall_s"]
+EVAL_COLUMNS = ["episode", "stage", "stage_name", "episodes", "success_rate", "collision_rate", "timeout_rate",
+                "mean_return", "mean_steps", "mean_success_time_s", "wall_s"]
+
+CONTROL_PERIOD_S = 0.2
+
+
+class ConfigError(ValueError):
+    """A malformed training configuration; the message names the field."""
+
+
+# ---- configuration ---------------------------------------------------------------------
+
+
+@dataclass
+class ReplayConfig:
+    """Prioritized replay and the learning schedule."""
+
+    # Transitions kept.
+    capacity: int = 200_000
+    # Transitions per learning step.
+    batch_size: int = 64
+    # Prioritization exponent.
+    alpha: float = 0.6
+    # Importance-sampling exponent at the start and at the end of the curriculum (linear).
+    beta_start: float = 0.4
+    beta_end: float = 1.0
+    # Added to |TD error| before the exponent.
+    priority_eps: float = 1e-3
+    # Transitions stored before the first learning step.
+    learning_starts: int = 2000
+    # Environment transitions per learning step.
+    transitions_per_update: float = 8.0
+    # Grid cells stored as int8.
+    compact_states: bool = True
+
+    def validate(self) -> str:
+        if self.capacity < 1:
+            return f"replay.capacity must be >= 1, got {self.capacity}"
+        if not (1 <= self.batch_size <= self.capacity):
+            return f"replay.batch_size must be in [1, capacity], got {self.batch_size}"
+        if not (0.0 <= self.alpha <= 1.0):
+            return f"replay.alpha must be in [0, 1], got {self.alpha}"
+        for name in ("beta_start", "beta_end"):
+            if not (0.0 <= getattr(self, name) <= 1.0):
+                return f"replay.{name} must be in [0, 1], got {getattr(self, name)}"
+        if not (self.priority_eps > 0):
+            return f"replay.priority_eps must be > 0, got {self.priority_eps}"
+        if self.learning_starts < self.batch_size:
+            return f"replay.learning_starts ({self.learning_starts}) must be >= batch_size ({self.batch_size})"
+        if not (self.transitions_per_update > 0 and math.isfinite(self.transitions_per_update)):
+            return f"replay.transitions_per_update must be > 0, got {self.transitions_per_update}"
+        return ""
+
+
+@dataclass
+class EvalConfig:
+    """Periodic greedy evaluation on a fixed set of episodes."""
+
+    # Training episodes between evaluations (0: only the final one).
+    every_episodes: int = 250
+    # Episodes per evaluation.
+    episodes: int = 32
+    # Environments used by the evaluation.
+    num_envs: int = 8
+    # Seed of the evaluation environments; the same for every evaluation.
+    seed: int = 100003
+
+    def validate(self) -> str:
+        if self.every_episodes < 0:
+            return f"evaluation.every_episodes must be >= 0, got {self.every_episodes}"
+        if self.episodes < 1:
+            return f"evaluation.episodes must be >= 1, got {self.episodes}"
+        if self.num_envs < 1:
+            return f"evaluation.num_envs must be >= 1, got {self.num_envs}"
+        return ""
+
+
+@dataclass
+class CheckpointConfig:
+    # Episodes between checkpoints (0: only at the end).
+    every_episodes: int = 250
+    # Store the replay buffer too, so that a resumed run continues exactly where it stopped.
+    save_replay: bool = True
+
+    def validate(self) -> str:
+        if self.every_episodes < 0:
+            return f"checkpoint.every_episodes must be >= 0, got {self.every_episodes}"
+        return ""
+
+
+@dataclass
+class LogConfig:
+    # Episodes in the moving success rate of the progress bar.
+    success_window: int = 100
+    # Episodes between redraws of the PNG learning curves (0: only at the end).
+    plot_every_episodes: int = 500
+
+    def validate(self) -> str:
+        if self.success_window < 1:
+            return f"log.success_window must be >= 1, got {self.success_window}"
+        if self.plot_every_episodes < 0:
+            return f"log.plot_every_episodes must be >= 0, got {self.plot_every_episodes}"
+        return ""
+
+
+@dataclass
+class TrainConfig:
+    """Everything a training run depends on (config/curriculum.yaml, docs/training.md)."""
+
+    # Seed of the environments, exploration, replay sampling and network initialisation.
+    seed: int = 1
+    # Environments stepped together.
+    num_envs: int = 8
+    # Ground-truth obstacles for the DOVS instead of the tracker (comparison runs only).
+    perfect_info: bool = False
+    # Discount per control period.
+    gamma: float = 0.97
+    # Rewards summed before bootstrapping.
+    n_step: int = 5
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    replay: ReplayConfig = field(default_factory=ReplayConfig)
+    evaluation: EvalConfig = field(default_factory=EvalConfig)
+    checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
+    log: LogConfig = field(default_factory=LogConfig)
+    # The raw `curriculum` section (parsed by Curriculum.from_dict); kept raw so that it
+    # can be written back verbatim into the run directory.
+    curriculum: dict = field(default_factory=dict)
+    # Factor applied to every stage's episode count (--scale; 1 = the paper's curriculum).
+    scale: float = 1.0
+
+    def validate(self) -> str:
+        if self.num_envs < 1:
+            return f"num_envs must be >= 1, got {self.num_envs}"
+        if not (0.0 < self.gamma <= 1.0):
+            return f"gamma must be in (0, 1], got {self.gamma}"
+        if self.n_step < 1:
+            return f"n_step must be >= 1, got {self.n_step}"
+        for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log):
+            error = part.validate()
+            if error:
+                return error
+        try:
+            self.build_curriculum()
+        except CurriculumError as error:
+            return str(error)
+        return ""
+
+    def build_curriculum(self) -> Curriculum:
+        return Curriculum.from_dict(self.curriculum).scaled(self.scale)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @staticmethod
+    def from_dict(raw: dict) -> "TrainConfig":
+        if not isinstance(raw, dict):
+            raise ConfigError("configuration: expected a mapping at the top level")
+        sections = {"agent": AgentConfig, "replay": ReplayConfig, "evaluation": EvalConfig,
+                    "checkpoint": CheckpointConfig, "log": LogConfig}
+        known = {f.name for f in fields(TrainConfig)}
+        unknown = set(raw) - known
+        if unknown:
+            raise ConfigError(f"configuration: unknown field(s) {sorted(unknown)}")
+        kwargs: dict[str, Any] = {}
+        for name, value in raw.items():
+            if name in sections:
+                kwargs[name] = _build_section(name, sections[name], value or {})
+            elif name == "curriculum":
+                kwargs[name] = copy.deepcopy(value)
+            else:
+                kwargs[name] = _coerce(name, TrainConfig.__dataclass_fields__[name].default, value)
+        return TrainConfig(**kwargs)
+
+
+def _build_section(name: str, cls: type, raw: dict):
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{name}: expected a mapping")
+    known = {f.name: f for f in fields(cls)}
+    unknown = set(raw) - set(known)
+    if unknown:
+        raise ConfigError(f"{name}: unknown field(s) {sorted(unknown)}")
+    defaults = cls()
+    return cls(**{k: _coerce(f"{name}.{k}", getattr(defaults, k), v) for k, v in raw.items()})
+
+
+def _coerce(where: str, default: Any, value: Any) -> Any:
+    """Converts a YAML value to the default's type, with an error naming the field."""
+    try:
+        if isinstance(default, bool):
+            if not isinstance(value, bool):
+                raise TypeError
+            return value
+        if isinstance(default, int):
+            if isinstance(value, bool) or int(value) != value:
+                raise TypeError
+            return int(value)
+        if isinstance(default, float):
+            if isinstance(value, bool):
+                raise TypeError
+            result = float(value)
+            if not math.isfinite(result):
+                raise TypeError
+            return result
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where}: expected a finite {type(default).__name__}, got {value!r}") from None
+    return value
+
+
+def load_config(path: str) -> TrainConfig:
+    try:
+        with open(path) as f:
+            raw = yaml.safe_load(f)
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read the configuration ({error.strerror})") from None
+    except yaml.YAMLError as error:
+        raise ConfigError(f"{path}: not valid YAML ({error})") from None
+    try:
+        config = TrainConfig.from_dict(raw)
+    except ConfigError as error:
+        raise ConfigError(f"{path}: {error}") from None
+    message = config.validate()
+    if message:
+        raise ConfigError(f"{path}: {message}")
+    return config
+
+
+# ---- helpers -------------------------------------------------------------------------------
+
+
+def env_seed(seed: int, episodes_done: int) -> int:
+    """Seed of the training environments created after `episodes_done` episodes (a resumed
+    run gets fresh, but still reproducible, episodes)."""
+    return int(np.random.SeedSequence([int(seed), int(episodes_done)]).generate_state(1)[0] & 0x7FFFFFFF)
+
+
+def resolve_device(name: str) -> torch.device:
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise ConfigError("--device cuda: no CUDA device is available to PyTorch")
+    if name not in ("cpu", "cuda"):
+        raise ConfigError(f"--device must be auto, cpu or cuda, got {name!r}")
+    return torch.device(name)
+
+
+def default_model_factory() -> torch.nn.Module:
+    from .model import DuelingQNet  # noqa: PLC0415 - keeps `--help` and config checks free of model imports
+
+    return DuelingQNet()
+
+
+def _atomic_torch_save(obj: Any, path: str) -> None:
+    tmp = path + ".tmp"
+    torch.save(obj, tmp)
+    os.replace(tmp, path)
+
+
+def _numpy_global_state() -> tuple:
+    """numpy's legacy global state with plain lists, so that checkpoints load with weights_only=True."""
+    name, keys, pos, has_gauss, cached = np.random.get_state()
+    return name, keys.tolist(), int(pos), int(has_gauss), float(cached)
+
+
+def _set_numpy_global_state(state) -> None:
+    name, keys, pos, has_gauss, cached = state
+    np.random.set_state((name, np.asarray(keys, np.uint32), pos, has_gauss, cached))
+
+
+def _truncate_csv(path: str, columns: list[str], keep: Callable[[dict], bool]) -> None:
+    """Drops the rows written after the checkpoint being resumed (they will be redone)."""
+    if not os.path.exists(path):
+        return
+    with open(path, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if keep(r)]
+    with open(path + ".tmp", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+    os.replace(path + ".tmp", path)
+
+
+class _CsvLog:
+    def __init__(self, path: str, columns: list[str]):
+        new = not os.path.exists(path) or os.path.getsize(path) == 0
+        self._file = open(path, "a", newline="")
+        self._writer = csv.DictWriter(self._file, fieldnames=columns)
+        if new:
+            self._writer.writeheader()
+
+    def write(self, row: dict) -> None:
+        self._writer.writerow({k: _fmt(v) for k, v in row.items()})
+        # One short row per episode: flushing keeps the log current for plots and `tail -f`.
+        self._file.flush()
+
+    def flush(self) -> None:
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def _fmt(value: Any) -> Any:
+    if isinstance(value, float):
+        return "" if math.isnan(value) else f"{value:.6g}"
+    return value
+
+
+# ---- the trainer -------------------------------------------------------------------------
+
+
+EnvFactory = Callable[[int, int, bool], VecEnv]
+
+
+class Trainer:
+    """One training run in `out_dir` (fresh, or resumed from its checkpoint)."""
+
+    def __init__(self, config: TrainConfig, out_dir: str, device: str = "auto", threads: int = 0,
+                 resume: bool = False, env_factory: EnvFactory | None = None,
+                 model_factory: Callable[[], torch.nn.Module] | None = None, progress: bool = True,
+                 command: str = ""):
+        message = config.validate()
+        if message:
+            raise ConfigError(message)
+        self.config = config
+        self.out_dir = out_dir
+        self.curriculum = config.build_curriculum()
+        self.total_episodes = self.curriculum.total_episodes
+        self.device = resolve_device(device)
+        self.progress = progress
+        self.command = command
+        if threads > 0:
+            torch.set_num_threads(threads)
+        self._env_factory = env_factory or (lambda n, seed, perfect: VecEnv(n, seed, perfect))
+        self._model_factory = model_factory or default_model_factory
+
+        os.makedirs(out_dir, exist_ok=True)
+        checkpoint_path = os.path.join(out_dir, CHECKPOINT)
+        if resume and not os.path.exists(checkpoint_path):
+            raise FileNotFoundError(f"--resume: {checkpoint_path} does not exist")
+        if not resume and os.path.exists(checkpoint_path):
+            raise FileExistsError(f"{out_dir} already holds a run ({CHECKPOINT}); pass --resume to continue it "
+                                  "or choose another --out")
+
+        self._seed_everything(config.seed)
+        model = self._model_factory()
+        self.agent = DQNAgent(model, config.agent, device=self.device, seed=config.seed + 1)
+        rc = config.replay
+        self.replay = PrioritizedReplay(rc.capacity, alpha=rc.alpha, priority_eps=rc.priority_eps,
+                                        seed=config.seed + 2, compact_states=rc.compact_states)
+        self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma)
+
+        self.episodes_done = 0
+        self.env_steps = 0
+        self.update_credit = 0.0
+        self.wall_s = 0.0
+        self.best_eval = -1.0
+        self._recent_outcomes: deque[int] = deque(maxlen=config.log.success_window)
+        self._loss_sum = 0.0
+        self._q_sum = 0.0
+        self._loss_count = 0
+        self._last_loss = float("nan")
+        self._timing = {"env_s": 0.0, "act_s": 0.0, "replay_s": 0.0, "learn_s": 0.0, "eval_s": 0.0}
+        self._normalization: dict[str, float] | None = None
+
+        if resume:
+            self._load_checkpoint(checkpoint_path)
+        else:
+            with open(os.path.join(out_dir, CONFIG_COPY), "w") as f:
+                yaml.safe_dump(config.to_dict(), f, sort_keys=False)
+
+    # ---- schedules ---------------------------------------------------------------------
+
+    def progress_fraction(self) -> float:
+        return min(self.episodes_done / self.total_episodes, 1.0)
+
+    def learning_rate(self) -> float:
+        a = self.config.agent
+        return a.lr_start + (a.lr_end - a.lr_start) * self.progress_fraction()
+
+    def beta(self) -> float:
+        r = self.config.replay
+        return r.beta_start + (r.beta_end - r.beta_start) * self.progress_fraction()
+
+    # ---- main loop ---------------------------------------------------------------------
+
+    def run(self, stop_at: int | None = None) -> dict:
+        """Trains to the end of the curriculum, then evaluates, checkpoints and exports
+        model.dqnw. With `stop_at`, stops after that many episodes with a checkpoint only
+        (continue later with resume=True)."""
+        cfg = self.config
+        limit = self.total_episodes if stop_at is None else min(int(stop_at), self.total_episodes)
+        env = self._env_factory(cfg.num_envs, env_seed(cfg.seed, self.episodes_done), cfg.perfect_info)
+        self._normalization = env.normalization()
+        e = cfg.num_envs
+        env.set_stage(self.curriculum.settings_at(self.episodes_done))
+        state, mask = env.reset()
+        self.nstep.reset()
+        ep_return = np.zeros(e, np.float64)
+        ep_stage = np.full(e, self.curriculum.locate(self.episodes_done)[0])  # stage each running episode began in
+        # Stages count episodes in the order they start. With one episode running per
+        # environment, the next one to start has index episodes_done + e: the environment
+        # resets automatically inside step(), so its settings must be in place beforehand.
+        settings = self.curriculum.settings_at(self.episodes_done + e)
+        settings_stage = self.curriculum.locate(self.episodes_done + e)[0]
+        env.set_stage(settings)
+
+        train_log = _CsvLog(os.path.join(self.out_dir, TRAIN_LOG), TRAIN_COLUMNS)
+        eval_log = _CsvLog(os.path.join(self.out_dir, EVAL_LOG), EVAL_COLUMNS)
+        bar = self._progress_bar()
+        started = time.perf_counter()
+        wall_at_start = self.wall_s
+        steps_at_start, updates_at_start = self.env_steps, self.agent.updates
+        perf = time.perf_counter
+        try:
+            while self.episodes_done < limit:
+                epsilon = self.curriculum.epsilon_at(self.episodes_done)
+                t0 = perf()
+                actions = self.agent.act(state, mask, epsilon)
+                t1 = perf()
+                out = env.step(actions)
+                t2 = perf()
+                self.replay.add(self.nstep.push(state, mask, actions, out.reward, out.next_state, out.next_mask,
+                                                out.terminated, out.truncated))
+                t3 = perf()
+                self._timing["act_s"] += t1 - t0
+                self._timing["env_s"] += t2 - t1
+                self._timing["replay_s"] += t3 - t2
+                self.env_steps += e
+                ep_return += out.reward
+                self._learn(e)
+                state, mask = out.state, out.mask
+
+                ended = np.flatnonzero(out.terminated | out.truncated)
+                for i in ended:
+                    self.wall_s = wall_at_start + time.perf_counter() - started
+                    self._end_episode(int(i), out, ep_return[i], int(ep_stage[i]), epsilon, train_log, bar)
+                    ep_return[i] = 0.0
+                    self._after_episode(eval_log, train_log)
+                    if self.episodes_done >= limit:
+                        break
+                if ended.size:
+                    # The ended environments have already reset, under the settings in force
+                    # during this step: their new episodes belong to that stage.
+                    ep_stage[ended] = settings_stage
+                    next_start = self.episodes_done + e
+                    settings_stage = self.curriculum.locate(next_start)[0]
+                    new_settings = self.curriculum.settings_at(next_start)
+                    if new_settings != settings:
+                        settings = new_settings
+                        env.set_stage(settings)
+            elapsed = time.perf_counter() - started
+            self.wall_s = wall_at_start + elapsed
+            finished = self.episodes_done >= self.total_episodes
+            final = self._evaluate(eval_log, force_stage=len(self.curriculum.stages) - 1) if finished else None
+        finally:
+            bar.close()
+            train_log.close()
+            eval_log.close()
+        self._save_checkpoint()
+        model_path = self._export(os.path.join(self.out_dir, MODEL_FILE), final) if finished else None
+        self._plot()
+        t = self._timing
+        summary = {
+            "finished": finished, "episodes": self.episodes_done, "env_steps": self.env_steps,
+            "updates": self.agent.updates, "wall_s": self.wall_s, "session_wall_s": elapsed,
+            # Throughput of this session (training loop, evaluations included).
+            "env_steps_per_s": (self.env_steps - steps_at_start) / max(elapsed, 1e-9),
+            "updates_per_s": (self.agent.updates - updates_at_start) / max(elapsed, 1e-9),
+            # Cost of each part over the whole run.
+            "env_only_steps_per_s": self.env_steps / max(t["env_s"], 1e-9),
+            "learn_only_updates_per_s": self.agent.updates / max(t["learn_s"], 1e-9),
+            **{f"time_{k}": v for k, v in t.items()},
+            "final_eval": final, "best_eval_success_rate": self.best_eval, "model": model_path,
+        }
+        with open(os.path.join(self.out_dir, SUMMARY), "w") as f:
+            json.dump(summary, f, indent=2)
+        return summary
+
+    def _learn(self, new_transitions: int) -> None:
+        rc = self.config.replay
+        if len(self.replay) < rc.learning_starts:
+            return
+        self.update_credit += new_transitions
+        t0 = time.perf_counter()
+        self.agent.set_learning_rate(self.learning_rate())
+        beta = self.beta()
+        while self.update_credit >= rc.transitions_per_update:
+            self.update_credit -= rc.transitions_per_update
+            batch = self.replay.sample(rc.batch_size, beta)
+            result = self.agent.learn(batch)
+            self.replay.update_priorities(batch.indices, result.td_errors)
+            self._loss_sum += result.loss
+            self._q_sum += result.mean_q
+            self._loss_count += 1
+        self._timing["learn_s"] += time.perf_counter() - t0
+
+    def _end_episode(self, i: int, out, ep_return: float, stage: int, epsilon: float, log: _CsvLog, bar) -> None:
+        outcome = int(out.outcome[i])
+        self._recent_outcomes.append(outcome)
+        if self._loss_count:
+            loss, mean_q = self._loss_sum / self._loss_count, self._q_sum / self._loss_count
+            self._last_loss = loss
+            self._loss_sum = self._q_sum = 0.0
+            self._loss_count = 0
+        else:
+            loss = mean_q = float("nan")
+        log.write({
+            "episode": self.episodes_done, "stage": stage + 1, "stage_name": self.curriculum.stages[stage].name,
+            "steps": int(out.episode_steps[i]), "env_steps": self.env_steps, "return": float(ep_return),
+            "outcome": OUTCOME_NAMES.get(outcome, str(outcome)), "epsilon": float(epsilon), "loss": loss,
+            "mean_q": mean_q, "lr": self.agent.learning_rate, "beta": self.beta(), "updates": self.agent.updates,
+            "wall_s": self.wall_s,
+        })
+        self.episodes_done += 1
+        bar.update(1)
+        if self.progress and (self.episodes_done % 10 == 0 or self.episodes_done == self.total_episodes):
+            recent = np.asarray(self._recent_outcomes)
+            bar.set_postfix(stage=stage + 1, success=f"{np.mean(recent == OUTCOME_SUCCESS):.2f}",
+                            eps=f"{epsilon:.2f}", loss=f"{self._last_loss:.3g}",
+                            sps=f"{self.env_steps / max(self.wall_s, 1e-9):.0f}", refresh=False)
+
+    def _after_episode(self, eval_log: _CsvLog, train_log: _CsvLog) -> None:
+        n = self.episodes_done
+        if n >= self.total_episodes:
+            return  # the final evaluation, checkpoint and plots follow the loop
+        ec, cc, lc = self.config.evaluation, self.config.checkpoint, self.config.log
+        if ec.every_episodes and n % ec.every_episodes == 0:
+            self._evaluate(eval_log)
+        if cc.every_episodes and n % cc.every_episodes == 0:
+            train_log.flush()
+            self._save_checkpoint()
+        if lc.plot_every_episodes and n % lc.plot_every_episodes == 0:
+            train_log.flush()
+            self._plot()
+
+    # ---- evaluation --------------------------------------------------------------------
+
+    def _evaluate(self, log: _CsvLog, force_stage: int | None = None) -> dict:
+        """Greedy episodes on fresh environments with the fixed evaluation seed, under the
+        current stage's settings at its end (the stage's hardest), or `force_stage`'s."""
+        t0 = time.perf_counter()
+        ec = self.config.evaluation
+        stage = self.curriculum.locate(self.episodes_done)[0] if force_stage is None else force_stage
+        env = self._env_factory(ec.num_envs, ec.seed, self.config.perfect_info)
+        env.set_stage(self.curriculum.stages[stage].settings(1.0))
+        state, mask = env.reset()
+        returns = np.zeros(ec.num_envs)
+        results: list[tuple[int, float, int]] = []
+        while len(results) < ec.episodes:
+            out = env.step(self.agent.greedy(state, mask))
+            returns += out.reward
+            for i in np.flatnonzero(out.terminated | out.truncated):
+                if len(results) < ec.episodes:
+                    results.append((int(out.outcome[i]), float(returns[i]), int(out.episode_steps[i])))
+                returns[i] = 0.0
+            state, mask = out.state, out.mask
+        outcomes = np.array([r[0] for r in results])
+        steps = np.array([r[2] for r in results], float)
+        success = outcomes == OUTCOME_SUCCESS
+        row = {
+            "episode": self.episodes_done, "stage": stage + 1, "stage_name": self.curriculum.stages[stage].name,
+            "episodes": len(results), "success_rate": float(success.mean()),
+            "collision_rate": float(np.mean(outcomes == OUTCOME_COLLISION)),
+            "timeout_rate": float(np.mean(outcomes == OUTCOME_TIMEOUT)),
+            "mean_return": float(np.mean([r[1] for r in results])), "mean_steps": float(steps.mean()),
+            "mean_success_time_s": float(steps[success].mean() * CONTROL_PERIOD_S) if success.any() else float("nan"),
+            "wall_s": self.wall_s,
+        }
+        log.write(row)
+        log.flush()
+        self._timing["eval_s"] += time.perf_counter() - t0
+        if stage == len(self.curriculum.stages) - 1 and row["success_rate"] > self.best_eval:
+            self.best_eval = row["success_rate"]
+            self._export(os.path.join(self.out_dir, BEST_MODEL_FILE), row)
+        return row
+
+    # ---- files -------------------------------------------------------------------------
+
+    def _export(self, path: str, evaluation: dict) -> str:
+        from .export import build_metadata, export_model  # noqa: PLC0415 - only needed here
+
+        note = json.dumps({
+            "seed": self.config.seed, "episodes": self.episodes_done, "env_steps": self.env_steps,
+            "updates": self.agent.updates, "evaluation": {k: v for k, v in evaluation.items()
+                                                          if isinstance(v, (int, float, str))},
+        }, sort_keys=True)
+        metadata = build_metadata(self.command, os.path.abspath(os.path.join(self.out_dir, CHECKPOINT)), note)
+        export_model(copy.deepcopy(self.agent.online).cpu().eval(), path, self._normalization or {}, metadata)
+        return path
+
+    def _plot(self) -> None:
+        from .plots import plot_run  # noqa: PLC0415 - matplotlib is slow to import
+
+        plot_run(self.out_dir, curriculum=self.curriculum)
+
+    def _save_checkpoint(self) -> None:
+        replay_saved = False
+        if self.config.checkpoint.save_replay:
+            _atomic_torch_save({"episodes_done": self.episodes_done, "replay": self.replay.state_dict()},
+                               os.path.join(self.out_dir, REPLAY_FILE))
+            replay_saved = True
+        state = {
+            "format": 1,
+            "config": self.config.to_dict(),
+            "agent": self.agent.state_dict(),
+            # The online network's weights again at the top level, for the exporter's CLI.
+            "model": self.agent.online.state_dict(),
+            "model_class": type(self.agent.online).__name__,
+            "model_config": self.agent.online.config() if hasattr(self.agent.online, "config") else {},
+            "command": self.command,
+            "counters": {"episodes_done": self.episodes_done, "env_steps": self.env_steps,
+                         "update_credit": self.update_credit, "wall_s": self.wall_s, "best_eval": self.best_eval},
+            "timing": dict(self._timing),
+            "recent_outcomes": list(self._recent_outcomes),
+            "replay_saved": replay_saved,
+            "normalization": self._normalization,
+            "rng": {"python": random.getstate(), "numpy": _numpy_global_state(), "torch": torch.get_rng_state(),
+                    "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None},
+        }
+        _atomic_torch_save(state, os.path.join(self.out_dir, CHECKPOINT))
+
+    def _load_checkpoint(self, path: str) -> None:
+        state = torch.load(path, map_location=self.device, weights_only=True)
+        saved = state["config"]
+        mine = self.config.to_dict()
+        for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay"):
+            if saved.get(key) != mine.get(key):
+                raise ConfigError(f"--resume: {key} differs from the one the run in {self.out_dir} was started with "
+                                  f"({saved.get(key)!r} != {mine.get(key)!r}); resume with the run's own "
+                                  f"{CONFIG_COPY}")
+        self.agent.load_state_dict(state["agent"])
+        c = state["counters"]
+        self.episodes_done = int(c["episodes_done"])
+        self.env_steps = int(c["env_steps"])
+        self.update_credit = float(c["update_credit"])
+        self.wall_s = float(c["wall_s"])
+        self.best_eval = float(c["best_eval"])
+        self._timing.update(state.get("timing", {}))
+        self._recent_outcomes.extend(state.get("recent_outcomes", []))
+        if state["replay_saved"]:
+            replay_path = os.path.join(self.out_dir, REPLAY_FILE)
+            saved_replay = torch.load(replay_path, weights_only=False)
+            if saved_replay["episodes_done"] != self.episodes_done:
+                raise ConfigError(f"--resume: {replay_path} belongs to episode {saved_replay['episodes_done']}, "
+                                  f"the checkpoint to episode {self.episodes_done}")
+            self.replay.load_state_dict(saved_replay["replay"])
+        rng = state["rng"]
+        random.setstate(rng["python"])
+        _set_numpy_global_state(rng["numpy"])
+        torch.set_rng_state(rng["torch"].cpu())
+        if rng.get("cuda") is not None and torch.cuda.is_available():
+            torch.cuda.set_rng_state_all(rng["cuda"])
+        n = self.episodes_done
+        _truncate_csv(os.path.join(self.out_dir, TRAIN_LOG), TRAIN_COLUMNS, lambda r: int(r["episode"]) < n)
+        # A periodic evaluation at the checkpoint's episode ran before the checkpoint and is
+        # kept; the final one (after the last episode) is redone by the resumed run.
+        _truncate_csv(os.path.join(self.out_dir, EVAL_LOG), EVAL_COLUMNS,
+                      lambda r: int(r["episode"]) < n or (int(r["episode"]) == n and n < self.total_episodes))
+
+    def _progress_bar(self):
+        from tqdm import tqdm  # noqa: PLC0415
+
+        return tqdm(total=self.total_episodes, initial=self.episodes_done, unit="ep", dynamic_ncols=True,
+                    disable=not self.progress, smoothing=0.05)
+
+    @staticmethod
+    def _seed_everything(seed: int) -> None:
+        random.seed(seed)
+        np.random.seed(seed % 2 ** 32)
+        torch.manual_seed(seed)
+
+
+# ---- command line --------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m dqn_dovs.train", description=__doc__.splitlines()[0])
+    p.add_argument("--config", default=None, help="training configuration (default: config/curriculum.yaml, "
+                                                   "or the run's own config.yaml with --resume)")
+    p.add_argument("--out", required=True, help="run directory, e.g. runs/NAME")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out from its checkpoint")
+    p.add_argument("--scale", type=float, default=None, help="multiply every stage's episode count (smoke runs)")
+    p.add_argument("--seed", type=int, default=None, help="override the configuration's seed")
+    p.add_argument("--num-envs", type=int, default=None, help="override the configuration's num_envs")
+    p.add_argument("--device", default="auto", choices=["auto", "cpu", "cuda"])
+    p.add_argument("--threads", type=int, default=1,
+                   help="torch.set_num_threads (default 1: the environments run their own C++ threads, and "
+                        "PyTorch threads competing with them for few cores slow learning down many times; "
+                        "0 keeps PyTorch's default)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (e.g. in CI logs)")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    argv_list = sys.argv[1:] if argv is None else argv
+    try:
+        if args.resume:
+            config_path = args.config or os.path.join(args.out, CONFIG_COPY)
+        else:
+            config_path = args.config or os.path.join(os.path.dirname(__file__), "..", "..", "config",
+                                                      "curriculum.yaml")
+        config = load_config(config_path)
+        if args.scale is not None:
+            config.scale = args.scale
+        if args.seed is not None:
+            config.seed = args.seed
+        if args.num_envs is not None:
+            config.num_envs = args.num_envs
+        message = config.validate()
+        if message:
+            raise ConfigError(message)
+        trainer = Trainer(config, args.out, device=args.device, threads=args.threads, resume=args.resume,
+                          progress=not args.no_progress,
+                          command="python -m dqn_dovs.train " + " ".join(shlex.quote(a) for a in argv_list))
+        summary = trainer.run()
+    except (ConfigError, CurriculumError, FileExistsError, FileNotFoundError, ImportError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    final = summary["final_eval"]
+    print(f"done: {summary['episodes']} episodes, {summary['env_steps']} env steps, {summary['updates']} updates "
+          f"in {summary['wall_s']:.0f} s ({summary['env_steps_per_s']:.0f} env steps/s); final greedy evaluation "
+          f"success {final['success_rate']:.2f}, collision {final['collision_rate']:.2f}, "
+          f"timeout {final['timeout_rate']:.2f}; model {summary['model']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
