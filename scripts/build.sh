@@ -6,7 +6,7 @@ export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 export MAKEFLAGS="-j${JOBS:-2}"
 log=log/build.last.txt
 mkdir -p log
-if ! colcon build --base-paths . --build-base build --install-base install \
+if ! colcon build --base-paths . --build-base build --install-base install --merge-install \
       --event-handlers console_start_end- \
       --cmake-args -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON >"$log" 2>&1; then
   echo "[build] colcon build failed; last lines of $log:" >&2

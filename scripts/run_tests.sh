@@ -7,14 +7,14 @@ root="$(pwd)"
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 export PYTHONNOUSERSITE=1
 # shellcheck disable=SC1091
-. install/setup.sh
+set +u; . install/setup.sh; set -u
 export ROS_HOME="$root/log/ros_home"
 export ROS_LOG_DIR="$ROS_HOME/log"
 mkdir -p "$ROS_LOG_DIR"
 
 rm -rf build/dqn_dovs/test_results
 echo "[test] C++ gtests and rostests (colcon test)"
-colcon test --base-paths . --build-base build --install-base install \
+colcon test --base-paths . --build-base build --install-base install --merge-install \
   --event-handlers console_direct- console_start_end- --ctest-args --output-on-failure \
   >log/test.last.txt 2>&1
 summary=$(colcon test-result --test-result-base build/dqn_dovs/test_results --all --verbose 2>&1 | tee log/test-result.last.txt | tail -n 1)

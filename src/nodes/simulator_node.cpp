@@ -72,6 +72,7 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
 
   world_config_.robot = loadRobotLimits(pnh_);
   world_config_.lidar = loadLidarConfig(pnh_);
+  world_config_.stop_on_collision = param<bool>(pnh_, "stop_on_collision", true);
   obstacle_radius_m_ = paramInRange(pnh_, "obstacle_radius", 0.2, 0.05, 1.0);
   const std::string world_error = world_config_.validate();
   if (!world_error.empty()) throw ParameterError(world_error);

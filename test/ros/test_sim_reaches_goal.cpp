@@ -1,0 +1,95 @@
+// Node-level test: the shipped pipeline in simulation reaches the scenario's goal and holds there,
+// and every cmd_vel respects the acceleration limits.
+#include <geometry_msgs/Twist.h>
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include <cmath>
+#include <mutex>
+
+#include "dqn_dovs/PlannerStatus.h"
+#include "dqn_dovs/SimStatus.h"
+
+namespace {
+
+struct Watch {
+  std::mutex mutex;
+  dqn_dovs::SimStatus sim;
+  dqn_dovs::PlannerStatus planner;
+  bool have_sim = false, have_planner = false, reached = false;
+  double reached_at = 0.0;
+  int commands = 0;
+  double max_dv_step = 0.0, max_dw_step = 0.0;  // largest change between consecutive commands
+  geometry_msgs::Twist last_cmd;
+  void onSim(const dqn_dovs::SimStatus::ConstPtr& m) {
+    std::lock_guard<std::mutex> l(mutex);
+    sim = *m;
+    have_sim = true;
+  }
+  void onPlanner(const dqn_dovs::PlannerStatus::ConstPtr& m) {
+    std::lock_guard<std::mutex> l(mutex);
+    planner = *m;
+    have_planner = true;
+    if (m->state == dqn_dovs::PlannerStatus::REACHED && !reached) {
+      reached = true;
+      reached_at = m->header.stamp.toSec();
+    }
+  }
+  void onCmd(const geometry_msgs::Twist::ConstPtr& m) {
+    std::lock_guard<std::mutex> l(mutex);
+    if (commands > 0) {
+      max_dv_step = std::max(max_dv_step, std::abs(m->linear.x - last_cmd.linear.x));
+      max_dw_step = std::max(max_dw_step, std::abs(m->angular.z - last_cmd.angular.z));
+    }
+    last_cmd = *m;
+    ++commands;
+  }
+};
+
+TEST(SimLaunch, ReachesTheGoalAndStops) {
+  ros::NodeHandle nh, pnh("~");
+  const double limit = pnh.param("sim_time_limit", 100.0);
+  Watch w;
+  auto s1 = nh.subscribe("sim/status", 20, &Watch::onSim, &w);
+  auto s2 = nh.subscribe("planner/status", 20, &Watch::onPlanner, &w);
+  auto s3 = nh.subscribe("cmd_vel", 100, &Watch::onCmd, &w);
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  ASSERT_TRUE(ros::Time::waitForValid(ros::WallDuration(30.0))) << "no /clock";
+  const ros::WallTime wall_deadline = ros::WallTime::now() + ros::WallDuration(140.0);
+  bool settled = false;
+  while (ros::ok() && ros::WallTime::now() < wall_deadline) {
+    {
+      std::lock_guard<std::mutex> l(w.mutex);
+      if (w.have_sim && (w.sim.collided || w.sim.episode_time > limit)) break;
+      // Held on the goal for 2 s after reaching it.
+      if (w.reached && ros::Time::now().toSec() - w.reached_at > 2.0) {
+        settled = true;
+        break;
+      }
+    }
+    ros::WallDuration(0.05).sleep();
+  }
+  spinner.stop();
+  std::lock_guard<std::mutex> l(w.mutex);
+  ASSERT_TRUE(w.have_sim && w.have_planner) << "no status from simulator_node / planner_node";
+  EXPECT_FALSE(w.sim.collided) << "collision at t = " << w.sim.episode_time;
+  ASSERT_TRUE(settled) << "goal not reached: planner state " << int(w.planner.state) << " (" << w.planner.reason
+                       << "), goal distance " << w.sim.goal_distance << " m at t = " << w.sim.episode_time;
+  EXPECT_LT(w.sim.goal_distance, 0.15);
+  EXPECT_LT(std::abs(w.sim.speed), 0.05) << "the robot must hold still on the goal";
+  EXPECT_GT(w.commands, 100);
+  // The ramp: each 50 Hz command moves by a * elapsed, elapsed capped at 0.1 s, so no command may jump by
+  // more than a_v * 0.1 = 0.05 m/s or a_w * 0.1 = 0.2 rad/s (a dynamic-window jump is twice that).
+  EXPECT_LE(w.max_dv_step, 0.05 + 1e-9);
+  EXPECT_LE(w.max_dw_step, 0.2 + 1e-9);
+  EXPECT_GT(w.max_dv_step, 0.0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_sim_reaches_goal");
+  return RUN_ALL_TESTS();
+}
