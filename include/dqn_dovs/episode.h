@@ -5,12 +5,14 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
+#include "dqn_dovs/planner.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/sim/world.h"
 #include "dqn_dovs/state.h"
@@ -67,6 +69,13 @@ class Episode {
   StepResult step(const Twist2& command);
   /// step() with the velocity of action `a` of the current action set (an invalid action throws).
   StepResult stepAction(int a);
+  /// Holonomic robot mode (the `orca_holonomic` baseline only): the robot moves for one control period at the
+  /// fixed-frame velocity `velocity` (m/s, norm clipped to v_max, no acceleration limit; World::stepHolonomic).
+  /// Sensing, reward and termination are those of step().
+  StepResult stepHolonomic(const Vec2& velocity);
+  /// Executes a planner's decision: stepHolonomic(*d.holonomic_velocity) when the planner drives a holonomic
+  /// robot, step(d.command) otherwise.
+  StepResult stepDecision(const PlannerDecision& d);
 
   // Decision context for the current step.
   const Observation& observation() const { return observation_; }
@@ -91,6 +100,8 @@ class Episode {
  private:
   void sense();           // scan + tracker update at the current world time
   void buildContext();    // observation -> DOVS, actions, state
+  // Runs one control period, moving the robot with `move_robot(dt_s)` at each scan, then scores it.
+  StepResult advance(const std::function<void(double)>& move_robot);
 
   EpisodeConfig config_;
   sim::World world_;

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -33,6 +34,10 @@ struct PlannerDecision {
   Twist2 command;   ///< velocity to reach by the end of the control period (inside the dynamic window)
   int action = -1;  ///< index into the action set when the planner chose one of the 8 actions, else -1
   std::string note;  ///< short human-readable reason (strategy name, fallback cause)
+  /// Set only by planners of a holonomic robot (`orca_holonomic`): the fixed-frame velocity (vx, vy) in m/s to
+  /// hold for the control period. Episode::stepDecision executes it with World::stepHolonomic; every other
+  /// caller (a differential-drive robot) ignores it and applies `command`, which such planners still fill.
+  std::optional<Vec2> holonomic_velocity;
 };
 
 class Planner {

@@ -143,14 +143,30 @@ StepResult Episode::stepAction(int a) {
 
 StepResult Episode::step(const Twist2& command) {
   if (done()) throw std::logic_error("episode: step() after the episode ended (" + std::string(outcomeName(outcome_)) + ")");
+  const Twist2 target = clipToWindow(world_.robotTwist(), command, config_.world.robot);
+  return advance([&](double dt_s) { world_.step(target, dt_s); });
+}
+
+StepResult Episode::stepHolonomic(const Vec2& velocity) {
+  if (done()) {
+    throw std::logic_error("episode: stepHolonomic() after the episode ended (" + std::string(outcomeName(outcome_)) +
+                           ")");
+  }
+  return advance([&](double dt_s) { world_.stepHolonomic(velocity, dt_s); });
+}
+
+StepResult Episode::stepDecision(const PlannerDecision& d) {
+  return d.holonomic_velocity ? stepHolonomic(*d.holonomic_velocity) : step(d.command);
+}
+
+StepResult Episode::advance(const std::function<void(double)>& move_robot) {
   const RobotLimits& limits = config_.world.robot;
-  const Twist2 target = clipToWindow(world_.robotTwist(), command, limits);
   const double d_before = (world_.robotPose().position() - world_.goal()).norm();
 
   const int scans = static_cast<int>(std::round(limits.dt / config_.scan_period_s));
   for (int i = 0; i < scans; ++i) {
     const Vec2 before = world_.robotPose().position();
-    world_.step(target, config_.scan_period_s);
+    move_robot(config_.scan_period_s);
     path_length_m_ += (world_.robotPose().position() - before).norm();
     sense();
     min_clearance_m_ = std::min(min_clearance_m_, world_.minClearance());

@@ -279,6 +279,48 @@ void World::step(const Twist2& cmd, double dt_s) {
   }
 }
 
+// Holonomic mode: the robot translates at a fixed-frame velocity instead of following the unicycle model. The
+// sub-stepping and collision handling mirror step() so that both modes are judged by the same physics.
+void World::stepHolonomic(const Vec2& velocity, double dt_s) {
+  if (!(std::isfinite(dt_s) && dt_s >= 0.0)) {
+    std::ostringstream os;
+    os << "World::stepHolonomic: dt_s = " << dt_s << " must be finite and >= 0 s";
+    throw SimConfigError(os.str());
+  }
+  if (dt_s == 0.0) return;
+  Vec2 u = velocity.allFinite()
+               ? velocity
+               : Vec2(robot_twist_.v * std::cos(robot_pose_.theta), robot_twist_.v * std::sin(robot_pose_.theta));
+  if (robot_stopped_) u.setZero();
+  const double speed = u.norm();
+  if (speed > config_.robot.v_max) u *= config_.robot.v_max / speed;
+  const double held_speed = std::min(speed, config_.robot.v_max);
+  if (held_speed > 1e-9) robot_pose_.theta = std::atan2(u.y(), u.x());
+  robot_twist_ = Twist2{held_speed, 0.0};
+
+  double fastest_obstacle = 0.0;
+  for (const SimObstacle& o : obstacles_) fastest_obstacle = std::max(fastest_obstacle, std::abs(o.body.speed));
+  double h = config_.physics_step_s;
+  const double relative_speed = held_speed + fastest_obstacle;
+  if (relative_speed > 0.0) h = std::min(h, config_.max_substep_travel_m / relative_speed);
+  const int n = static_cast<int>(std::min<double>(kMaxSubsteps, std::max(1.0, std::ceil(dt_s / h - 1e-9))));
+  const double sub_dt = dt_s / n;
+  for (int k = 0; k < n; ++k) {
+    const Pose2 previous = robot_pose_;
+    if (!robot_stopped_) {
+      robot_pose_.x += u.x() * sub_dt;
+      robot_pose_.y += u.y() * sub_dt;
+    }
+    for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
+    time_s_ += sub_dt;
+    if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
+      robot_pose_ = previous;
+      robot_twist_ = {};
+      robot_stopped_ = true;
+    }
+  }
+}
+
 std::vector<MovingObstacle> World::groundTruthObstacles() const {
   std::vector<MovingObstacle> out;
   out.reserve(obstacles_.size());

@@ -11,6 +11,7 @@
 #include "conversions.h"
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/dovs_render.h"
+#include "pipeline_steps.h"
 #include "ros_params.h"
 
 namespace dqn_dovs {
@@ -41,9 +42,7 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.05, 0.0, 1.0);
   image_size_px_ = static_cast<int>(paramInRange(pnh_, "image_size", 400, 100, 2000));
   checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
-  normalization_.v_scale_mps = static_cast<float>(limits_.v_max);
-  normalization_.w_scale_rps = static_cast<float>(limits_.w_max);
-  normalization_.obstacle_clearance_scale_m = static_cast<float>(builder_.config().obstacle_range_m);
+  normalization_ = dovsStateNormalization(limits_, builder_.config());
 
   dovs_pub_ = nh_.advertise<Dovs>("dovs", 5);
   image_pub_ = nh_.advertise<sensor_msgs::Image>("dovs/image", 2);
@@ -114,78 +113,33 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
                       base_frame_.c_str(), e.what());
     return;
   }
-  Observation obs;
-  if (!poseFromTransform(tf.transform, obs.robot_pose)) {
+  Pose2 robot_pose;
+  if (!poseFromTransform(tf.transform, robot_pose)) {
     ROS_WARN_THROTTLE(2.0, "dovs: robot transform has NaN/inf; not publishing");
     return;
   }
-  obs.stamp_s = msg->header.stamp.toSec();
-  obs.robot_twist = {last_odom_.twist.twist.linear.x, last_odom_.twist.twist.angular.z};
-  if (!limits_.feasible(obs.robot_twist, 0.05 * limits_.v_max)) {
+  const Twist2 odom_twist{last_odom_.twist.twist.linear.x, last_odom_.twist.twist.angular.z};
+  if (!limits_.feasible(odom_twist, 0.05 * limits_.v_max)) {
     ROS_WARN_THROTTLE(2.0, "dovs: odom velocity (%.2f m/s, %.2f rad/s) is outside the robot limits; clipped",
-                      obs.robot_twist.v, obs.robot_twist.w);
+                      odom_twist.v, odom_twist.w);
   }
-  obs.robot_twist = limits_.clipToFeasible(obs.robot_twist);
-  obs.goal = goal_.value_or(obs.robot_pose.position());
-  const std::string obstacle_error = observationObstaclesFromMsg(*msg, obs.obstacles, obs.segments);
-  if (!obstacle_error.empty()) {
-    ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());
-    return;
-  }
-
+  DovsStep step;
   try {
-    builder_.build(obs, dovs_);
+    const std::string obstacle_error = buildDovsStep(*msg, robot_pose, odom_twist, goal_, limits_, normalization_,
+                                                     base_frame_, builder_, dovs_, step);
+    if (!obstacle_error.empty()) {
+      ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());
+      return;
+    }
   } catch (const std::exception& e) {
     ROS_ERROR_THROTTLE(2.0, "dovs: cannot build the velocity space: %s", e.what());
     return;
   }
-  const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits_);
-
-  Dovs out;
-  out.header.stamp = msg->header.stamp;
-  out.header.frame_id = base_frame_;
-  out.has_goal = goal_.has_value();
-  out.v_max = limits_.v_max;
-  out.w_max = limits_.w_max;
-  out.dv = limits_.dv();
-  out.dw = limits_.dw();
-  out.v = obs.robot_twist.v;
-  out.w = obs.robot_twist.w;
-  switch (actions.goal_line.kind) {
-    case GoalLine::Kind::kNone: out.goal_line_kind = Dovs::GOAL_NONE; break;
-    case GoalLine::Kind::kArc: out.goal_line_kind = Dovs::GOAL_ARC; break;
-    case GoalLine::Kind::kTurnInPlace: out.goal_line_kind = Dovs::GOAL_TURN_IN_PLACE; break;
-  }
-  out.goal_curvature = actions.goal_line.curvature_1pm;
-  out.goal_turn_sign = actions.goal_line.turn_sign;
-  for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
-    out.action_v[i] = actions.velocities[i].v;
-    out.action_w[i] = actions.velocities[i].w;
-    out.action_valid[i] = actions.valid[i] && (out.has_goal || i < static_cast<size_t>(kActionGoalHigh));
-  }
-  const int n = dovs_.numTrajectories();
-  out.trajectory_curvature.reserve(static_cast<size_t>(n));
-  out.interval_begin.reserve(static_cast<size_t>(n) + 1);
-  for (int i = 0; i < n; ++i) {
-    const Trajectory& t = dovs_.trajectory(i);
-    out.trajectory_curvature.push_back(static_cast<float>(t.curvature_1pm));
-    out.trajectory_pure_rotation.push_back(t.pure_rotation);
-    out.trajectory_v_top.push_back(static_cast<float>(t.v_top_mps));
-    out.trajectory_w_top.push_back(static_cast<float>(t.w_top_rps));
-    out.interval_begin.push_back(static_cast<uint32_t>(out.interval_lo.size()));
-    for (const SpeedInterval& s : dovs_.unsafeIntervals(i)) {
-      out.interval_lo.push_back(static_cast<float>(s.lo_mps));
-      out.interval_hi.push_back(static_cast<float>(s.hi_mps));
-    }
-  }
-  out.interval_begin.push_back(static_cast<uint32_t>(out.interval_lo.size()));
-  out.grid_rows = out.grid_cols = static_cast<uint16_t>(dovs_.gridSize());
-  const StateVector state = buildState(dovs_, obs, normalization_);
-  out.state.assign(state.data(), state.data() + state.size());
+  const Dovs& out = step.msg;
   dovs_pub_.publish(out);
 
   if (image_pub_.getNumSubscribers() > 0) {
-    const cv::Mat image = renderDovs(dovs_, actions, obs.robot_twist, chosen_action_, image_size_px_);
+    const cv::Mat image = renderDovs(dovs_, step.actions, step.observation.robot_twist, chosen_action_, image_size_px_);
     cv_bridge::CvImage bridge(out.header, sensor_msgs::image_encodings::BGR8, image);
     image_pub_.publish(bridge.toImageMsg());
   }

@@ -4,11 +4,10 @@
 
 #include "conversions.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
+#include "pipeline_steps.h"
 #include "ros_params.h"
 
 namespace dqn_dovs {
-
-namespace {
 
 TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   TrackerConfig c;
@@ -30,8 +29,6 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);
   return c;
 }
-
-}  // namespace
 
 ObstacleTrackerNode::ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
@@ -75,18 +72,17 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
     return;
   }
 
-  const TrackerResult result = tracker_->update(scan, laser_pose);
-  if (result.status == TrackerStatus::kRejected) {
-    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: scan rejected: %s", result.message.c_str());
+  TrackedObstacleArray out;
+  std::string reset_note;
+  const std::string rejected = trackScan(*tracker_, scan, laser_pose, msg->header.stamp, fixed_frame_, out, reset_note);
+  if (!rejected.empty()) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: scan rejected: %s", rejected.c_str());
     return;
   }
-  if (result.status == TrackerStatus::kReset) {
-    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: tracks reset: %s", result.message.c_str());
+  if (!reset_note.empty()) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: tracks reset: %s", reset_note.c_str());
   }
 
-  TrackedObstacleArray out = trackedSceneToMsg(result.scene);
-  out.header.stamp = msg->header.stamp;
-  out.header.frame_id = fixed_frame_;
   obstacles_pub_.publish(out);
   if (publish_markers_ && markers_pub_.getNumSubscribers() > 0) {
     markers_pub_.publish(obstacleMarkers(out, "tracks", 0.9f, 0.4f, 0.1f));

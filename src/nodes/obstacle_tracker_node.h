@@ -33,4 +33,7 @@ class ObstacleTrackerNode {
   ros::Time last_stamp_;
 };
 
+/// Reads `tracker/*` parameters (config/tracker.yaml) over the defaults and validates them.
+TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh);
+
 }  // namespace dqn_dovs

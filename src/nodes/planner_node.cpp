@@ -1,6 +1,7 @@
 #include "planner_node.h"
 
 #include <geometry_msgs/Twist.h>
+#include <std_msgs/Float64.h>
 #include <std_msgs/Int8.h>
 #include <tf2/exceptions.h>
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
@@ -9,6 +10,7 @@
 
 #include "conversions.h"
 #include "dqn_dovs/state.h"
+#include "pipeline_steps.h"
 #include "ros_params.h"
 
 namespace dqn_dovs {
@@ -50,6 +52,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   cmd_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 5);
   status_pub_ = nh_.advertise<PlannerStatus>("planner/status", 5, true);
   action_pub_ = nh_.advertise<std_msgs::Int8>("planner/action", 5);
+  latency_pub_ = nh_.advertise<std_msgs::Float64>("planner/latency", 20);
   dovs_sub_ = nh_.subscribe("dovs", 2, &PlannerNode::onDovs, this, ros::TransportHints().tcpNoDelay());
   odom_sub_ = nh_.subscribe("odom", 10, &PlannerNode::onOdom, this, ros::TransportHints().tcpNoDelay());
   scan_sub_ = nh_.subscribe("scan", 2, &PlannerNode::onScan, this, ros::TransportHints().tcpNoDelay());
@@ -62,7 +65,29 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   publishStatus(ros::Time::now(), 0.0);
 }
 
-void PlannerNode::onDovs(const Dovs::ConstPtr& msg) { last_dovs_ = msg; }
+void PlannerNode::onDovs(const Dovs::ConstPtr& msg) {
+  last_dovs_ = msg;
+  // Choose the action as soon as the velocity space arrives: the control timer then applies it without
+  // running the network, and planner/latency reports how old the scan behind the choice is.
+  if (goal_ && state_ != PlannerStatus::REACHED && msg->has_goal) {
+    std::string why;
+    actionForLastDovs(why);
+    if (latency_pub_.getNumSubscribers() > 0) {
+      std_msgs::Float64 latency;
+      latency.data = (ros::Time::now() - msg->header.stamp).toSec();
+      latency_pub_.publish(latency);
+    }
+  }
+}
+
+int PlannerNode::actionForLastDovs(std::string& why) {
+  if (chosen_for_ != last_dovs_) {
+    chosen_action_ = chooseAction(*network_, *last_dovs_, chosen_why_);
+    chosen_for_ = last_dovs_;
+  }
+  why = chosen_why_;
+  return chosen_action_;
+}
 
 void PlannerNode::onOdom(const nav_msgs::Odometry::ConstPtr& msg) {
   last_odom_stamp_ = msg->header.stamp;
@@ -141,16 +166,9 @@ std::string PlannerNode::decide(const ros::Time& now, std::optional<double>& goa
     }
     return {};
   }
-  QNetwork::ActionMask mask;
-  for (size_t i = 0; i < mask.size(); ++i) mask[i] = d.action_valid[i];
-  const Eigen::Map<const Eigen::VectorXf> state(d.state.data(), static_cast<Eigen::Index>(d.state.size()));
-  int a = -1;
-  try {
-    a = network_->selectAction(state, mask);
-  } catch (const std::exception& e) {
-    return std::string("planner error: ") + e.what();
-  }
-  if (a < 0) return "planner error: every action is masked";
+  std::string why;
+  const int a = actionForLastDovs(why);
+  if (a < 0) return why;
   action_ = a;
   target_ = limits_.clipToFeasible({d.action_v[static_cast<size_t>(a)], d.action_w[static_cast<size_t>(a)]});
   return {};

@@ -37,6 +37,8 @@ class PlannerNode {
   void onRamp(const ros::TimerEvent& event);    // >= 20 Hz command ramp
   /// Picks the target velocity for the next period; returns why it must stop instead (empty when fine).
   std::string decide(const ros::Time& now, std::optional<double>& goal_distance);
+  /// The network's action for last_dovs_ (computed once per message); -1 with `why` when there is none.
+  int actionForLastDovs(std::string& why);
   void stop(const std::string& reason);
   void publishStatus(const ros::Time& now, double goal_distance);
 
@@ -52,6 +54,9 @@ class PlannerNode {
   int action_ = -1;
   std::optional<Vec2> goal_;  // fixed frame
   Dovs::ConstPtr last_dovs_;
+  Dovs::ConstPtr chosen_for_;  // the message chosen_action_ / chosen_why_ belong to
+  int chosen_action_ = -1;
+  std::string chosen_why_;
   ros::Time last_odom_stamp_, last_scan_stamp_, last_ramp_;
   bool have_odom_ = false, have_scan_ = false;
   Twist2 target_;   // velocity to reach by the end of the current period
@@ -61,7 +66,7 @@ class PlannerNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_;
-  ros::Publisher cmd_pub_, status_pub_, action_pub_;
+  ros::Publisher cmd_pub_, status_pub_, action_pub_, latency_pub_;
   ros::Timer decide_timer_, ramp_timer_;
 };
 

@@ -91,6 +91,14 @@ class World {
   /// dt_s = 0 does nothing; a negative or non-finite dt_s throws SimConfigError.
   void step(const Twist2& cmd, double dt_s);
 
+  /// Holonomic robot mode, used only by the `orca_holonomic` baseline (the paper ran CrowdNav's ORCA on a
+  /// holonomic robot). Advances the world by dt_s seconds with the robot moving at the fixed-frame velocity
+  /// `velocity` (m/s) in any direction, its norm clipped to robot.v_max, with no acceleration limit. The heading
+  /// snaps to the direction of motion (unchanged below 1e-9 m/s) and robotTwist() reads (speed, 0), so pose and
+  /// twist still describe the motion exactly. Obstacles, sub-steps and collisions work as in step(). A non-finite
+  /// velocity keeps the current one; a negative or non-finite dt_s throws SimConfigError.
+  void stepHolonomic(const Vec2& velocity, double dt_s);
+
   double time_s() const { return time_s_; }
   const Pose2& robotPose() const { return robot_pose_; }
   const Twist2& robotTwist() const { return robot_twist_; }

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# S-DOVS over the shared evaluation scenarios (1..15 obstacles, tracker in the loop) with the evaluation CLI;
+# writes the flat figures (success_mean, success_1..success_15, episodes_per_count, wall_s) to the JSON path $1.
+# Run from the repository root (scripts/bench.sh does): bash bench/bench_eval_sdovs.sh bench/results/eval-sdovs.json
+set -euo pipefail
+out_json="${1:-bench/results/eval-sdovs.json}"
+episodes="${EPISODES:-100}"
+exe="install/lib/dqn_dovs/dqn_dovs_eval"
+if [ ! -x "$exe" ]; then
+  exe="${DQN_DOVS_BIN_DIR:-}/dqn_dovs_eval"
+fi
+if [ ! -x "$exe" ]; then
+  echo "bench_eval_sdovs: dqn_dovs_eval not found (install/lib/dqn_dovs/ or \$DQN_DOVS_BIN_DIR); run 'make build'" >&2
+  exit 2
+fi
+out_dir="bench/results/eval-sdovs"
+mkdir -p "$out_dir" "$(dirname "$out_json")"
+start=$(date +%s.%N)
+"$exe" --methods s_dovs --scenarios ../shared/scenarios/rumor --obstacles 1-15 --episodes "$episodes" \
+  --threads 2 --out "$out_dir/"
+end=$(date +%s.%N)
+# summary.json holds success_mean, success_N and the other rates; keep the benchmark's figures and add the run's size.
+awk -v episodes="$episodes" -v wall="$(echo "$end - $start" | bc)" '
+  BEGIN { n = 0 }
+  /"success_(mean|[0-9]+)"|"collision_mean"|"timeout_mean"/ {
+    line = $0; sub(/,[[:space:]]*$/, "", line); items[n++] = line
+  }
+  END {
+    print "{"
+    for (i = 0; i < n; ++i) print items[i] ","
+    printf "  \"episodes_per_count\": %d,\n  \"wall_s\": %.1f\n}\n", episodes, wall
+  }' "$out_dir/summary.json" > "$out_json"
+echo "wrote $out_json"

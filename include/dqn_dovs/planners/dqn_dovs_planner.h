@@ -1,0 +1,49 @@
+// DQN-DOVS on the robot: a trained Q-network picks one of the 8 dynamic-window actions from the DOVS state.
+// ROS-free.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "dqn_dovs/planner.h"
+#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/state.h"
+
+namespace dqn_dovs {
+
+/// Parameters of the DQN-DOVS planner. Defaults live here only.
+struct DqnDovsConfig {
+  /// The `.dqnw` weight file. Relative paths are resolved by the caller (the CLI uses the working directory).
+  std::string model_path = "models/dqn_dovs.dqnw";
+  /// The state normalisation the caller builds states with; the network must have been trained with the same
+  /// (compared field by field when the network is loaded).
+  StateNormalization normalization;
+  /// Relative tolerance of that comparison.
+  float normalization_tolerance = 1e-4f;
+
+  /// Empty when consistent, otherwise a message naming the offending field and why.
+  std::string validate() const;
+};
+
+/// Masked argmax of the Q-network over the 8 actions of PlannerInput::actions, on PlannerInput::state.
+/// A state that cannot be evaluated (missing, wrong size, NaN/inf), an all-invalid mask or an inference error
+/// never throws: the planner decelerates (decelerationCommand) and says why in the note.
+class DqnDovsPlanner : public Planner {
+ public:
+  /// Loads the network. Throws PlannerError naming the file and the reason when it cannot be loaded or was
+  /// trained with another state normalisation, or when the configuration is invalid.
+  explicit DqnDovsPlanner(const DqnDovsConfig& config = DqnDovsConfig());
+
+  std::string name() const override { return "dqn_dovs"; }
+  /// Throws PlannerError only when input.actions or input.observation is null (nothing to decelerate from).
+  PlannerDecision decide(const PlannerInput& input) override;
+
+  const QNetwork& network() const { return *network_; }
+  const DqnDovsConfig& config() const { return config_; }
+
+ private:
+  DqnDovsConfig config_;
+  std::shared_ptr<const QNetwork> network_;  // immutable after loading; QNetwork inference is thread-safe
+};
+
+}  // namespace dqn_dovs

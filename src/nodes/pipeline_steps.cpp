@@ -1,0 +1,114 @@
+#include "pipeline_steps.h"
+
+#include "conversions.h"
+
+namespace dqn_dovs {
+
+std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
+                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note) {
+  reset_note.clear();
+  const TrackerResult result = tracker.update(scan, laser_pose);
+  if (result.status == TrackerStatus::kRejected) return result.message.empty() ? "rejected" : result.message;
+  if (result.status == TrackerStatus::kReset) reset_note = result.message;
+  out = trackedSceneToMsg(result.scene);
+  out.header.stamp = stamp;
+  out.header.frame_id = fixed_frame;
+  return {};
+}
+
+StateNormalization dovsStateNormalization(const RobotLimits& limits, const DovsConfig& config) {
+  StateNormalization n;
+  n.v_scale_mps = static_cast<float>(limits.v_max);
+  n.w_scale_rps = static_cast<float>(limits.w_max);
+  n.obstacle_clearance_scale_m = static_cast<float>(config.obstacle_range_m);
+  return n;
+}
+
+std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
+                          const std::optional<Vec2>& goal, const RobotLimits& limits,
+                          const StateNormalization& normalization, const std::string& base_frame, DovsBuilder& builder,
+                          VelocitySpace& dovs, DovsStep& out) {
+  Observation& obs = out.observation;
+  obs.robot_pose = robot_pose;
+  obs.stamp_s = obstacles.header.stamp.toSec();
+  obs.robot_twist = limits.clipToFeasible(odom_twist);
+  obs.goal = goal.value_or(obs.robot_pose.position());
+  const std::string obstacle_error = observationObstaclesFromMsg(obstacles, obs.obstacles, obs.segments);
+  if (!obstacle_error.empty()) return obstacle_error;
+
+  builder.build(obs, dovs);
+  out.actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
+  const ActionSet& actions = out.actions;
+
+  Dovs& m = out.msg;
+  m = Dovs();
+  m.header.stamp = obstacles.header.stamp;
+  m.header.frame_id = base_frame;
+  m.has_goal = goal.has_value();
+  m.v_max = limits.v_max;
+  m.w_max = limits.w_max;
+  m.dv = limits.dv();
+  m.dw = limits.dw();
+  m.v = obs.robot_twist.v;
+  m.w = obs.robot_twist.w;
+  switch (actions.goal_line.kind) {
+    case GoalLine::Kind::kNone:
+      m.goal_line_kind = Dovs::GOAL_NONE;
+      break;
+    case GoalLine::Kind::kArc:
+      m.goal_line_kind = Dovs::GOAL_ARC;
+      break;
+    case GoalLine::Kind::kTurnInPlace:
+      m.goal_line_kind = Dovs::GOAL_TURN_IN_PLACE;
+      break;
+  }
+  m.goal_curvature = actions.goal_line.curvature_1pm;
+  m.goal_turn_sign = actions.goal_line.turn_sign;
+  for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
+    m.action_v[i] = actions.velocities[i].v;
+    m.action_w[i] = actions.velocities[i].w;
+    m.action_valid[i] = actions.valid[i] && (m.has_goal || i < static_cast<size_t>(kActionGoalHigh));
+  }
+  const int n = dovs.numTrajectories();
+  m.trajectory_curvature.reserve(static_cast<size_t>(n));
+  m.interval_begin.reserve(static_cast<size_t>(n) + 1);
+  for (int i = 0; i < n; ++i) {
+    const Trajectory& t = dovs.trajectory(i);
+    m.trajectory_curvature.push_back(static_cast<float>(t.curvature_1pm));
+    m.trajectory_pure_rotation.push_back(t.pure_rotation);
+    m.trajectory_v_top.push_back(static_cast<float>(t.v_top_mps));
+    m.trajectory_w_top.push_back(static_cast<float>(t.w_top_rps));
+    m.interval_begin.push_back(static_cast<uint32_t>(m.interval_lo.size()));
+    for (const SpeedInterval& s : dovs.unsafeIntervals(i)) {
+      m.interval_lo.push_back(static_cast<float>(s.lo_mps));
+      m.interval_hi.push_back(static_cast<float>(s.hi_mps));
+    }
+  }
+  m.interval_begin.push_back(static_cast<uint32_t>(m.interval_lo.size()));
+  m.grid_rows = m.grid_cols = static_cast<uint16_t>(dovs.gridSize());
+  const StateVector state = buildState(dovs, obs, normalization);
+  m.state.assign(state.data(), state.data() + state.size());
+  return {};
+}
+
+int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
+  why.clear();
+  if (dovs.state.size() != static_cast<size_t>(QNetwork::kStateSize)) {
+    why = "dovs state has the wrong size";
+    return -1;
+  }
+  QNetwork::ActionMask mask;
+  for (size_t i = 0; i < mask.size(); ++i) mask[i] = dovs.action_valid[i];
+  const Eigen::Map<const Eigen::VectorXf> state(dovs.state.data(), static_cast<Eigen::Index>(dovs.state.size()));
+  int a = -1;
+  try {
+    a = network.selectAction(state, mask);
+  } catch (const std::exception& e) {
+    why = std::string("planner error: ") + e.what();
+    return -1;
+  }
+  if (a < 0) why = "planner error: every action is masked";
+  return a;
+}
+
+}  // namespace dqn_dovs

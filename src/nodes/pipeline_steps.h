@@ -1,0 +1,52 @@
+// The per-message work of obstacle_tracker_node, dovs_node and planner_node, once their inputs are gathered
+// (scan converted, transforms looked up). The nodes and the offline bag replay (bag_replay.h) call the same
+// functions, so a replayed bag makes exactly the decisions the running pipeline makes.
+#pragma once
+
+#include <ros/time.h>
+
+#include <optional>
+#include <string>
+
+#include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/TrackedObstacleArray.h"
+#include "dqn_dovs/actions.h"
+#include "dqn_dovs/dovs.h"
+#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/state.h"
+#include "dqn_dovs/tracker.h"
+
+namespace dqn_dovs {
+
+/// obstacle_tracker_node's step after the scan check and the laser pose lookup: one tracker update.
+/// Returns why the scan was not used (the tracks are untouched, nothing is published), else "" with `out`
+/// filled (stamp = the scan's, frame = fixed_frame). `reset_note` gets the reason when the tracks were
+/// dropped first (time went backwards or jumped), else it is cleared.
+std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
+                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note);
+
+/// The network-state normalisation dovs_node uses: speeds by the robot limits, clearance by the DOVS range.
+StateNormalization dovsStateNormalization(const RobotLimits& limits, const DovsConfig& config);
+
+/// Everything dovs_node derives from one obstacles message.
+struct DovsStep {
+  Observation observation;  ///< robot pose, clipped velocity, goal and obstacles (fixed frame)
+  ActionSet actions;
+  Dovs msg;  ///< ready to publish (stamp = the obstacles' stamp, frame = base frame)
+};
+
+/// dovs_node's step after the odom and transform checks: builds the observation (the odom velocity clipped
+/// into the feasible set; without a goal, the goal is the robot's own position), the velocity space, the
+/// actions and the Dovs message. Returns why the obstacles were dropped (NaN fields, non-positive radius),
+/// else "". Throws (DovsError, ActionError, StateError) when the core rejects the observation.
+std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
+                          const std::optional<Vec2>& goal, const RobotLimits& limits,
+                          const StateNormalization& normalization, const std::string& base_frame, DovsBuilder& builder,
+                          VelocitySpace& dovs, DovsStep& out);
+
+/// planner_node's choice for one Dovs message: the network's best valid action (masked by action_valid).
+/// Returns the action, or -1 with `why` naming the problem (wrong state size, every action masked, the
+/// network rejecting the state).
+int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why);
+
+}  // namespace dqn_dovs

@@ -1,0 +1,298 @@
+// Evaluation CLI (DESIGN §11): runs planners over the fixed or generated scenarios, 1..15 obstacles, and writes
+// results.csv, summary.md (the paper's layout), summary.json and plots into --out. Run with --help for the flags.
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/eval.h"
+#include "dqn_dovs/eval_plots.h"
+#include "dqn_dovs/planner.h"
+
+namespace {
+
+using dqn_dovs::EvalConfig;
+
+const char* kUsage =
+    "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
+    "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
+    "                     [--model PATH] [--reference METHOD] [--trajectories N]\n"
+    "  --methods           planners to evaluate, comma-separated (default s_dovs)\n"
+    "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
+    "  --generate SEED     seeded random scenarios instead of a folder\n"
+    "  --obstacles A-B     obstacle counts A..B, or a single count (default 1-15)\n"
+    "  --episodes K        episodes 1..K per obstacle count (default 100)\n"
+    "  --dynamic-fraction  fraction of moving obstacles in [0, 1] (default 0.85)\n"
+    "  --perfect-info      planners see the simulator's ground truth instead of the tracker's output\n"
+    "  --threads N         worker threads (default 1); results do not depend on it\n"
+    "  --out DIR           output folder (default eval_results)\n"
+    "  --model PATH        weight file of dqn_dovs (default models/dqn_dovs.dqnw)\n"
+    "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
+    "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n";
+
+/// A bad command line: the message names the flag.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+long parseInt(const std::string& flag, const std::string& text, long lo, long hi) {
+  size_t used = 0;
+  long v = 0;
+  try {
+    v = std::stol(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty()) throw UsageError(flag + " expects an integer, got '" + text + "'");
+  if (v < lo || v > hi) {
+    throw UsageError(flag + " = " + text + " is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  }
+  return v;
+}
+
+double parseDouble(const std::string& flag, const std::string& text, double lo, double hi) {
+  size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.empty() || !(v >= lo && v <= hi)) {
+    std::ostringstream os;
+    os << flag << " expects a number in [" << lo << ", " << hi << "], got '" << text << "'";
+    throw UsageError(os.str());
+  }
+  return v;
+}
+
+std::vector<std::string> splitList(const std::string& flag, const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty()) throw UsageError(flag + " has an empty entry in '" + text + "'");
+    out.push_back(item);
+  }
+  if (out.empty()) throw UsageError(flag + " needs at least one method");
+  return out;
+}
+
+struct Options {
+  EvalConfig eval;
+  std::string out_dir = "eval_results";
+  std::string reference;
+  int trajectories = 3;
+  bool help = false;
+};
+
+Options parse(int argc, char** argv) {
+  Options o;
+  o.eval.scenarios_dir = "../shared/scenarios/rumor";
+  bool have_scenarios = false, have_generate = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
+      return argv[++i];
+    };
+    if (flag == "--help" || flag == "-h") {
+      o.help = true;
+    } else if (flag == "--methods") {
+      o.eval.methods = splitList(flag, value());
+      const std::vector<std::string> known = dqn_dovs::plannerNames();
+      for (const std::string& m : o.eval.methods) {
+        if (std::find(known.begin(), known.end(), m) == known.end()) {
+          std::string list;
+          for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+          throw UsageError("--methods: unknown method '" + m + "' (known: " + list + ")");
+        }
+      }
+    } else if (flag == "--scenarios") {
+      o.eval.scenarios_dir = value();
+      have_scenarios = true;
+    } else if (flag == "--generate") {
+      o.eval.seed = static_cast<uint64_t>(parseInt(flag, value(), 0, 0x7FFFFFFFL));
+      have_generate = true;
+    } else if (flag == "--obstacles") {
+      const std::string v = value();
+      const size_t dash = v.find('-');
+      if (dash == std::string::npos) {
+        o.eval.obstacles_min = o.eval.obstacles_max = static_cast<int>(parseInt(flag, v, 0, 100));
+      } else {
+        o.eval.obstacles_min = static_cast<int>(parseInt(flag, v.substr(0, dash), 0, 100));
+        o.eval.obstacles_max = static_cast<int>(parseInt(flag, v.substr(dash + 1), 0, 100));
+        if (o.eval.obstacles_max < o.eval.obstacles_min) throw UsageError("--obstacles range '" + v + "' is empty");
+      }
+    } else if (flag == "--episodes") {
+      o.eval.episodes = static_cast<int>(parseInt(flag, value(), 1, 100000));
+    } else if (flag == "--dynamic-fraction") {
+      o.eval.dynamic_fraction = parseDouble(flag, value(), 0.0, 1.0);
+    } else if (flag == "--perfect-info") {
+      o.eval.episode.perfect_info = true;
+    } else if (flag == "--threads") {
+      o.eval.threads = static_cast<int>(parseInt(flag, value(), 1, 256));
+    } else if (flag == "--out") {
+      o.out_dir = value();
+      if (o.out_dir.empty()) throw UsageError("--out needs a non-empty folder");
+    } else if (flag == "--model") {
+      o.eval.model_path = value();
+    } else if (flag == "--reference") {
+      o.reference = value();
+    } else if (flag == "--trajectories") {
+      o.trajectories = static_cast<int>(parseInt(flag, value(), 0, 1000));
+    } else {
+      throw UsageError("unknown flag '" + flag + "'");
+    }
+  }
+  if (have_scenarios && have_generate) throw UsageError("--scenarios and --generate exclude each other");
+  if (have_generate) o.eval.scenarios_dir.clear();
+  if (o.reference.empty()) {
+    const auto& m = o.eval.methods;
+    o.reference = std::find(m.begin(), m.end(), "dqn_dovs") != m.end() ? "dqn_dovs" : m.front();
+  } else if (std::find(o.eval.methods.begin(), o.eval.methods.end(), o.reference) == o.eval.methods.end()) {
+    throw UsageError("--reference '" + o.reference + "' is not one of --methods");
+  }
+  if (!o.eval.scenarios_dir.empty() && !std::filesystem::is_directory(o.eval.scenarios_dir)) {
+    throw UsageError("--scenarios: '" + o.eval.scenarios_dir + "' is not a folder");
+  }
+  return o;
+}
+
+/// The (obstacle count, episode) pairs drawn as trajectories: counts spread over the range, episode 1 first.
+std::vector<std::pair<int, int>> trajectoryJobs(const EvalConfig& c, int n) {
+  std::vector<std::pair<int, int>> out;
+  const int counts = c.obstacles_max - c.obstacles_min + 1;
+  for (int i = 0; i < n && i < counts * c.episodes; ++i) {
+    const int round = i / counts, slot = i % counts;
+    const int per_round = std::min(n - round * counts, counts);
+    const int count = per_round <= 1 ? c.obstacles_min + (counts - 1) / 2
+                                     : c.obstacles_min + static_cast<int>(std::lround(
+                                                             static_cast<double>(slot) * (counts - 1) / (per_round - 1)));
+    out.emplace_back(count, 1 + round);
+  }
+  return out;
+}
+
+std::string commandLine(int argc, char** argv) {
+  std::string s;
+  for (int i = 0; i < argc; ++i) s += (i ? " " : "") + std::string(argv[i]);
+  return s;
+}
+
+int run(const Options& o, const std::string& command) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(o.out_dir, ec);
+  if (ec || !fs::is_directory(o.out_dir)) {
+    std::cerr << "dqn_dovs_eval: --out: cannot create folder '" << o.out_dir << "': " << ec.message() << "\n";
+    return 1;
+  }
+  EvalConfig config = o.eval;
+  config.keep_paths = trajectoryJobs(config, o.trajectories);
+  const std::vector<dqn_dovs::EvalScenario> scenarios = dqn_dovs::loadEvalScenarios(config);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  std::map<std::string, std::pair<int, int>> running;  // method -> (successes, episodes)
+  const size_t total = scenarios.size() * config.methods.size();
+  const size_t every = std::max<size_t>(1, total / 40);
+  std::cerr << "dqn_dovs_eval: " << total << " episodes (" << config.methods.size() << " method(s) x "
+            << scenarios.size() << " scenarios), " << (config.episode.perfect_info ? "perfect information" : "tracker in the loop")
+            << ", " << config.threads << " thread(s)\n";
+  auto progress = [&](const dqn_dovs::EpisodeRecord& r, size_t done, size_t all) {
+    auto& [succ, eps] = running[r.method];
+    succ += r.outcome == dqn_dovs::Outcome::Success ? 1 : 0;
+    ++eps;
+    if (done % every != 0 && done != all) return;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::cerr << "  [" << std::setw(6) << done << "/" << all << "] " << std::fixed << std::setprecision(0) << elapsed
+              << " s  success so far:";
+    for (const std::string& m : config.methods) {
+      const auto it = running.find(m);
+      if (it == running.end() || it->second.second == 0) continue;
+      std::cerr << " " << m << " " << std::setprecision(3)
+                << static_cast<double>(it->second.first) / it->second.second;
+    }
+    std::cerr << "\n";
+  };
+  const std::vector<dqn_dovs::EpisodeRecord> records = dqn_dovs::runEvaluation(config, scenarios, progress);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  const dqn_dovs::EvalSummary summary = dqn_dovs::summarize(records, o.reference);
+  std::ostringstream header;
+  header << "Command: `" << command << "`  \n"
+         << "Scenarios: "
+         << (config.scenarios_dir.empty() ? "generated, seed " + std::to_string(config.seed)
+                                          : "`" + config.scenarios_dir + "`")
+         << "; obstacles " << config.obstacles_min << "-" << config.obstacles_max << ", " << config.episodes
+         << " episodes each; dynamic fraction " << config.dynamic_fraction << "  \n"
+         << "Perception: " << (config.episode.perfect_info ? "perfect information (ground truth)" : "LIDAR + tracker in the loop")
+         << "; step " << config.episode.world.robot.dt << " s, limit " << config.episode.reward.max_steps
+         << " steps  \nWall time: " << std::fixed << std::setprecision(1) << wall_s << " s on " << config.threads
+         << " thread(s)";
+  const std::string out = o.out_dir + "/";
+  dqn_dovs::writeResultsCsv(records, out + "results.csv");
+  dqn_dovs::writeSummaryMarkdown(summary, out + "summary.md", header.str());
+  dqn_dovs::writeSummaryJson(summary, out + "summary.json");
+  dqn_dovs::plotSuccessVsObstacles(summary, out + "success_vs_obstacles.png");
+  for (const dqn_dovs::EpisodeRecord& r : records) {
+    if (r.robot_path.empty()) continue;
+    const auto s = std::find_if(scenarios.begin(), scenarios.end(), [&](const dqn_dovs::EvalScenario& e) {
+      return e.obstacles == r.obstacles && e.episode == r.episode;
+    });
+    dqn_dovs::plotTrajectory(r, s->scenario, config.episode.reward.goal_tolerance_m,
+                             out + "trajectories_" + r.method + "_n" + std::to_string(r.obstacles) + "_e" +
+                                 std::to_string(r.episode) + ".png");
+  }
+
+  // Human-readable table on stdout.
+  std::cout << "obstacles";
+  for (const std::string& m : summary.methods) std::cout << "  " << std::setw(22) << m;
+  std::cout << "\n";
+  auto row = [&](const std::string& label, const std::vector<dqn_dovs::EvalCell>& cells) {
+    std::cout << std::setw(9) << label;
+    for (const dqn_dovs::EvalCell& c : cells) {
+      std::ostringstream cell;
+      cell << std::fixed << std::setprecision(2) << c.success_rate << " c" << c.collision_rate << " t" << c.timeout_rate;
+      std::cout << "  " << std::setw(22) << cell.str();
+    }
+    std::cout << "\n";
+  };
+  for (size_t c = 0; c < summary.obstacle_counts.size(); ++c) {
+    std::vector<dqn_dovs::EvalCell> cells;
+    for (size_t m = 0; m < summary.methods.size(); ++m) cells.push_back(summary.cells[m][c]);
+    row(std::to_string(summary.obstacle_counts[c]), cells);
+  }
+  row("mean", summary.overall);
+  std::cout << "(success, c = collision, t = timeout rates)  wrote " << out << "{results.csv,summary.md,summary.json,"
+            << "success_vs_obstacles.png} in " << std::fixed << std::setprecision(1) << wall_s << " s\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  try {
+    options = parse(argc, argv);
+  } catch (const UsageError& e) {
+    std::cerr << "dqn_dovs_eval: " << e.what() << "\n" << kUsage;
+    return 2;
+  }
+  if (options.help) {
+    std::cout << kUsage;
+    return 0;
+  }
+  try {
+    return run(options, commandLine(argc, argv));
+  } catch (const std::exception& e) {
+    std::cerr << "dqn_dovs_eval: " << e.what() << "\n";
+    return 1;
+  }
+}
