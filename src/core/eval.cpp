@@ -129,15 +129,16 @@ EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, 
     in.actions = &ep.actions();
     in.state = &ep.state();
     in.limits = limits;
-    Twist2 command;
+    PlannerDecision decision;
     try {
-      command = planner.decide(in).command;
+      decision = planner.decide(in);
     } catch (const PlannerError&) {
       // The interface's contract: the caller decelerates when a planner cannot decide.
       ++r.planner_errors;
-      command = decelerationCommand(ep.observation().robot_twist, limits);
+      decision = PlannerDecision{};
+      decision.command = decelerationCommand(ep.observation().robot_twist, limits);
     }
-    ep.step(command);
+    ep.stepDecision(decision);  // holonomic baselines move the robot holonomically
     recordObstacles();
   }
   r.outcome = ep.outcome();

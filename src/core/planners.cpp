@@ -6,6 +6,8 @@
 
 #include "dqn_dovs/planner.h"
 #include "dqn_dovs/planners/dqn_dovs_planner.h"
+#include "dqn_dovs/planners/dwa.h"
+#include "dqn_dovs/planners/orca.h"
 #include "dqn_dovs/planners/s_dovs.h"
 
 namespace dqn_dovs {
@@ -26,6 +28,9 @@ const std::vector<std::pair<std::string, PlannerFactory>>& registry() {
          return std::make_unique<DqnDovsPlanner>(config);
        }},
       {"s_dovs", [](const std::string&) -> std::unique_ptr<Planner> { return std::make_unique<SDovsPlanner>(); }},
+      {"orca_holonomic", [](const std::string&) { return makeOrcaHolonomicPlanner(); }},
+      {"orca_diffdrive", [](const std::string&) { return makeOrcaDiffDrivePlanner(); }},
+      {"dwa", [](const std::string&) { return makeDwaPlanner(); }},
   };
   return planners;
 }
