@@ -4,7 +4,7 @@ SHELL := /bin/bash
 export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
 export PYTHONNOUSERSITE := 1
 JOBS ?= 2
-BENCHES := sim tracker dovs inference training e2e
+BENCHES := sim tracker dovs inference training e2e eval-sdovs
 
 .PHONY: all setup build test test-cpp test-python bench demo clean format help
 all: build
