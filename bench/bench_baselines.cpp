@@ -91,12 +91,7 @@ int main(int argc, char** argv) {
       planner->reset();
       ep.reset(s.scenario, s.seed);
       while (!ep.done()) {
-        PlannerInput in;
-        in.observation = &ep.observation();
-        in.dovs = &ep.dovs();
-        in.actions = &ep.actions();
-        in.state = &ep.state();
-        in.limits = ep.config().world.robot;
+        const PlannerInput in = ep.plannerInput();
         PlannerDecision d;
         const auto t0 = Clock::now();
         try {

@@ -96,6 +96,8 @@ class Episode {
   const sim::Scenario& scenario() const { return world_.scenario(); }
   const std::vector<Pose2>& trajectory() const { return trajectory_; }
   const EpisodeConfig& config() const { return config_; }
+  /// The current decision context as the planners read it (pointers into this episode).
+  PlannerInput plannerInput() const;
 
  private:
   void sense();           // scan + tracker update at the current world time

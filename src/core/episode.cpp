@@ -133,6 +133,16 @@ void Episode::buildContext() {
   state_ = buildState(dovs_, observation_, normalization_);
 }
 
+PlannerInput Episode::plannerInput() const {
+  PlannerInput in;
+  in.observation = &observation_;
+  in.dovs = &dovs_;
+  in.actions = &actions_;
+  in.state = &state_;
+  in.limits = config_.world.robot;
+  return in;
+}
+
 StepResult Episode::stepAction(int a) {
   if (a < 0 || a >= kNumActions) throw std::out_of_range("episode: action " + std::to_string(a) + " is not in [0, 8)");
   if (!actions_.valid[static_cast<size_t>(a)]) {

@@ -123,12 +123,7 @@ EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, 
   recordObstacles();
   const RobotLimits& limits = ep.config().world.robot;
   while (!ep.done()) {
-    PlannerInput in;
-    in.observation = &ep.observation();
-    in.dovs = &ep.dovs();
-    in.actions = &ep.actions();
-    in.state = &ep.state();
-    in.limits = limits;
+    const PlannerInput in = ep.plannerInput();
     PlannerDecision decision;
     try {
       decision = planner.decide(in);

@@ -16,9 +16,8 @@ namespace {
 
 using PlannerFactory = std::function<std::unique_ptr<Planner>(const std::string& model_path)>;
 
-/// Every planner the project builds by name, in the order plannerNames() lists them. A new planner (the
-/// "orca_holonomic", "orca_diffdrive" and "dwa" baselines) is added here with one line: its name and a factory
-/// taking the model path (ignored by planners without a model).
+/// Every planner the project builds by name, in the order plannerNames() lists them. A new planner is added
+/// here with one line: its name and a factory taking the model path (ignored by planners without a model).
 const std::vector<std::pair<std::string, PlannerFactory>>& registry() {
   static const std::vector<std::pair<std::string, PlannerFactory>> planners = {
       {"dqn_dovs",

@@ -20,16 +20,6 @@ EpisodeConfig perfectInfo() {
   return c;
 }
 
-PlannerInput inputOf(const Episode& ep) {
-  PlannerInput in;
-  in.observation = &ep.observation();
-  in.dovs = &ep.dovs();
-  in.actions = &ep.actions();
-  in.state = &ep.state();
-  in.limits = ep.config().world.robot;
-  return in;
-}
-
 sim::Scenario scenario(const Pose2& start, const Vec2& goal, std::vector<MovingObstacle> obstacles = {}) {
   sim::Scenario s;
   s.name = "dwa test";
@@ -51,7 +41,7 @@ MovingObstacle staticDisc(const Vec2& c) {
 void drive(Episode& ep, DwaPlanner& planner) {
   planner.reset();
   while (!ep.done()) {
-    const PlannerDecision d = planner.decide(inputOf(ep));
+    const PlannerDecision d = planner.decide(ep.plannerInput());
     const RobotLimits& limits = ep.config().world.robot;
     ASSERT_TRUE(makeDynamicWindow(ep.observation().robot_twist, limits).contains(d.command, limits, 1e-9))
         << "step " << ep.steps() << " note " << d.note;

@@ -263,16 +263,6 @@ EpisodeConfig perfectInfo() {
   return c;
 }
 
-PlannerInput inputOf(const Episode& ep) {
-  PlannerInput in;
-  in.observation = &ep.observation();
-  in.dovs = &ep.dovs();
-  in.actions = &ep.actions();
-  in.state = &ep.state();
-  in.limits = ep.config().world.robot;
-  return in;
-}
-
 sim::Scenario scenarioWith(std::vector<MovingObstacle> obstacles) {
   sim::Scenario s;
   s.name = "orca test";
@@ -305,7 +295,7 @@ MovingObstacle crossingDisc() {
 void drive(Episode& ep, Planner& planner, bool holonomic) {
   planner.reset();
   while (!ep.done()) {
-    const PlannerDecision d = planner.decide(inputOf(ep));
+    const PlannerDecision d = planner.decide(ep.plannerInput());
     const RobotLimits& limits = ep.config().world.robot;
     if (!holonomic) {
       ASSERT_TRUE(makeDynamicWindow(ep.observation().robot_twist, limits).contains(d.command, limits, 1e-9))

@@ -22,16 +22,6 @@ EpisodeConfig perfectInfo() {
   return c;
 }
 
-PlannerInput inputOf(const Episode& ep) {
-  PlannerInput in;
-  in.observation = &ep.observation();
-  in.dovs = &ep.dovs();
-  in.actions = &ep.actions();
-  in.state = &ep.state();
-  in.limits = ep.config().world.robot;
-  return in;
-}
-
 sim::Scenario emptyRoom(const Pose2& start, const Vec2& goal) {
   sim::Scenario s;
   s.name = "empty room";
@@ -44,7 +34,7 @@ sim::Scenario emptyRoom(const Pose2& start, const Vec2& goal) {
 int drive(Episode& ep, Planner& planner) {
   int n = 0;
   while (!ep.done()) {
-    ep.step(planner.decide(inputOf(ep)).command);
+    ep.step(planner.decide(ep.plannerInput()).command);
     ++n;
   }
   return n;
@@ -98,7 +88,7 @@ TEST(SDovs, NeverPicksAnUnsafeVelocityWhenTheWindowHasAFreeOne) {
       Episode ep(perfectInfo());
       ep.reset(sim::generateScenario(g, seed * 97 + static_cast<uint64_t>(n)), seed);
       while (!ep.done()) {
-        const PlannerInput in = inputOf(ep);
+        const PlannerInput in = ep.plannerInput();
         const PlannerDecision d = planner.decide(in);
         const Twist2 current = in.limits.clipToFeasible(ep.observation().robot_twist);
         const DynamicWindow dw = makeDynamicWindow(current, in.limits);
@@ -133,7 +123,7 @@ TEST(SDovs, BadInputAndConfigurationAreNamed) {
   ep.reset(emptyRoom({0.0, 0.0, 0.0}, {2.0, 0.0}), 1);
   Observation obs = ep.observation();
   obs.goal.x() = std::numeric_limits<double>::quiet_NaN();
-  PlannerInput in = inputOf(ep);
+  PlannerInput in = ep.plannerInput();
   in.observation = &obs;
   EXPECT_THROW(planner.decide(in), PlannerError);
 
@@ -151,7 +141,7 @@ TEST(SDovs, StopsOnTheGoalWhenAlreadyThere) {
   Episode ep(perfectInfo());
   ep.reset(emptyRoom({0.0, 0.0, 0.0}, {0.1, 0.0}), 1);
   SDovsPlanner planner;
-  const PlannerDecision d = planner.decide(inputOf(ep));
+  const PlannerDecision d = planner.decide(ep.plannerInput());
   EXPECT_EQ(d.note, "stop_on_goal");
   EXPECT_NEAR(d.command.v, 0.0, 1e-12);
 }
@@ -187,7 +177,7 @@ TEST(DqnDovsPlanner, ChoosesAValidActionAndDeceleratesOnBadState) {
   ep.reset(emptyRoom({-2.0, 0.0, 0.0}, {2.0, 1.0}), 1);
   ep.step(Twist2{0.1, 0.0});
   ep.step(Twist2{0.2, 0.0});
-  PlannerInput in = inputOf(ep);
+  PlannerInput in = ep.plannerInput();
   const PlannerDecision d = planner.decide(in);
   ASSERT_GE(d.action, 0);
   ASSERT_LT(d.action, kNumActions);
@@ -204,7 +194,7 @@ TEST(DqnDovsPlanner, ChoosesAValidActionAndDeceleratesOnBadState) {
   EXPECT_DOUBLE_EQ(bad.command.v, slow.v);
   EXPECT_NE(bad.note.find("decelerate"), std::string::npos);
 
-  in = inputOf(ep);
+  in = ep.plannerInput();
   ActionSet none = ep.actions();
   none.valid.fill(false);
   in.actions = &none;
@@ -212,7 +202,7 @@ TEST(DqnDovsPlanner, ChoosesAValidActionAndDeceleratesOnBadState) {
   EXPECT_EQ(bad.action, -1);
   EXPECT_NE(bad.note.find("masked"), std::string::npos) << bad.note;
 
-  in = inputOf(ep);
+  in = ep.plannerInput();
   Eigen::VectorXf short_state = Eigen::VectorXf::Zero(10);
   in.state = &short_state;
   EXPECT_EQ(planner.decide(in).action, -1);
