@@ -6,13 +6,15 @@ export PYTHONNOUSERSITE := 1
 JOBS ?= 2
 BENCHES := sim tracker dovs inference training e2e eval-sdovs
 
-.PHONY: all setup build test test-cpp test-python bench demo clean format help
+.PHONY: all setup build test test-cpp test-python bench demo clean format help fuzz test-asan
 all: build
 
 help:
 	@echo "make setup   install Debian ROS 1 packages and the Python venv (idempotent)"
 	@echo "make build   colcon build of the dqn_dovs package (+ the Python module)"
-	@echo "make test    every test: gtest, rostest, Python"
+	@echo "make test    every test: gtest, rostest, Python, fuzz regressions + 40 s per fuzz target"
+	@echo "make fuzz    libFuzzer targets (fuzz/), FUZZ_SECONDS=600 each (make fuzz FUZZ_TARGETS=scenario for one)"
+	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES))"
 	@echo "make demo    the ROS pipeline in simulation on shared scenarios"
 
@@ -24,6 +26,12 @@ build: setup
 
 test: build
 	@bash scripts/run_tests.sh
+
+fuzz: build
+	@FUZZ_SECONDS=$${FUZZ_SECONDS:-600} bash scripts/fuzz.sh $(FUZZ_TARGETS)
+
+test-asan: setup
+	@bash scripts/test_asan.sh
 
 bench: build
 	@set -e; for b in $(BENCHES); do $(MAKE) --no-print-directory bench-run-$$b; done

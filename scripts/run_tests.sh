@@ -45,8 +45,19 @@ PY
 )
   py_fail=$((py_fail0 + py_err)); py_skip=$py_skip; py_pass=$((py_total - py_fail - py_skip))
 fi
+
+# Fuzz targets (fuzz/, scripts/fuzz.sh): the committed crash inputs once, then a bounded fuzzing run per target.
+fz_seconds=${DQN_DOVS_FUZZ_SECONDS:-40}
+echo "[test] fuzz targets: regressions + ${fz_seconds} s of fuzzing each (scripts/fuzz.sh)"
+FUZZ_SECONDS=$fz_seconds bash scripts/fuzz.sh >log/fuzz.last.txt 2>&1
+grep -v -E "^\[fuzz\] building|^$|^[0-9]+ passed, [0-9]+ failed" log/fuzz.last.txt
+read -r fz_pass fz_fail < <(tail -n 1 log/fuzz.last.txt | sed -nE 's/^([0-9]+) passed, ([0-9]+) failed.*/\1 \2/p')
+if ! [[ "${fz_pass:-}" =~ ^[0-9]+$ ]]; then
+  echo "[test] could not read the fuzz summary (log/fuzz.last.txt)" >&2; fz_pass=0; fz_fail=1
+fi
+
 c_pass=$((c_tests - c_fail - c_err - c_skip))
-passed=$((c_pass + py_pass)); failed=$((c_fail + c_err + py_fail)); skipped=$((c_skip + py_skip))
+passed=$((c_pass + py_pass + fz_pass)); failed=$((c_fail + c_err + py_fail + fz_fail)); skipped=$((c_skip + py_skip))
 echo
 echo "$passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ] && [ "$passed" -gt 0 ]

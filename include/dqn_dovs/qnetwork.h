@@ -63,6 +63,10 @@ class QNetwork {
   /// shapes that do not chain, NaN/inf weights or normalisation values.
   static QNetwork load(const std::string& path);
 
+  /// Builds the network from a complete weight file image in memory (parseWeightFile + fromContents), with
+  /// the same checks and WeightFileError messages as load(); `source` names the bytes in the errors.
+  static QNetwork fromBytes(const std::vector<std::uint8_t>& bytes, const std::string& source);
+
   /// Builds the network from parsed contents; `source` names them in error messages (a path).
   static QNetwork fromContents(const WeightFileContents& contents, const std::string& source);
 

@@ -187,7 +187,8 @@ class ObstacleTracker {
   /// The last scene (confirmed tracks at the last used scan's stamp).
   const TrackedScene& scene() const { return scene_; }
   /// The confirmed tracks moved forward on their own motion to stamp_s (>= the last stamp; earlier stamps
-  /// return the last scene), e.g. to the planner's decision time. Does not change the tracker.
+  /// return the last scene), e.g. to the planner's decision time. A stamp more than max_time_gap_s after the
+  /// last scan gives no obstacles (a scan that late resets the tracks). Does not change the tracker.
   TrackedScene predictedScene(double stamp_s) const;
   /// Circles and segments of the last used scan (fixed frame), for display.
   const ScanDetections& lastDetections() const { return detections_; }

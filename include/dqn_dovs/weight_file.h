@@ -85,6 +85,11 @@ struct WeightFileContents {
   std::string metadata;
 };
 
+/// Bytes from a file as they may appear in an error message: printable ASCII is kept, every other byte
+/// (NUL, newline, control characters, non-ASCII) becomes \xNN and a backslash becomes \\, so a message
+/// is never cut short at a NUL or broken across log lines by what a corrupt file holds.
+std::string printableBytes(const std::string& bytes);
+
 /// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320, init and final xor 0xFFFFFFFF), the same
 /// value as Python's zlib.crc32.
 std::uint32_t crc32(const std::uint8_t* data, std::size_t size);

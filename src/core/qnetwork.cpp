@@ -141,6 +141,10 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
 
 QNetwork QNetwork::load(const std::string& path) { return fromContents(readWeightFile(path), path); }
 
+QNetwork QNetwork::fromBytes(const std::vector<std::uint8_t>& bytes, const std::string& source) {
+  return fromContents(parseWeightFile(bytes, source), source);
+}
+
 QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& source) {
   auto fail = [&source](const std::string& field, const std::string& reason) {
     throw WeightFileError(source, field, reason);
@@ -164,8 +168,8 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   std::set<std::string> names;
   for (const auto& [name, value] : c.normalization) {
     if (name.empty()) fail("normalization name", "empty name");
-    if (!names.insert(name).second) fail("normalization entry '" + name + "'", "name appears twice");
-    if (!std::isfinite(value)) fail("normalization entry '" + name + "'", "value is NaN or infinite");
+    if (!names.insert(name).second) fail("normalization entry '" + printableBytes(name) + "'", "name appears twice");
+    if (!std::isfinite(value)) fail("normalization entry '" + printableBytes(name) + "'", "value is NaN or infinite");
   }
 
   // Pass 1: group the layers into streams and infer every shape.
@@ -469,7 +473,7 @@ std::string QNetwork::normalizationMismatch(const std::vector<std::pair<std::str
   for (const auto& [name, value] : normalization_) {
     const bool known =
         std::any_of(expected.begin(), expected.end(), [&name = name](const auto& e) { return e.first == name; });
-    if (!known) os << "'" << name << "' (= " << value << ") is in the file but not expected; ";
+    if (!known) os << "'" << printableBytes(name) << "' (= " << value << ") is in the file but not expected; ";
   }
   std::string out = os.str();
   if (!out.empty()) out = "normalisation of '" + source_ + "' differs: " + out.substr(0, out.size() - 2);

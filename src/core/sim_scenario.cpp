@@ -60,9 +60,7 @@ std::string scenarioNameFromPath(const std::string& path) {
   return parent.empty() ? file : parent + "/" + file;
 }
 
-}  // namespace
-
-Scenario loadDovsScenario(const std::string& path, double obstacle_radius_m, double room_half_size_m) {
+void checkLoadParameters(const std::string& path, double obstacle_radius_m, double room_half_size_m) {
   if (!(std::isfinite(obstacle_radius_m) && obstacle_radius_m > 0.0)) {
     std::ostringstream os;
     os << "obstacle radius " << obstacle_radius_m << " m must be finite and positive";
@@ -73,19 +71,31 @@ Scenario loadDovsScenario(const std::string& path, double obstacle_radius_m, dou
     os << "room half size " << room_half_size_m << " m must be finite and positive";
     fail(path, os.str());
   }
+}
+
+}  // namespace
+
+Scenario loadDovsScenario(const std::string& path, double obstacle_radius_m, double room_half_size_m) {
+  checkLoadParameters(path, obstacle_radius_m, room_half_size_m);
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, std::string("cannot open for reading (") + std::strerror(errno) + ")");
   std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (in.bad()) fail(path, "read error");
-  if (bytes.empty()) fail(path, "file is empty (expected at least the robot row of 40 bytes)");
-  if (bytes.size() % kRowBytes != 0) {
-    fail(path, "size " + std::to_string(bytes.size()) + " bytes is not a multiple of " + std::to_string(kRowBytes) +
+  return parseDovsScenario(bytes.data(), bytes.size(), path, obstacle_radius_m, room_half_size_m);
+}
+
+Scenario parseDovsScenario(const unsigned char* data, size_t size, const std::string& path, double obstacle_radius_m,
+                           double room_half_size_m) {
+  checkLoadParameters(path, obstacle_radius_m, room_half_size_m);
+  if (size == 0) fail(path, "file is empty (expected at least the robot row of 40 bytes)");
+  if (size % kRowBytes != 0) {
+    fail(path, "size " + std::to_string(size) + " bytes is not a multiple of " + std::to_string(kRowBytes) +
                    " (rows of 5 little-endian float64): truncated or not a .dovs file");
   }
-  const size_t rows = bytes.size() / kRowBytes;
+  const size_t rows = size / kRowBytes;
   std::vector<double> v(rows * kValuesPerRow);
   for (size_t i = 0; i < v.size(); ++i) {
-    v[i] = decodeLittleEndian(bytes.data() + i * sizeof(double));
+    v[i] = decodeLittleEndian(data + i * sizeof(double));
     if (!std::isfinite(v[i])) {
       std::ostringstream os;
       os << describeRow(i / kValuesPerRow) << " column " << i % kValuesPerRow << " is " << v[i]

@@ -411,6 +411,12 @@ TrackedScene ObstacleTracker::predictedScene(double stamp_s) const {
   TrackedScene out = scene_;
   out.stamp_s = stamp_s;
   const double dt = stamp_s - last_stamp_s_;
+  if (dt > config_.max_time_gap_s) {
+    // A scan that late resets the tracks (update()); predicting them that far gives meaningless (and, for
+    // absurd gaps, non-finite) states and covariances.
+    out.obstacles.clear();
+    return out;
+  }
   size_t k = 0;
   for (const Track& t : tracks_) {
     if (!(t.confirmed && t.hits >= 2)) continue;

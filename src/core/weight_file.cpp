@@ -187,6 +187,25 @@ std::uint64_t LayerRecord::biasCount() const {
   return 0;
 }
 
+std::string printableBytes(const std::string& bytes) {
+  static const char* kHex = "0123456789abcdef";
+  std::string out;
+  out.reserve(bytes.size());
+  for (const char ch : bytes) {
+    const auto b = static_cast<unsigned char>(ch);
+    if (b == '\\') {
+      out += "\\\\";
+    } else if (b >= 32 && b < 127) {
+      out += ch;
+    } else {
+      out += "\\x";
+      out += kHex[b >> 4];
+      out += kHex[b & 15];
+    }
+  }
+  return out;
+}
+
 std::uint32_t crc32(const std::uint8_t* data, std::size_t size) {
   static const std::array<std::uint32_t, 256> table = makeCrcTable();
   std::uint32_t c = 0xFFFFFFFFu;
@@ -203,7 +222,8 @@ std::vector<std::uint8_t> serializeWeightFile(const WeightFileContents& c, const
   w.u32(c.feature_count);
   w.u32(static_cast<std::uint32_t>(c.normalization.size()));
   for (const auto& [name, value] : c.normalization) {
-    if (name.size() > kMaxNameLength) throw WeightFileError(path, "normalization name", "'" + name + "' is too long");
+    if (name.size() > kMaxNameLength)
+      throw WeightFileError(path, "normalization name", "'" + printableBytes(name) + "' is too long");
     w.str(name);
     w.f32(value);
   }
@@ -286,7 +306,7 @@ WeightFileContents parseWeightFile(const std::vector<std::uint8_t>& bytes, const
     const std::uint32_t len =
         checkedRange(r.u32(field + " name length"), 1, kMaxNameLength, path, field + " name length");
     std::string name = r.str(len, field + " name");
-    const float value = r.f32s(1, field + " value '" + name + "'")[0];
+    const float value = r.f32s(1, field + " value '" + printableBytes(name) + "'")[0];
     c.normalization.emplace_back(std::move(name), value);
   }
   c.action_count = checkedRange(r.u32("action count"), 1, kMaxActions, path, "action count");

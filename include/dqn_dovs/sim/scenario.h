@@ -36,6 +36,12 @@ constexpr double kDefaultObstacleRadius = 0.2;
 Scenario loadDovsScenario(const std::string& path, double obstacle_radius_m = kDefaultObstacleRadius,
                           double room_half_size_m = 4.0);
 
+/// The same checks and result as loadDovsScenario on the file's bytes already in memory (`size` bytes at
+/// `data`); `path` names the source in the errors and gives the scenario its name. loadDovsScenario reads
+/// the file and calls this.
+Scenario parseDovsScenario(const unsigned char* data, size_t size, const std::string& path,
+                           double obstacle_radius_m = kDefaultObstacleRadius, double room_half_size_m = 4.0);
+
 /// Writes `scenario` in the `.dovs` format so that loadDovsScenario reads back the same poses and motions
 /// (obstacle radii and the room size are not part of the format). Throws ScenarioError naming the file when
 /// it cannot be written, a value is not finite, or the scenario has static segments (which the format cannot

@@ -1,0 +1,109 @@
+// libFuzzer target: a dqn_dovs/Dovs message as it arrives on the wire (ros::serialization bytes) consumed the
+// way planner_node consumes it: chooseAction (src/nodes/pipeline_steps.h) with the shipped network, then the
+// chosen action's velocity clipped into the feasible set. Run: make fuzz (or scripts/fuzz.sh dovs_msg SECONDS).
+//
+// Inputs whose array length prefixes claim more elements than the input holds are skipped before
+// deserialisation: roscpp's deserialiser resizes the vector before it checks the stream, and the transport
+// bounds a real message's size; that allocation is roscpp's, not the planner's.
+#include <ros/serialization.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+
+#include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/robot_model.h"
+#include "fuzz_common.h"
+#include "pipeline_steps.h"
+
+namespace {
+
+using dqn_dovs::fuzz::require;
+
+std::unique_ptr<dqn_dovs::QNetwork> g_network;
+
+// Walks the wire layout of dqn_dovs/Dovs (msg/Dovs.msg) and checks that every length prefix fits.
+bool lengthsFit(const std::uint8_t* data, std::size_t size) {
+  std::size_t pos = 0;
+  auto skip = [&](std::size_t n) {
+    if (n > size - pos) return false;
+    pos += n;
+    return true;
+  };
+  auto array = [&](std::size_t element_size) {
+    if (size - pos < 4) return false;
+    std::uint32_t n = 0;
+    for (int i = 0; i < 4; ++i) n |= static_cast<std::uint32_t>(data[pos + i]) << (8 * i);
+    pos += 4;
+    return skip(static_cast<std::size_t>(n) * element_size);
+  };
+  // header: seq, stamp, frame_id
+  if (!skip(4 + 8) || !array(1)) return false;
+  // has_goal, v_max w_max dv dw v w, goal_line_kind, goal_curvature goal_turn_sign, action_v/w/valid
+  if (!skip(1 + 6 * 8 + 1 + 2 * 8 + 8 * 8 + 8 * 8 + 8)) return false;
+  // trajectory_curvature, trajectory_pure_rotation, v_top, w_top, interval_begin, interval_lo, interval_hi
+  if (!array(4) || !array(1) || !array(4) || !array(4) || !array(4) || !array(4) || !array(4)) return false;
+  if (!skip(2 + 2)) return false;  // grid_rows, grid_cols
+  return array(4);                 // state
+}
+
+void consume(const std::uint8_t* data, std::size_t size) {
+  if (!lengthsFit(data, size)) return;
+  dqn_dovs::Dovs msg;
+  ros::serialization::IStream stream(const_cast<std::uint8_t*>(data), static_cast<std::uint32_t>(size));
+  try {
+    ros::serialization::deserialize(stream, msg);
+  } catch (const ros::serialization::StreamOverrunException&) {
+    require(false, "a message whose lengths fit must deserialise");
+  }
+  require(ros::serialization::serializationLength(msg) == size - stream.getLength(),
+          "the deserialised message accounts for the bytes it read");
+
+  // planner_node::decide: the message must have a goal and a state of the network's size, then chooseAction.
+  std::string why;
+  const int a = dqn_dovs::chooseAction(*g_network, msg, why);
+  if (msg.state.size() != static_cast<std::size_t>(dqn_dovs::QNetwork::kStateSize)) {
+    require(a == -1 && !why.empty(), "a state of the wrong size gives no action and a reason");
+    return;
+  }
+  if (a < 0) {
+    require(a == -1 && !why.empty(), "no action comes with a reason");
+    return;
+  }
+  require(why.empty(), "a chosen action comes without a problem");
+  require(a < dqn_dovs::QNetwork::kActionCount && msg.action_valid[static_cast<std::size_t>(a)],
+          "the chosen action is one the message marks valid");
+  const double v = msg.action_v[static_cast<std::size_t>(a)], w = msg.action_w[static_cast<std::size_t>(a)];
+  require(std::isfinite(v) && std::isfinite(w), "the chosen action has a finite velocity");
+  const dqn_dovs::RobotLimits limits;
+  const dqn_dovs::Twist2 target = limits.clipToFeasible({v, w});
+  require(std::isfinite(target.v) && std::isfinite(target.w) && limits.feasible(target, 1e-6),
+          "the commanded target is feasible");
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  const char* path = std::getenv("DQN_DOVS_FUZZ_MODEL");
+  const std::string model = path != nullptr ? path : DQN_DOVS_FUZZ_DEFAULT_MODEL;
+  try {
+    g_network = std::make_unique<dqn_dovs::QNetwork>(dqn_dovs::QNetwork::load(model));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "fuzz_dovs_msg: cannot load the network: %s\n", e.what());
+    std::exit(2);
+  }
+  return 0;
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  try {
+    consume(data, size);
+  } catch (const dqn_dovs::fuzz::InvariantViolation& e) {
+    std::fprintf(stderr, "fuzz_dovs_msg: %s\n", e.what());
+    std::abort();
+  }
+  return 0;
+}
