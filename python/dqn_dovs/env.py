@@ -7,9 +7,12 @@ holds no simulation of its own.
 
 Contract of `dqn_dovs._core.VecEnv` (n = num_envs, all arrays numpy):
 
-    core = dqn_dovs._core.VecEnv(num_envs: int, seed: int, perfect_info: bool = False)
+    core = dqn_dovs._core.VecEnv(num_envs: int, seed: int, perfect_info: bool = False,
+                                 threads: int = 0, action_shield: bool = False)
         Deterministic given the seed. perfect_info=True feeds the DOVS with ground-truth
-        obstacles instead of the tracker (for comparisons only).
+        obstacles instead of the tracker (for comparisons only). action_shield=True
+        narrows every returned mask to the actions the DOVS finds safe whenever any
+        valid one is (the planner's action shield, docs/planners.md).
     core.set_stage(goal_distance_min: float, goal_distance_max: float,
                    obstacles_min: int, obstacles_max: int, obstacle_type: str) -> None
         obstacle_type in {'none', 'static', 'dynamic', 'both'}. Applies to every episode
@@ -108,13 +111,15 @@ class VecEnv:
     instead of poisoning the replay buffer.
     """
 
-    def __init__(self, num_envs: int, seed: int, perfect_info: bool = False, core: Any = None):
+    def __init__(self, num_envs: int, seed: int, perfect_info: bool = False, core: Any = None,
+                 action_shield: bool = False):
         if num_envs < 1:
             raise ValueError(f"VecEnv: num_envs must be >= 1, got {num_envs}")
         self.num_envs = int(num_envs)
         self.seed = int(seed)
         if core is None:
-            core = import_core().VecEnv(self.num_envs, self.seed, bool(perfect_info))
+            core = import_core().VecEnv(self.num_envs, self.seed, bool(perfect_info),
+                                        action_shield=bool(action_shield))
         self._core = core
 
     def set_stage(self, settings: StageSettings) -> None:

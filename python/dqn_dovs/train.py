@@ -156,6 +156,10 @@ class TrainConfig:
     num_envs: int = 8
     # Ground-truth obstacles for the DOVS instead of the tracker (comparison runs only).
     perfect_info: bool = False
+    # The action shield (docs/planners.md): the agent chooses only among the actions the DOVS finds
+    # safe whenever there are any; the narrowed mask is stored in replay and applied in the target,
+    # exactly as the planner applies it on the robot. false = the paper's validity mask only.
+    action_shield: bool = False
     # Discount per control period.
     gamma: float = 0.97
     # Rewards summed before bootstrapping.
@@ -373,7 +377,9 @@ class Trainer:
         self.command = command
         if threads > 0:
             torch.set_num_threads(threads)
-        self._env_factory = env_factory or (lambda n, seed, perfect: VecEnv(n, seed, perfect))
+        shield = config.action_shield
+        self._env_factory = env_factory or (
+            lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield))
         self._model_factory = model_factory or default_model_factory
 
         os.makedirs(out_dir, exist_ok=True)

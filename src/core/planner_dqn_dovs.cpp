@@ -8,6 +8,7 @@ namespace dqn_dovs {
 std::string DqnDovsConfig::validate() const {
   if (model_path.empty()) return "dqn_dovs.model_path is empty";
   if (const std::string e = normalization.validate(); !e.empty()) return "dqn_dovs.normalization: " + e;
+  if (const std::string e = shield.validate(); !e.empty()) return "dqn_dovs." + e;
   if (!(std::isfinite(normalization_tolerance) && normalization_tolerance >= 0.0f)) {
     std::ostringstream os;
     os << "dqn_dovs.normalization_tolerance = " << normalization_tolerance << ": must be finite and >= 0";
@@ -52,6 +53,13 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
   if (input.state == nullptr) return decelerate("no network state");
   QNetwork::ActionMask mask;
   for (size_t i = 0; i < mask.size(); ++i) mask[i] = input.actions->valid[i];
+  ShieldLevel shield_level = ShieldLevel::kDisabled;
+  if (config_.shield.enabled) {
+    if (input.dovs == nullptr) return decelerate("the action shield has no DOVS");
+    const ShieldedMask shielded = shieldActions(*input.actions, *input.dovs, *input.observation, config_.shield);
+    mask = shielded.mask;
+    shield_level = shielded.level;
+  }
   int a = -1;
   try {
     a = network_->selectAction(*input.state, mask);
@@ -64,6 +72,7 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
   decision.command = u;
   decision.action = a;
   decision.note = "action " + std::to_string(a);
+  if (shield_level != ShieldLevel::kDisabled) decision.note += std::string(" (shield: ") + shieldLevelName(shield_level) + ")";
   return decision;
 }
 

@@ -26,6 +26,13 @@ const std::vector<std::pair<std::string, PlannerFactory>>& registry() {
          if (!model_path.empty()) config.model_path = model_path;
          return std::make_unique<DqnDovsPlanner>(config);
        }},
+      {"dqn_dovs_unshielded",
+       [](const std::string& model_path) -> std::unique_ptr<Planner> {
+         DqnDovsConfig config;
+         if (!model_path.empty()) config.model_path = model_path;
+         config.shield.enabled = false;
+         return std::make_unique<DqnDovsPlanner>(config);
+       }},
       {"s_dovs", [](const std::string&) -> std::unique_ptr<Planner> { return std::make_unique<SDovsPlanner>(); }},
       {"orca_holonomic", [](const std::string&) { return makeOrcaHolonomicPlanner(); }},
       {"orca_diffdrive", [](const std::string&) { return makeOrcaDiffDrivePlanner(); }},

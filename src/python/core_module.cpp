@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/episode.h"
 #include "dqn_dovs/sim/scenario.h"
 
@@ -40,7 +41,8 @@ sim::ObstacleType parseObstacleType(const std::string& s) {
 
 class VecEnv {
  public:
-  VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads) : seed_(seed) {
+  VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads, bool action_shield) : seed_(seed) {
+    shield_.enabled = action_shield;
     if (num_envs < 1 || num_envs > 4096) throw std::invalid_argument("num_envs must be in [1, 4096]");
     EpisodeConfig config;
     config.perfect_info = perfect_info;
@@ -184,8 +186,11 @@ class VecEnv {
   static void copyState(const Episode& ep, float* dst) {
     std::memcpy(dst, ep.state().data(), sizeof(float) * kStateSize);
   }
-  static void copyMask(const Episode& ep, bool* dst) {
-    for (int k = 0; k < kNumActions; ++k) dst[k] = ep.actions().valid[static_cast<size_t>(k)];
+  // The mask the agent chooses under: the validity mask, narrowed by the action shield when it is on (the same
+  // function the DQN-DOVS planner applies on the robot and in evaluation).
+  void copyMask(const Episode& ep, bool* dst) const {
+    const ShieldedMask m = shieldActions(ep.actions(), ep.dovs(), ep.observation(), shield_);
+    for (int k = 0; k < kNumActions; ++k) dst[k] = m.mask[static_cast<size_t>(k)];
   }
 
   template <typename F>
@@ -206,6 +211,7 @@ class VecEnv {
 
   std::vector<std::unique_ptr<Env>> envs_;
   sim::GeneratorConfig generator_;
+  ActionShieldConfig shield_;
   uint64_t seed_ = 0;
   int threads_ = 1;
 };
@@ -217,8 +223,8 @@ PYBIND11_MODULE(_core, m) {
   m.attr("STATE_SIZE") = kStateSize;
   m.attr("NUM_ACTIONS") = kNumActions;
   py::class_<VecEnv>(m, "VecEnv")
-      .def(py::init<int, uint64_t, bool, int>(), py::arg("num_envs"), py::arg("seed"), py::arg("perfect_info") = false,
-           py::arg("threads") = 0)
+      .def(py::init<int, uint64_t, bool, int, bool>(), py::arg("num_envs"), py::arg("seed"),
+           py::arg("perfect_info") = false, py::arg("threads") = 0, py::arg("action_shield") = false)
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),
            py::arg("obstacles_min"), py::arg("obstacles_max"), py::arg("obstacle_type"))
       .def("seed", &VecEnv::seed, py::arg("seed"), "Restarts the scenario sequence from a new seed.")

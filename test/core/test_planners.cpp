@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/episode.h"
 #include "dqn_dovs/planner.h"
 #include "dqn_dovs/planners/dqn_dovs_planner.h"
@@ -208,6 +209,43 @@ TEST(DqnDovsPlanner, ChoosesAValidActionAndDeceleratesOnBadState) {
   EXPECT_EQ(planner.decide(in).action, -1);
   in.state = nullptr;
   EXPECT_EQ(planner.decide(in).action, -1);
+}
+
+TEST(DqnDovsPlanner, ChoosesOnlyAmongShieldedActionsAndTheAblationDoesNot) {
+  DqnDovsConfig config;
+  config.model_path = kModel;
+  DqnDovsPlanner shielded(config);
+  config.shield.enabled = false;
+  DqnDovsPlanner unshielded(config);
+  EXPECT_EQ(shielded.name(), "dqn_dovs");
+  EXPECT_EQ(unshielded.name(), "dqn_dovs_unshielded");
+  sim::GeneratorConfig g;
+  g.goal_distance_min_m = 4.0;
+  g.obstacle_count_min = g.obstacle_count_max = 12;
+  int decisions = 0, narrowed = 0, outside_shield = 0;
+  for (uint64_t seed = 1; seed <= 6; ++seed) {
+    Episode ep(EpisodeConfig{});
+    ep.reset(sim::generateScenario(g, seed), seed);
+    while (!ep.done() && ep.steps() < 150) {
+      const PlannerInput in = ep.plannerInput();
+      const ShieldedMask m = shieldActions(ep.actions(), ep.dovs(), ep.observation(), ActionShieldConfig{});
+      const PlannerDecision d = shielded.decide(in);
+      ASSERT_GE(d.action, 0) << d.note;
+      ASSERT_TRUE(m.mask[static_cast<size_t>(d.action)]) << "seed " << seed << " step " << ep.steps() << ": " << d.note;
+      EXPECT_NE(d.note.find(std::string("shield: ") + shieldLevelName(m.level)), std::string::npos) << d.note;
+      const PlannerDecision u = unshielded.decide(in);
+      ASSERT_GE(u.action, 0) << u.note;
+      ASSERT_TRUE(ep.actions().valid[static_cast<size_t>(u.action)]);
+      outside_shield += m.mask[static_cast<size_t>(u.action)] ? 0 : 1;
+      narrowed += m.numAllowed() < ep.actions().numValid() ? 1 : 0;
+      ++decisions;
+      ep.step(d.command);
+    }
+  }
+  EXPECT_GT(decisions, 100);
+  EXPECT_GT(narrowed, 0) << "12 moving obstacles and the shield never removed an action";
+  // Without the shield, the network does pick actions the shield forbids (that is what the shield is for).
+  EXPECT_GT(outside_shield, 0);
 }
 
 TEST(DqnDovsPlanner, RejectsANetworkTrainedWithAnotherNormalisation) {

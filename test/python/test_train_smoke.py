@@ -65,6 +65,30 @@ def smoke_config():
     return config
 
 
+def test_action_shield_only_narrows_the_mask():
+    """The shielded environment is the same world; its masks are non-empty subsets of the validity masks."""
+    core = _core_or_skip()
+    plain = VecEnv(4, seed=21, core=core.VecEnv(4, 21, False))
+    shielded = VecEnv(4, seed=21, core=core.VecEnv(4, 21, False, action_shield=True))
+    stage = smoke_config().build_curriculum().stages[-1].settings(1.0)
+    plain.set_stage(stage)
+    shielded.set_stage(stage)
+    state_p, mask_p = plain.reset()
+    state_s, mask_s = shielded.reset()
+    rng = np.random.default_rng(3)
+    narrower = 0
+    for _ in range(300):
+        np.testing.assert_array_equal(state_p, state_s)
+        assert not np.any(mask_s & ~mask_p), "the shield allowed an invalid action"
+        assert np.all(mask_s.any(axis=1)), "the shield emptied a mask"
+        narrower += int(np.sum(mask_s.sum(axis=1) < mask_p.sum(axis=1)))
+        actions = np.array([rng.choice(np.flatnonzero(m)) for m in mask_s])
+        out_p, out_s = plain.step(actions), shielded.step(actions)
+        np.testing.assert_array_equal(out_p.reward, out_s.reward)
+        state_p, mask_p, state_s, mask_s = out_p.state, out_p.mask, out_s.state, out_s.mask
+    assert narrower > 0, "300 steps among 12 obstacles and the shield never removed an action"
+
+
 @pytest.fixture(scope="module")
 def smoke_run(tmp_path_factory):
     _core_or_skip()

@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/planner.h"
 #include "dqn_dovs/qnetwork.h"
 #include "dqn_dovs/state.h"
@@ -20,12 +21,17 @@ struct DqnDovsConfig {
   StateNormalization normalization;
   /// Relative tolerance of that comparison.
   float normalization_tolerance = 1e-4f;
+  /// The action shield (action_shield.h): the network chooses among the actions the DOVS finds safe whenever
+  /// there are any. `shield.enabled = false` is the paper's DQN-DOVS (validity mask only).
+  ActionShieldConfig shield;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
 };
 
-/// Masked argmax of the Q-network over the 8 actions of PlannerInput::actions, on PlannerInput::state.
+/// Masked argmax of the Q-network over the 8 actions of PlannerInput::actions, on PlannerInput::state; the mask
+/// is the action set's validity mask narrowed by the action shield on PlannerInput::dovs (when the shield is
+/// enabled; a missing DOVS then decelerates).
 /// A state that cannot be evaluated (missing, wrong size, NaN/inf), an all-invalid mask or an inference error
 /// never throws: the planner decelerates (decelerationCommand) and says why in the note.
 class DqnDovsPlanner : public Planner {
@@ -34,7 +40,7 @@ class DqnDovsPlanner : public Planner {
   /// trained with another state normalisation, or when the configuration is invalid.
   explicit DqnDovsPlanner(const DqnDovsConfig& config = DqnDovsConfig());
 
-  std::string name() const override { return "dqn_dovs"; }
+  std::string name() const override { return config_.shield.enabled ? "dqn_dovs" : "dqn_dovs_unshielded"; }
   /// Throws PlannerError only when input.actions or input.observation is null (nothing to decelerate from).
   PlannerDecision decide(const PlannerInput& input) override;
 

@@ -1,0 +1,63 @@
+// The action shield: the DOVS tells which of the 8 dynamic-window actions lead into a velocity obstacle; the
+// shield masks those out of the network's choice whenever a safe alternative exists. ROS-free.
+//
+// DQN-DOVS as published masks only the kinematically invalid goal-line actions (DESIGN §6) and leaves it to the
+// network to learn, from the grid, which actions are unsafe. The shield makes the DOVS' own verdict binding:
+// the network still ranks the actions, but among the safe ones. Used identically in training (the mask stored
+// in replay and applied in the Double-DQN target), in evaluation and on the robot (docs/planners.md).
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "dqn_dovs/actions.h"
+#include "dqn_dovs/dovs.h"
+#include "dqn_dovs/types.h"
+
+namespace dqn_dovs {
+
+/// Parameters of the shield. Defaults live here only.
+struct ActionShieldConfig {
+  /// false: the mask is the action set's own validity mask (the paper's DQN-DOVS).
+  bool enabled = true;
+  /// An action counts as robustly safe when its velocity is free in the DOVS and so are the four velocities this
+  /// far from it in v (m/s) ...
+  double robust_dv_mps = 0.03;
+  /// ... and in w (rad/s). Robustly safe actions are preferred: tracking noise then rarely turns them unsafe.
+  /// Zero margins make every free action robust.
+  double robust_dw_rps = 0.15;
+  /// Last resort, when no valid action is free: each is held in a roll-out against the observed obstacles for up
+  /// to this long (s) ...
+  double last_resort_horizon_s = 3.0;
+  /// ... in steps of this (s) ...
+  double last_resort_step_s = 0.1;
+  /// ... and only those whose first inflated contact comes no more than this before the latest one remain (s).
+  double last_resort_tolerance_s = 0.1;
+
+  /// Empty when consistent, otherwise a message naming the offending field and why.
+  std::string validate() const;
+};
+
+/// How the shield decided for one action set.
+enum class ShieldLevel : int {
+  kDisabled = 0,  ///< shield off: the validity mask
+  kRobust = 1,    ///< at least one valid action is robustly safe: only those remain
+  kFree = 2,      ///< no robust one, but at least one valid action is free: only the free ones remain
+  kLatest = 3,    ///< every valid action is in the DOV: only those that collide latest in a roll-out remain
+};
+const char* shieldLevelName(ShieldLevel level);
+
+struct ShieldedMask {
+  std::array<bool, kNumActions> mask{};
+  ShieldLevel level = ShieldLevel::kDisabled;
+  int numAllowed() const;
+};
+
+/// The mask the network chooses under: the action set's validity mask, narrowed to the robustly safe or else the
+/// free actions of `dovs` when any valid one is, or else to the valid actions whose roll-out against the obstacles
+/// of `observation` (the one `dovs` was built from) collides latest (see ShieldLevel). Never empties a non-empty
+/// validity mask. Throws DovsError when the configuration is invalid.
+ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
+                           const ActionShieldConfig& config);
+
+}  // namespace dqn_dovs

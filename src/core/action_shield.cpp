@@ -1,0 +1,104 @@
+#include "dqn_dovs/action_shield.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "dqn_dovs/rollout.h"
+
+namespace dqn_dovs {
+
+std::string ActionShieldConfig::validate() const {
+  std::ostringstream os;
+  if (!(std::isfinite(robust_dv_mps) && robust_dv_mps >= 0.0)) {
+    os << "action_shield.robust_dv_mps = " << robust_dv_mps << ": must be finite and >= 0";
+  } else if (!(std::isfinite(robust_dw_rps) && robust_dw_rps >= 0.0)) {
+    os << "action_shield.robust_dw_rps = " << robust_dw_rps << ": must be finite and >= 0";
+  } else if (!(std::isfinite(last_resort_horizon_s) && last_resort_horizon_s > 0.0)) {
+    os << "action_shield.last_resort_horizon_s = " << last_resort_horizon_s << ": must be finite and > 0";
+  } else if (!(std::isfinite(last_resort_step_s) && last_resort_step_s > 0.0 &&
+               last_resort_step_s <= last_resort_horizon_s)) {
+    os << "action_shield.last_resort_step_s = " << last_resort_step_s << ": must be > 0 and <= last_resort_horizon_s";
+  } else if (!(std::isfinite(last_resort_tolerance_s) && last_resort_tolerance_s >= 0.0)) {
+    os << "action_shield.last_resort_tolerance_s = " << last_resort_tolerance_s << ": must be finite and >= 0";
+  }
+  return os.str();
+}
+
+const char* shieldLevelName(ShieldLevel level) {
+  switch (level) {
+    case ShieldLevel::kDisabled:
+      return "disabled";
+    case ShieldLevel::kRobust:
+      return "robust";
+    case ShieldLevel::kFree:
+      return "free";
+    case ShieldLevel::kLatest:
+      return "latest";
+  }
+  return "unknown";
+}
+
+int ShieldedMask::numAllowed() const {
+  int n = 0;
+  for (bool b : mask) n += b ? 1 : 0;
+  return n;
+}
+
+namespace {
+
+// Free in the DOVS, and so are its neighbours dv / dw away that are feasible (the triangle's edge is not a
+// velocity obstacle: a neighbour outside it does not count against the action).
+bool robustlyFree(const VelocitySpace& dovs, const Twist2& u, double dv, double dw) {
+  if (!dovs.isFree(u)) return false;
+  const Twist2 neighbours[4] = {{u.v + dv, u.w}, {u.v - dv, u.w}, {u.v, u.w + dw}, {u.v, u.w - dw}};
+  for (const Twist2& n : neighbours) {
+    if (dovs.isFeasible(n) && !dovs.isFree(n)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
+                           const ActionShieldConfig& config) {
+  if (const std::string e = config.validate(); !e.empty()) throw DovsError(e);
+  ShieldedMask out;
+  out.mask = actions.valid;
+  if (!config.enabled) return out;
+  std::array<bool, kNumActions> free{}, robust{};
+  bool any_free = false, any_robust = false;
+  for (size_t i = 0; i < free.size(); ++i) {
+    if (!actions.valid[i]) continue;
+    const Twist2& u = actions.velocities[i];
+    free[i] = dovs.isFree(u);
+    robust[i] = free[i] && robustlyFree(dovs, u, config.robust_dv_mps, config.robust_dw_rps);
+    any_free = any_free || free[i];
+    any_robust = any_robust || robust[i];
+  }
+  if (any_robust) {
+    out.mask = robust;
+    out.level = ShieldLevel::kRobust;
+  } else if (any_free) {
+    out.mask = free;
+    out.level = ShieldLevel::kFree;
+  } else {
+    // Boxed in: put off the contact as long as possible (what S-DOVS's escape does over the whole window).
+    out.level = ShieldLevel::kLatest;
+    const LocalScene scene(observation, dovs.limits().radius, dovs.config().safety_factor);
+    std::array<double, kNumActions> ttc{};
+    double latest = -1.0;
+    for (size_t i = 0; i < ttc.size(); ++i) {
+      if (!actions.valid[i]) continue;
+      const Rollout r = rollOut(scene, actions.velocities[i], config.last_resort_horizon_s, config.last_resort_step_s);
+      ttc[i] = std::min(r.collision_time_s, config.last_resort_horizon_s);
+      latest = std::max(latest, ttc[i]);
+    }
+    for (size_t i = 0; i < ttc.size(); ++i) {
+      out.mask[i] = actions.valid[i] && ttc[i] >= latest - config.last_resort_tolerance_s - 1e-9;
+    }
+  }
+  return out;
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,143 @@
+// The action shield: which of the 8 actions the network may choose among, given the DOVS.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+#include <string>
+
+#include "dqn_dovs/action_shield.h"
+#include "dqn_dovs/actions.h"
+#include "dqn_dovs/dovs.h"
+#include "dqn_dovs/rollout.h"
+
+namespace dqn_dovs {
+namespace {
+
+MovingObstacle disc(double x, double y, double heading = 0.0, double speed = 0.0) {
+  MovingObstacle o;
+  o.center = {x, y};
+  o.radius = 0.2;
+  o.heading = heading;
+  o.speed = speed;
+  o.is_static = speed == 0.0;
+  return o;
+}
+
+struct Scene {
+  Observation obs;
+  VelocitySpace dovs;
+  ActionSet actions;
+};
+
+Scene scene(const Twist2& twist, const Vec2& goal, std::vector<MovingObstacle> obstacles) {
+  Scene s;
+  s.obs.robot_twist = twist;
+  s.obs.goal = goal;
+  s.obs.obstacles = std::move(obstacles);
+  const RobotLimits limits;
+  s.dovs = buildDovs(s.obs, limits, DovsConfig{});
+  s.actions = computeActions(twist, goal, limits);
+  return s;
+}
+
+TEST(ActionShield, EmptySpaceKeepsEveryValidAction) {
+  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {});
+  const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, ActionShieldConfig{});
+  EXPECT_EQ(m.level, ShieldLevel::kRobust);
+  EXPECT_EQ(m.mask, s.actions.valid);
+}
+
+TEST(ActionShield, DisabledIsTheValidityMask) {
+  const Scene s = scene({0.6, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0)});
+  ActionShieldConfig off;
+  off.enabled = false;
+  const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, off);
+  EXPECT_EQ(m.level, ShieldLevel::kDisabled);
+  EXPECT_EQ(m.mask, s.actions.valid);
+}
+
+TEST(ActionShield, SpeedingTowardAStaticObstacleIsMasked) {
+  // 0.5 m/s with a static disc 0.9 m ahead: faster is unsafe (cannot brake in time), slowing down is safe.
+  const Scene s = scene({0.5, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0)});
+  ASSERT_FALSE(s.dovs.isFree(s.actions.velocities[kActionDwTop]));
+  ASSERT_TRUE(s.dovs.isFree(s.actions.velocities[kActionDwBottom]));
+  const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, ActionShieldConfig{});
+  EXPECT_NE(m.level, ShieldLevel::kLatest);
+  EXPECT_FALSE(m.mask[kActionDwTop]);
+  EXPECT_TRUE(m.mask[kActionDwBottom]);
+}
+
+TEST(ActionShield, NothingSafeKeepsTheActionsThatCollideLatest) {
+  // A disc coming head-on at 1 m/s, touching distance: every velocity of the window is in its DOV.
+  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0, kPi, 1.0)});
+  bool any_free = false;
+  for (size_t i = 0; i < s.actions.valid.size(); ++i) {
+    any_free = any_free || (s.actions.valid[i] && s.dovs.isFree(s.actions.velocities[i]));
+  }
+  ASSERT_FALSE(any_free) << "the scene was meant to leave no free action";
+  const ActionShieldConfig config;
+  const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, config);
+  EXPECT_EQ(m.level, ShieldLevel::kLatest);
+  ASSERT_GT(m.numAllowed(), 0);
+  // Roll-outs of our own: every kept action collides no earlier than every dropped one (within the tolerance).
+  const LocalScene local(s.obs, RobotLimits{}.radius, DovsConfig{}.safety_factor);
+  double worst_kept = 1e9, best_dropped = -1.0;
+  for (size_t i = 0; i < m.mask.size(); ++i) {
+    if (!s.actions.valid[i]) continue;
+    const double t = std::min(rollOut(local, s.actions.velocities[i], 3.0, 0.1).collision_time_s, 3.0);
+    if (m.mask[i]) worst_kept = std::min(worst_kept, t);
+    else best_dropped = std::max(best_dropped, t);
+  }
+  EXPECT_GE(worst_kept, best_dropped - config.last_resort_tolerance_s - 1e-9);
+}
+
+TEST(ActionShield, RandomScenesKeepOnlySafeActionsAndNeverEmptyTheMask) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const RobotLimits limits;
+  int narrowed = 0, robust = 0, latest = 0;
+  for (int k = 0; k < 400; ++k) {
+    std::vector<MovingObstacle> obstacles;
+    const int n = static_cast<int>(u01(rng) * 8);
+    for (int i = 0; i < n; ++i) {
+      const double r = 0.6 + 3.0 * u01(rng), a = (u01(rng) * 2 - 1) * kPi;
+      obstacles.push_back(disc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi, u01(rng) < 0.3 ? 0.0 : u01(rng)));
+    }
+    const double v = u01(rng) * limits.v_max;
+    const double w = (u01(rng) * 2 - 1) * limits.w_max * (1 - v / limits.v_max);
+    const Scene s = scene({v, w}, {(u01(rng) * 2 - 1) * 5, (u01(rng) * 2 - 1) * 5}, obstacles);
+    const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, ActionShieldConfig{});
+    ASSERT_GT(m.numAllowed(), 0) << "scene " << k;
+    for (size_t i = 0; i < m.mask.size(); ++i) {
+      if (m.mask[i]) {
+        ASSERT_TRUE(s.actions.valid[i]) << "scene " << k << ": shield allowed the invalid action " << i;
+        if (m.level != ShieldLevel::kLatest) {
+          ASSERT_TRUE(s.dovs.isFree(s.actions.velocities[i])) << "scene " << k;
+        }
+      } else if (s.actions.valid[i] && m.level == ShieldLevel::kFree) {
+        EXPECT_FALSE(s.dovs.isFree(s.actions.velocities[i])) << "scene " << k << ": a free action was masked";
+      }
+    }
+    narrowed += m.mask != s.actions.valid ? 1 : 0;
+    robust += m.level == ShieldLevel::kRobust ? 1 : 0;
+    latest += m.level == ShieldLevel::kLatest ? 1 : 0;
+  }
+  // The scenes exercise every branch.
+  EXPECT_GT(narrowed, 20);
+  EXPECT_GT(robust, 100);
+  EXPECT_GT(latest, 0);
+}
+
+TEST(ActionShield, BadMarginsAreNamed) {
+  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {});
+  ActionShieldConfig c;
+  c.robust_dw_rps = -1.0;
+  EXPECT_NE(c.validate().find("robust_dw_rps"), std::string::npos);
+  EXPECT_THROW(shieldActions(s.actions, s.dovs, s.obs, c), DovsError);
+  c = ActionShieldConfig{};
+  c.robust_dv_mps = std::nan("");
+  EXPECT_NE(c.validate().find("robust_dv_mps"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dqn_dovs
