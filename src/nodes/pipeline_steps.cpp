@@ -2,6 +2,8 @@
 
 #include "conversions.h"
 
+#include <cmath>
+
 namespace dqn_dovs {
 
 std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
@@ -97,8 +99,15 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
     why = "dovs state has the wrong size";
     return -1;
   }
+  // An action whose velocity is NaN/inf cannot be commanded (clipping it into the feasible set would turn it
+  // into a silent stop while the planner reports itself active): it is never chosen.
   QNetwork::ActionMask mask;
-  for (size_t i = 0; i < mask.size(); ++i) mask[i] = dovs.action_valid[i];
+  int non_finite = -1;
+  for (size_t i = 0; i < mask.size(); ++i) {
+    const bool finite = std::isfinite(dovs.action_v[i]) && std::isfinite(dovs.action_w[i]);
+    if (dovs.action_valid[i] && !finite && non_finite < 0) non_finite = static_cast<int>(i);
+    mask[i] = dovs.action_valid[i] && finite;
+  }
   const Eigen::Map<const Eigen::VectorXf> state(dovs.state.data(), static_cast<Eigen::Index>(dovs.state.size()));
   int a = -1;
   try {
@@ -107,7 +116,11 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
     why = std::string("planner error: ") + e.what();
     return -1;
   }
-  if (a < 0) why = "planner error: every action is masked";
+  if (a < 0) {
+    why = non_finite < 0 ? std::string("planner error: every action is masked")
+                         : "planner error: every action is masked or has a NaN/inf velocity (action " +
+                               std::to_string(non_finite) + ")";
+  }
   return a;
 }
 

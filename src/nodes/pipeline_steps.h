@@ -44,9 +44,9 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
                           const StateNormalization& normalization, const std::string& base_frame, DovsBuilder& builder,
                           VelocitySpace& dovs, DovsStep& out);
 
-/// planner_node's choice for one Dovs message: the network's best valid action (masked by action_valid).
-/// Returns the action, or -1 with `why` naming the problem (wrong state size, every action masked, the
-/// network rejecting the state).
+/// planner_node's choice for one Dovs message: the network's best valid action (masked by action_valid; an
+/// action with a NaN/inf velocity is never chosen). Returns the action, or -1 with `why` naming the problem
+/// (wrong state size, every action masked, the network rejecting the state).
 int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why);
 
 }  // namespace dqn_dovs
