@@ -4,10 +4,11 @@ SHELL := /bin/bash
 export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
 export PYTHONNOUSERSITE := 1
 JOBS ?= 2
-BENCHES := sim tracker dovs inference training e2e eval-sdovs
+BENCHES := sim tracker dovs inference training e2e eval-sdovs eval-dqn
 
 .PHONY: all setup build test test-cpp test-python bench demo clean format help fuzz test-asan
 all: build
+.PHONY: benchmark-table performance-report
 
 help:
 	@echo "make setup   install Debian ROS 1 packages and the Python venv (idempotent)"
@@ -15,7 +16,8 @@ help:
 	@echo "make test    every test: gtest, rostest, Python, fuzz regressions + 40 s per fuzz target"
 	@echo "make fuzz    libFuzzer targets (fuzz/), FUZZ_SECONDS=600 each (make fuzz FUZZ_TARGETS=scenario for one)"
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
-	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES))"
+	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
+	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information (EPISODES=100)"
 	@echo "make demo    the ROS pipeline in simulation on shared scenarios"
 
 setup:
@@ -35,6 +37,14 @@ test-asan: setup
 
 bench: build
 	@set -e; for b in $(BENCHES); do $(MAKE) --no-print-directory bench-run-$$b; done
+	@$(MAKE) --no-print-directory performance-report
+
+# docs/performance.md from bench/results/ (what has not run is reported as not measured).
+performance-report: setup
+	@PYTHONPATH=$(CURDIR)/python MPLBACKEND=Agg .venv/bin/python -m dqn_dovs.performance_report --benches "$(BENCHES)"
+
+benchmark-table: build
+	@bash scripts/benchmark_table.sh
 
 bench-%: build
 	@$(MAKE) --no-print-directory bench-run-$*

@@ -23,6 +23,7 @@ APT_PACKAGES=(
   googletest libgtest-dev libgmock-dev
   pybind11-dev python3-pybind11 python3-dev python3-venv python3-numpy python3-yaml
   clang libclang-rt-14-dev libfuzzer-14-dev  # fuzz targets (fuzz/, make fuzz)
+  time bc  # make bench: peak memory per benchmark (GNU time), wall times
 )
 
 missing=()

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# DQN-DOVS (models/dqn_dovs.dqnw) and S-DOVS over the shared evaluation scenarios (1..15 obstacles, tracker in
+# the loop) with the evaluation CLI; writes to the JSON path $1 the flat figures of dqn_dovs (success_mean,
+# success_1..success_15, collision_mean, timeout_mean, danger_frequency), s_dovs_success_mean,
+# time_ratio_vs_sdovs (s_dovs's total time over dqn_dovs's on the episodes both solved), episodes_per_count,
+# episodes (all methods), wall_s and episodes_per_s.
+# Run from the repository root (scripts/bench.sh does): bash bench/bench_eval_dqn.sh bench/results/eval-dqn.json
+# Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), MODEL (models/dqn_dovs.dqnw).
+set -euo pipefail
+out_json="${1:-bench/results/eval-dqn.json}"
+episodes="${EPISODES:-100}"
+obstacles="${OBSTACLES:-1-15}"
+model="${MODEL:-models/dqn_dovs.dqnw}"
+exe="install/lib/dqn_dovs/dqn_dovs_eval"
+if [ ! -x "$exe" ]; then
+  exe="${DQN_DOVS_BIN_DIR:-}/dqn_dovs_eval"
+fi
+if [ ! -x "$exe" ]; then
+  echo "bench_eval_dqn: dqn_dovs_eval not found (install/lib/dqn_dovs/ or \$DQN_DOVS_BIN_DIR); run 'make build'" >&2
+  exit 2
+fi
+[ -f "$model" ] || { echo "bench_eval_dqn: model $model not found" >&2; exit 2; }
+export LD_LIBRARY_PATH="$(pwd)/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+out_dir="bench/results/eval-dqn"
+mkdir -p "$out_dir" "$(dirname "$out_json")"
+start=$(date +%s.%N)
+"$exe" --methods dqn_dovs,s_dovs --model "$model" --scenarios ../shared/scenarios/rumor --obstacles "$obstacles" \
+  --episodes "$episodes" --threads 2 --trajectories 0 --out "$out_dir/"
+end=$(date +%s.%N)
+# summary.json is flat ("method.figure": value, one per line); s_dovs.time_ratio_mean is s_dovs's time over the
+# reference's (dqn_dovs) on the episodes both solved.
+total=$(($(wc -l <"$out_dir/results.csv") - 1))
+awk -v episodes="$episodes" -v total="$total" -v wall="$(echo "$end - $start" | bc)" '
+  BEGIN { n = 0 }
+  {
+    line = $0; sub(/,[[:space:]]*$/, "", line)
+    if (match(line, /"dqn_dovs\.(success_(mean|[0-9]+)|collision_mean|timeout_mean|danger_frequency|mean_time_success_s)"/)) {
+      sub(/"dqn_dovs\./, "\"", line); items[n++] = line
+    } else if (line ~ /"s_dovs\.success_mean"/) {
+      sub(/"s_dovs\./, "\"s_dovs_", line); items[n++] = line
+    } else if (line ~ /"s_dovs\.time_ratio_mean"/) {
+      sub(/"s_dovs\.time_ratio_mean"/, "\"time_ratio_vs_sdovs\"", line); items[n++] = line
+    }
+  }
+  END {
+    print "{"
+    for (i = 0; i < n; ++i) print items[i] ","
+    printf "  \"episodes_per_count\": %d,\n  \"episodes\": %d,\n  \"wall_s\": %.1f,\n  \"episodes_per_s\": %.2f\n}\n",
+      episodes, total, wall, (wall > 0 ? total / wall : 0)
+  }' "$out_dir/summary.json" > "$out_json"
+echo "wrote $out_json"

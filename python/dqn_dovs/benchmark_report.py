@@ -1,0 +1,488 @@
+"""docs/benchmark.md from two evaluation runs (tracker in the loop, perfect information) and the paper's table.
+
+    python -m dqn_dovs.benchmark_report --tracker docs/benchmark/tracker/results.csv \
+        --perfect docs/benchmark/perfect/results.csv --paper ../shared/reference/paper_table1.csv \
+        --discussion docs/benchmark_discussion.md --run-info docs/benchmark/run_info.json \
+        --plots docs/benchmark --out docs/benchmark.md
+
+Reads the per-episode results.csv files written by dqn_dovs_eval (method, obstacles, episode, scenario,
+outcome, time_s, path_length_m, min_clearance_m, danger_steps, steps, planner_errors) and computes, per
+method and obstacle count, what the evaluation's own summary computes (src/core/eval.cpp):
+
+- success / collision / timeout rate; the mean row is the mean of the per-count rates (the paper's mean row);
+- time ratio to the reference method: the method's total time over the reference's total time on the
+  episodes both solved (episodes are matched by obstacle count and episode number);
+- danger frequency: sum of danger_steps (clearance < 0.2 m) over sum of steps;
+- mean time on success.
+
+scripts/benchmark_table.sh (make benchmark-table) runs the evaluations and then this module. The discussion
+file is hand-written and included verbatim.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+from dataclasses import dataclass, field
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402 - the backend must be chosen first
+
+REFERENCE = "dqn_dovs"
+# dqn_dovs_unshielded is an ablation of our own method, not a baseline.
+ABLATIONS = ("dqn_dovs_unshielded",)
+# Baselines that drive the differential-drive robot within its acceleration limits (orca_holonomic does not).
+KINODYNAMIC_BASELINES = ("s_dovs", "orca_diffdrive", "dwa")
+# The paper's columns that have a time ratio beside them.
+PAPER_RATIO_SUFFIX = "_time_ratio"
+STAND_COUNTS = range(5, 16)
+
+
+@dataclass
+class Record:
+    method: str
+    obstacles: int
+    episode: int
+    outcome: str
+    time_s: float
+    danger_steps: int
+    steps: int
+    min_clearance_m: float = math.nan
+
+
+@dataclass
+class Cell:
+    episodes: int = 0
+    successes: int = 0
+    collisions: int = 0
+    timeouts: int = 0
+    success_rate: float = math.nan
+    collision_rate: float = math.nan
+    timeout_rate: float = math.nan
+    mean_time_success_s: float = math.nan
+    time_ratio: float = math.nan
+    both_solved: int = 0
+    danger_frequency: float = math.nan
+
+
+@dataclass
+class Summary:
+    methods: list[str]
+    counts: list[int]
+    reference: str
+    cells: dict[tuple[str, int], Cell] = field(default_factory=dict)
+    overall: dict[str, Cell] = field(default_factory=dict)
+
+    def cell(self, method: str, n: int) -> Cell:
+        return self.cells.get((method, n), Cell())
+
+
+def read_results(path: str) -> list[Record]:
+    """The episodes of one results.csv; raises ValueError naming the file and line on a malformed row."""
+    records = []
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        need = {"method", "obstacles", "episode", "outcome", "time_s", "danger_steps", "steps"}
+        missing = need - set(reader.fieldnames or [])
+        if missing:
+            raise ValueError(f"{path}: missing columns {sorted(missing)}")
+        for line, row in enumerate(reader, start=2):
+            try:
+                records.append(Record(
+                    method=row["method"], obstacles=int(row["obstacles"]), episode=int(row["episode"]),
+                    outcome=row["outcome"], time_s=float(row["time_s"]), danger_steps=int(row["danger_steps"]),
+                    steps=int(row["steps"]),
+                    min_clearance_m=float(row["min_clearance_m"]) if row.get("min_clearance_m") else math.nan))
+            except (TypeError, ValueError) as e:
+                raise ValueError(f"{path}:{line}: {e}") from None
+    return records
+
+
+def time_ratio(mine: list[Record], reference: list[Record]) -> tuple[float, int]:
+    """Total time of `mine` over total time of `reference` on the episodes both solved, and how many those are.
+
+    Episodes are matched by (obstacles, episode); NaN when none was solved by both."""
+    ref = {(r.obstacles, r.episode): r for r in reference if r.outcome == "success"}
+    t_mine = t_ref = 0.0
+    both = 0
+    for r in mine:
+        other = ref.get((r.obstacles, r.episode))
+        if r.outcome == "success" and other is not None:
+            both += 1
+            t_mine += r.time_s
+            t_ref += other.time_s
+    return (t_mine / t_ref if both and t_ref > 0 else math.nan), both
+
+
+def danger_frequency(records: list[Record]) -> float:
+    """Sum of danger steps (clearance < 0.2 m) over sum of steps; NaN without steps."""
+    steps = sum(r.steps for r in records)
+    return sum(r.danger_steps for r in records) / steps if steps else math.nan
+
+
+def _cell(records: list[Record], reference: list[Record]) -> Cell:
+    c = Cell(episodes=len(records))
+    c.successes = sum(r.outcome == "success" for r in records)
+    c.collisions = sum(r.outcome == "collision" for r in records)
+    c.timeouts = sum(r.outcome == "timeout" for r in records)
+    if records:
+        c.success_rate = c.successes / len(records)
+        c.collision_rate = c.collisions / len(records)
+        c.timeout_rate = c.timeouts / len(records)
+    if c.successes:
+        c.mean_time_success_s = sum(r.time_s for r in records if r.outcome == "success") / c.successes
+    c.time_ratio, c.both_solved = time_ratio(records, reference)
+    c.danger_frequency = danger_frequency(records)
+    return c
+
+
+def _mean(values) -> float:
+    values = [v for v in values if not math.isnan(v)]
+    return sum(values) / len(values) if values else math.nan
+
+
+def summarize(records: list[Record], reference: str = REFERENCE) -> Summary:
+    """Per (method, count) cells and a per-method overall cell (rates: mean of the per-count rates; time
+    ratio, danger frequency and mean time on success: pooled over every episode)."""
+    methods: list[str] = []
+    for r in records:
+        if r.method not in methods:
+            methods.append(r.method)
+    if reference not in methods:
+        raise ValueError(f"reference method '{reference}' has no episodes (methods: {', '.join(methods)})")
+    counts = sorted({r.obstacles for r in records})
+    s = Summary(methods=methods, counts=counts, reference=reference)
+    by = {}
+    for r in records:
+        by.setdefault((r.method, r.obstacles), []).append(r)
+    ref_all = [r for r in records if r.method == reference]
+    for m in methods:
+        for n in counts:
+            s.cells[(m, n)] = _cell(by.get((m, n), []), by.get((reference, n), []))
+        mine = [r for r in records if r.method == m]
+        o = _cell(mine, ref_all)
+        per = [s.cells[(m, n)] for n in counts if s.cells[(m, n)].episodes]
+        o.success_rate = _mean(c.success_rate for c in per)
+        o.collision_rate = _mean(c.collision_rate for c in per)
+        o.timeout_rate = _mean(c.timeout_rate for c in per)
+        s.overall[m] = o
+    return s
+
+
+def baselines_of(summary: Summary, method: str = REFERENCE) -> list[str]:
+    return [m for m in summary.methods if m != method and m not in ABLATIONS]
+
+
+def beats_every_baseline(summary: Summary, n: int, method: str = REFERENCE,
+                         baselines: list[str] | None = None) -> tuple[bool | None, str | None, float]:
+    """Whether `method`'s success rate at `n` obstacles is strictly above every baseline's.
+
+    Returns (verdict, strongest baseline, its success rate); verdict None when `method` or every baseline has
+    no episodes at `n`."""
+    if baselines is None:
+        baselines = baselines_of(summary, method)
+    mine = summary.cell(method, n)
+    rivals = [(summary.cell(b, n).success_rate, b) for b in baselines if summary.cell(b, n).episodes]
+    if not mine.episodes or not rivals:
+        return None, None, math.nan
+    best_rate, best = max(rivals, key=lambda t: t[0])
+    return mine.success_rate > best_rate, best, best_rate
+
+
+def read_paper(path: str) -> dict[str, dict[int, float]]:
+    """Columns of paper_table1.csv (comment lines start with '#') keyed by obstacle count."""
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(line for line in f if not line.lstrip().startswith("#")))
+    cols: dict[str, dict[int, float]] = {}
+    for row in rows:
+        n = int(row["obstacles"])
+        for k, v in row.items():
+            if k != "obstacles" and v not in ("", None):
+                cols.setdefault(k, {})[n] = float(v)
+    return cols
+
+
+# ----------------------------------------------------------------------------------------------- Markdown
+
+
+def _f(x: float, digits: int = 2) -> str:
+    return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def _paper_methods(paper: dict[str, dict[int, float]]) -> list[str]:
+    return [k for k in paper if not k.endswith(PAPER_RATIO_SUFFIX)]
+
+
+def _paper_cell(paper, method: str, n: int | None) -> str:
+    col = paper.get(method, {})
+    ratio = paper.get(method + PAPER_RATIO_SUFFIX)
+    if n is None:
+        v = _mean(col.values())
+        r = _mean(ratio.values()) if ratio else None
+    else:
+        v = col.get(n, math.nan)
+        r = ratio.get(n, math.nan) if ratio else None
+    return _f(v) + (f" ({_f(r)})" if r is not None else "")
+
+
+def success_table(s: Summary, paper: dict[str, dict[int, float]] | None) -> str:
+    pm = _paper_methods(paper) if paper else []
+    header = ["N"] + s.methods + [f"paper {m}" for m in pm]
+    rows = []
+    for n in list(s.counts) + [None]:
+        row = ["mean" if n is None else str(n)]
+        for m in s.methods:
+            c = s.overall[m] if n is None else s.cell(m, n)
+            row.append(_f(c.success_rate) + ("" if m == s.reference else f" ({_f(c.time_ratio)})"))
+        for m in pm:
+            if n is not None and n not in paper[m]:
+                row.append("-")
+            else:
+                row.append(_paper_cell(paper, m, n))
+        rows.append(row)
+    return _table(header, rows)
+
+
+def metric_table(s: Summary, attr: str, digits: int = 2) -> str:
+    rows = []
+    for n in list(s.counts) + [None]:
+        row = ["mean" if n is None else str(n)]
+        for m in s.methods:
+            c = s.overall[m] if n is None else s.cell(m, n)
+            row.append(_f(getattr(c, attr), digits))
+        rows.append(row)
+    return _table(["N"] + s.methods, rows)
+
+
+def stand_list(s: Summary, counts=STAND_COUNTS, method: str = REFERENCE) -> list[str]:
+    """One line per obstacle count: does `method` beat every baseline, and every kinodynamic one?"""
+    lines = []
+    kin = [b for b in KINODYNAMIC_BASELINES if b in s.methods]
+    for n in counts:
+        if n not in s.counts:
+            lines.append(f"- N = {n}: not evaluated")
+            continue
+        verdict, best, best_rate = beats_every_baseline(s, n, method)
+        mine = s.cell(method, n).success_rate
+        if verdict is None:
+            lines.append(f"- N = {n}: no baseline evaluated")
+            continue
+        if verdict:
+            word = "**beats every baseline**"
+        elif mine == best_rate:
+            word = "does **not** beat every baseline (ties)"
+        else:
+            word = "does **not** beat every baseline"
+        text = f"- N = {n}: {method} {_f(mine)} - {word} (strongest: {best} {_f(best_rate)})"
+        if kin and set(kin) != set(baselines_of(s, method)):
+            v2, b2, r2 = beats_every_baseline(s, n, method, kin)
+            text += (f"; kinodynamic baselines ({', '.join(kin)}): "
+                     + ("beats all" if v2 else f"not all (strongest: {b2} {_f(r2)})"))
+        lines.append(text)
+    wins = sum(beats_every_baseline(s, n, method)[0] is True for n in counts if n in s.counts)
+    evaluated = sum(n in s.counts for n in counts)
+    lines.append(f"- Overall: beats every baseline at {wins} of {evaluated} obstacle counts in "
+                 f"{min(counts)}..{max(counts)}.")
+    return lines
+
+
+# ----------------------------------------------------------------------------------------------- plots
+
+
+def plot_success(s: Summary, paper, title: str, path: str) -> None:
+    fig, ax = plt.subplots(figsize=(8, 5))
+    colors = {}
+    for m in s.methods:
+        line = ax.plot(s.counts, [s.cell(m, n).success_rate for n in s.counts], marker="o", ms=3, label=m)[0]
+        colors[m] = line.get_color()
+    if paper:
+        # Dashed, in the colour of our counterpart (the paper's ORCA is CrowdNav's holonomic one).
+        for m, ours in (("dqn_dovs", "dqn_dovs"), ("s_dovs", "s_dovs"), ("orca", "orca_holonomic")):
+            if m in paper:
+                ns = sorted(paper[m])
+                ax.plot(ns, [paper[m][n] for n in ns], ls="--", marker="x", ms=4, color=colors.get(ours),
+                        label=f"paper {m}")
+    ax.set_xlabel("obstacles N")
+    ax.set_ylabel("success rate")
+    ax.set_ylim(0, 1.02)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_collision(summaries: dict[str, Summary], path: str) -> None:
+    fig, ax = plt.subplots(figsize=(8, 5))
+    styles = {"tracker": "-", "perfect": ":"}
+    colors = {}
+    for label, s in summaries.items():
+        for m in s.methods:
+            line = ax.plot(s.counts, [s.cell(m, n).collision_rate for n in s.counts], ls=styles.get(label, "-"),
+                           marker="o", ms=3, color=colors.get(m), label=f"{m} ({label})")[0]
+            colors.setdefault(m, line.get_color())
+    ax.set_xlabel("obstacles N")
+    ax.set_ylabel("collision rate")
+    ax.set_ylim(0, 1.02)
+    ax.set_title("Collision rate (solid: tracker in the loop, dotted: perfect information)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+# ----------------------------------------------------------------------------------------------- report
+
+
+def _perception_section(title: str, s: Summary, paper, plot_rel: str) -> list[str]:
+    out = [f"## {title}", ""]
+    out += ["### Success rate", "",
+            "Reached the goal and stopped on it. In brackets: total time of the method over total time of "
+            f"`{s.reference}` on the episodes both solved (the paper's ratio). The `paper` columns are the "
+            "paper's Table 1 (its own simulator and baselines); `mean` averages the per-N rates.", "",
+            success_table(s, paper), "", f"![Success rate vs N]({plot_rel})", ""]
+    out += ["### Collision rate", "", "Episodes ending in contact with an obstacle or a wall.", "",
+            metric_table(s, "collision_rate"), ""]
+    out += ["### Timeout rate", "", "Episodes still running after 500 steps (100 s).", "",
+            metric_table(s, "timeout_rate"), ""]
+    out += ["### Danger frequency", "",
+            "Fraction of steps ending with clearance below 0.2 m (sum of danger steps over sum of steps, "
+            "all episodes).", "", metric_table(s, "danger_frequency", 3), ""]
+    out += ["### Mean time on success (s)", "", metric_table(s, "mean_time_success_s", 1), ""]
+    return out
+
+
+def machine_info() -> dict:
+    cpu = "unknown"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {"nproc": os.cpu_count(), "cpu_model": cpu}
+
+
+def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: dict, discussion: str | None,
+           plots: dict[str, str]) -> str:
+    out = ["# Benchmark: DQN-DOVS and the baselines on the shared scenarios", "",
+           "Generated by `make benchmark-table` (scripts/benchmark_table.sh, python/dqn_dovs/benchmark_report.py); "
+           "do not edit by hand except `docs/benchmark_discussion.md`, included below.", ""]
+    out += ["## How this was produced", ""]
+    if run_info:
+        out.append(f"- Date: {run_info.get('date', 'not recorded')}; commit `{run_info.get('commit', '?')}`; "
+                   f"model `{run_info.get('model', '?')}` (sha256 `{run_info.get('model_sha256', '?')[:16]}`)")
+        out.append(f"- Machine: {run_info.get('nproc', '?')} CPU(s) (`nproc`), {run_info.get('cpu_model', '?')}")
+        for key, label in (("tracker", "Tracker in the loop"), ("perfect", "Perfect information")):
+            r = run_info.get(key)
+            if r:
+                out.append(f"- {label}: `{r.get('command', '?')}`; wall time {_f(r.get('wall_s', math.nan), 1)} s")
+        if "total_wall_s" in run_info:
+            out.append(f"- Total wall time of `make benchmark-table`'s evaluations: "
+                       f"{_f(run_info['total_wall_s'], 1)} s")
+    else:
+        m = machine_info()
+        out.append(f"- Run information not recorded (no run_info.json); this machine: {m['nproc']} CPU(s), "
+                   f"{m['cpu_model']}")
+    out.append("- Regenerate: `make benchmark-table` (EPISODES=K for a shorter run)")
+    out.append("")
+    s0 = tracker or perfect
+    if s0 is not None:
+        eps = sorted({c.episodes for c in s0.cells.values() if c.episodes})
+        out += [f"Methods: {', '.join(f'`{m}`' for m in s0.methods)}; obstacle counts "
+                f"{min(s0.counts)}..{max(s0.counts)}; {', '.join(map(str, eps))} episode(s) per count and method; "
+                "the same episodes for every method. Step 0.2 s, 500-step limit (docs/planners.md for the planners).",
+                ""]
+    out += ["## Where we stand", "",
+            "Computed from the tables below: for each N, whether `dqn_dovs`'s success rate is strictly above every "
+            f"baseline's ({', '.join(baselines_of(s0)) if s0 else '-'}; `dqn_dovs_unshielded` is our ablation, not a "
+            "baseline).", ""]
+    for label, s in (("Tracker in the loop", tracker), ("Perfect information", perfect)):
+        if s is None:
+            continue
+        out += [f"**{label}**", ""] + stand_list(s) + [""]
+    if tracker is not None:
+        out += _perception_section("Tracker in the loop (LIDAR + obstacle tracker)", tracker, paper,
+                                   plots.get("tracker", ""))
+    else:
+        out += ["## Tracker in the loop", "", "Not run (no results.csv).", ""]
+    if perfect is not None:
+        out += _perception_section("Perfect information (simulator ground truth)", perfect, paper,
+                                   plots.get("perfect", ""))
+    else:
+        out += ["## Perfect information", "", "Not run (no results.csv).", ""]
+    if "collision" in plots:
+        out += ["## Collision rate vs N", "", f"![Collision rate vs N]({plots['collision']})", ""]
+    out += ["## Discussion", ""]
+    out += [discussion.rstrip("\n"), ""] if discussion else ["(docs/benchmark_discussion.md is missing.)", ""]
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--tracker", default="docs/benchmark/tracker/results.csv")
+    p.add_argument("--perfect", default="docs/benchmark/perfect/results.csv")
+    p.add_argument("--paper", default="../shared/reference/paper_table1.csv")
+    p.add_argument("--discussion", default="docs/benchmark_discussion.md")
+    p.add_argument("--run-info", default="docs/benchmark/run_info.json")
+    p.add_argument("--plots", default="docs/benchmark", help="folder of the PNGs")
+    p.add_argument("--out", default="docs/benchmark.md")
+    a = p.parse_args(argv)
+
+    summaries = {}
+    for key, path in (("tracker", a.tracker), ("perfect", a.perfect)):
+        if path and os.path.exists(path):
+            summaries[key] = summarize(read_results(path))
+        else:
+            print(f"benchmark_report: {path} does not exist; that section says 'not run'", file=sys.stderr)
+    if not summaries:
+        print("benchmark_report: no results.csv to report", file=sys.stderr)
+        return 1
+    paper = read_paper(a.paper) if a.paper and os.path.exists(a.paper) else None
+    run_info = {}
+    if a.run_info and os.path.exists(a.run_info):
+        with open(a.run_info) as f:
+            run_info = json.load(f)
+    discussion = None
+    if a.discussion and os.path.exists(a.discussion):
+        with open(a.discussion) as f:
+            discussion = f.read()
+
+    os.makedirs(a.plots, exist_ok=True)
+    out_dir = os.path.dirname(os.path.abspath(a.out))
+    plots = {}
+    titles = {"tracker": "Success rate, tracker in the loop (ours) vs paper",
+              "perfect": "Success rate, perfect information (ours) vs paper"}
+    for key, s in summaries.items():
+        path = os.path.join(a.plots, f"success_vs_n_{key}.png")
+        plot_success(s, paper, titles[key], path)
+        plots[key] = os.path.relpath(path, out_dir)
+    path = os.path.join(a.plots, "collision_vs_n.png")
+    plot_collision(summaries, path)
+    plots["collision"] = os.path.relpath(path, out_dir)
+
+    text = render(summaries.get("tracker"), summaries.get("perfect"), paper, run_info, discussion, plots)
+    with open(a.out, "w") as f:
+        f.write(text)
+    print(f"wrote {a.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

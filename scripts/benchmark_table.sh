@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# Regenerates docs/benchmark.md: every method on the shared scenarios with the evaluation CLI, once with the
+# LIDAR + tracker in the loop (docs/benchmark/tracker/) and once with perfect information
+# (docs/benchmark/perfect/), then python/dqn_dovs/benchmark_report.py writes the tables, plots and verdicts.
+# Run from anywhere (make benchmark-table does). About 15-25 min on 2 cores with the defaults.
+# Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
+# METHODS (all six), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md),
+# OUT_DIR (docs/benchmark).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+export PYTHONNOUSERSITE=1
+root="$(pwd)"
+episodes="${EPISODES:-100}"
+obstacles="${OBSTACLES:-1-15}"
+threads="${THREADS:-2}"
+model="${MODEL:-models/dqn_dovs.dqnw}"
+methods="${METHODS:-dqn_dovs,dqn_dovs_unshielded,s_dovs,orca_holonomic,orca_diffdrive,dwa}"
+scenarios="../shared/scenarios/rumor"
+exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
+out_doc="${OUT_DOC:-docs/benchmark.md}"
+out_dir="${OUT_DIR:-docs/benchmark}"
+# The installed tools find the core library through the install tree.
+export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+
+[ -x "$exe" ] || { echo "benchmark_table: $exe not found; run 'make build' (or set DQN_DOVS_EVAL)" >&2; exit 2; }
+[ -f "$model" ] || { echo "benchmark_table: model $model not found" >&2; exit 2; }
+[ -d "$scenarios" ] || { echo "benchmark_table: scenarios $scenarios not found" >&2; exit 2; }
+[ -x .venv/bin/python ] || { echo "benchmark_table: .venv missing; run 'make setup'" >&2; exit 2; }
+
+mkdir -p "$out_dir"
+declare -A wall cmd
+total_start=$(date +%s.%N)
+for perception in tracker perfect; do
+  dir="$out_dir/$perception"
+  rm -rf "$dir"
+  mkdir -p "$dir"
+  args=(--methods "$methods" --scenarios "$scenarios" --obstacles "$obstacles" --episodes "$episodes"
+        --threads "$threads" --model "$model" --trajectories 1 --out "$dir/")
+  [ "$perception" = perfect ] && args+=(--perfect-info)
+  cmd[$perception]="dqn_dovs_eval ${args[*]}"
+  echo "=== benchmark-table: $perception (${cmd[$perception]})"
+  start=$(date +%s.%N)
+  "$exe" "${args[@]}" >"$dir/eval.log" 2>&1 || { echo "benchmark_table: evaluation failed; see $dir/eval.log" >&2; tail -20 "$dir/eval.log" >&2; exit 1; }
+  end=$(date +%s.%N)
+  wall[$perception]=$(echo "$end - $start" | bc)
+  tail -n 1 "$dir/eval.log"
+  rm -f "$dir/eval.log"  # one progress line per episode; summary.md holds the figures
+  # One trajectory picture is kept (dqn_dovs's); the others only make the folder heavy.
+  find "$dir" -name 'trajectories_*.png' ! -name 'trajectories_dqn_dovs_n*' -delete
+done
+total_end=$(date +%s.%N)
+
+model_sha=$(sha256sum "$model" | cut -d' ' -f1)
+commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+dirty=$(git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo "+local changes" || true)
+WALL_TRACKER="${wall[tracker]}" WALL_PERFECT="${wall[perfect]}" CMD_TRACKER="${cmd[tracker]}" \
+CMD_PERFECT="${cmd[perfect]}" TOTAL_WALL="$(echo "$total_end - $total_start" | bc)" MODEL_PATH="$model" \
+MODEL_SHA="$model_sha" COMMIT="$commit$dirty" .venv/bin/python - "$out_dir/run_info.json" <<'PY'
+import json, os, sys, datetime
+cpu = "unknown"
+with open("/proc/cpuinfo") as f:
+    for line in f:
+        if line.startswith("model name"):
+            cpu = line.split(":", 1)[1].strip()
+            break
+e = os.environ
+info = {
+    "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+    "commit": e["COMMIT"], "model": e["MODEL_PATH"], "model_sha256": e["MODEL_SHA"],
+    "nproc": os.cpu_count(), "cpu_model": cpu,
+    "tracker": {"command": e["CMD_TRACKER"], "wall_s": float(e["WALL_TRACKER"])},
+    "perfect": {"command": e["CMD_PERFECT"], "wall_s": float(e["WALL_PERFECT"])},
+    "total_wall_s": float(e["TOTAL_WALL"]),
+}
+with open(sys.argv[1], "w") as f:
+    json.dump(info, f, indent=2)
+    f.write("\n")
+PY
+
+MPLBACKEND=Agg PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs.benchmark_report \
+  --tracker "$out_dir/tracker/results.csv" --perfect "$out_dir/perfect/results.csv" \
+  --paper ../shared/reference/paper_table1.csv --discussion docs/benchmark_discussion.md \
+  --run-info "$out_dir/run_info.json" --plots "$out_dir" --out "$out_doc"

@@ -1,0 +1,178 @@
+"""docs/benchmark.md generator: time ratios on both-solved episodes only, danger frequency, mean rows, the
+beats-every-baseline verdict, the paper table reader and the report end to end on a synthetic results.csv."""
+
+import csv
+import math
+import os
+
+import pytest
+
+from dqn_dovs import benchmark_report as br
+
+HEADER = ["method", "obstacles", "episode", "scenario", "outcome", "time_s", "path_length_m", "min_clearance_m",
+          "danger_steps", "steps", "planner_errors"]
+
+
+def write_results(path, rows):
+    """rows: (method, obstacles, episode, outcome, time_s, danger_steps, steps)."""
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(HEADER)
+        for m, n, k, outcome, t, danger, steps in rows:
+            w.writerow([m, n, k, f"1-{n}/{k}", outcome, t, 5.0, 0.5, danger, steps, 0])
+    return path
+
+
+# Two obstacle counts, two episodes each. dqn_dovs solves (5,1), (5,2), (6,1); s_dovs solves (5,1), (6,1), (6,2).
+ROWS = [
+    ("dqn_dovs", 5, 1, "success", 10.0, 1, 50),
+    ("dqn_dovs", 5, 2, "success", 20.0, 0, 100),
+    ("dqn_dovs", 6, 1, "success", 10.0, 4, 50),
+    ("dqn_dovs", 6, 2, "collision", 3.0, 5, 15),
+    ("s_dovs", 5, 1, "success", 15.0, 0, 75),
+    ("s_dovs", 5, 2, "timeout", 100.0, 10, 500),
+    ("s_dovs", 6, 1, "success", 12.0, 2, 60),
+    ("s_dovs", 6, 2, "success", 50.0, 0, 250),   # not solved by dqn_dovs: must not enter the ratio
+    ("dwa", 5, 1, "collision", 2.0, 3, 10),
+    ("dwa", 5, 2, "collision", 2.0, 3, 10),
+    ("dwa", 6, 1, "success", 10.0, 0, 50),
+    ("dwa", 6, 2, "success", 10.0, 0, 50),
+    ("dqn_dovs_unshielded", 5, 1, "success", 10.0, 0, 50),
+    ("dqn_dovs_unshielded", 5, 2, "success", 20.0, 0, 100),
+    ("dqn_dovs_unshielded", 6, 1, "success", 10.0, 0, 50),
+    ("dqn_dovs_unshielded", 6, 2, "success", 10.0, 0, 50),
+]
+
+
+@pytest.fixture
+def records(tmp_path):
+    return br.read_results(write_results(tmp_path / "results.csv", ROWS))
+
+
+def test_time_ratio_uses_only_episodes_both_solved(records):
+    s = br.summarize(records)
+    # N = 5: only episode 1 is solved by both: 15 / 10.
+    assert s.cell("s_dovs", 5).time_ratio == pytest.approx(1.5)
+    assert s.cell("s_dovs", 5).both_solved == 1
+    # N = 6: only episode 1 (s_dovs's episode 2 is not solved by dqn_dovs): 12 / 10.
+    assert s.cell("s_dovs", 6).time_ratio == pytest.approx(1.2)
+    # Overall pools every both-solved episode: (15 + 12) / (10 + 10).
+    assert s.overall["s_dovs"].time_ratio == pytest.approx(27 / 20)
+    assert s.overall["s_dovs"].both_solved == 2
+    # dwa solves nothing at N = 5: no ratio there.
+    assert math.isnan(s.cell("dwa", 5).time_ratio)
+    assert s.cell("dwa", 6).time_ratio == pytest.approx(10 / 10)
+    # The reference against itself.
+    assert s.cell("dqn_dovs", 5).time_ratio == pytest.approx(1.0)
+
+
+def test_time_ratio_matches_episodes_by_count_and_number():
+    mk = lambda n, k, outcome, t: br.Record("m", n, k, outcome, t, 0, 1)  # noqa: E731
+    mine = [mk(5, 1, "success", 30.0), mk(6, 1, "success", 40.0)]
+    ref = [mk(5, 1, "success", 10.0), mk(6, 2, "success", 1.0)]
+    ratio, both = br.time_ratio(mine, ref)
+    assert both == 1 and ratio == pytest.approx(3.0)
+    ratio, both = br.time_ratio(mine, [])
+    assert both == 0 and math.isnan(ratio)
+
+
+def test_danger_frequency_is_danger_steps_over_steps(records):
+    s = br.summarize(records)
+    assert s.cell("dqn_dovs", 5).danger_frequency == pytest.approx(1 / 150)
+    assert s.cell("dqn_dovs", 6).danger_frequency == pytest.approx(9 / 65)
+    # Pooled over episodes, not a mean of ratios.
+    assert s.overall["dqn_dovs"].danger_frequency == pytest.approx(10 / 215)
+    assert s.overall["s_dovs"].danger_frequency == pytest.approx(12 / 885)
+    assert math.isnan(br.danger_frequency([]))
+
+
+def test_rates_and_mean_row(records):
+    s = br.summarize(records)
+    c = s.cell("s_dovs", 5)
+    assert (c.success_rate, c.collision_rate, c.timeout_rate) == (0.5, 0.0, 0.5)
+    assert s.cell("dqn_dovs", 6).collision_rate == 0.5
+    # The mean row averages the per-count rates.
+    assert s.overall["dqn_dovs"].success_rate == pytest.approx((1.0 + 0.5) / 2)
+    assert s.overall["dwa"].collision_rate == pytest.approx((1.0 + 0.0) / 2)
+    assert s.cell("dqn_dovs", 5).mean_time_success_s == pytest.approx(15.0)
+    assert math.isnan(s.cell("dwa", 5).mean_time_success_s)
+    assert s.methods[0] == "dqn_dovs" and s.counts == [5, 6]
+
+
+def test_beats_every_baseline_verdict(records):
+    s = br.summarize(records)
+    # N = 5: dqn_dovs 1.0, s_dovs 0.5, dwa 0.0; the unshielded ablation (1.0) is not a baseline.
+    assert br.baselines_of(s) == ["s_dovs", "dwa"]
+    verdict, best, rate = br.beats_every_baseline(s, 5)
+    assert verdict is True and best == "s_dovs" and rate == 0.5
+    # N = 6: dqn_dovs 0.5, s_dovs 1.0, dwa 1.0.
+    verdict, best, rate = br.beats_every_baseline(s, 6)
+    assert verdict is False and rate == 1.0
+    # A tie is not a win.
+    verdict, _, _ = br.beats_every_baseline(s, 5, baselines=["dqn_dovs_unshielded"])
+    assert verdict is False
+    # Not evaluated.
+    assert br.beats_every_baseline(s, 9)[0] is None
+    lines = br.stand_list(s, counts=range(5, 8))
+    assert "N = 5" in lines[0] and "**beats every baseline**" in lines[0]
+    assert "N = 6" in lines[1] and "does **not**" in lines[1]
+    assert "N = 7: not evaluated" in lines[2]
+    assert "1 of 2" in lines[-1]
+
+
+def test_reference_must_be_present(tmp_path):
+    recs = br.read_results(write_results(tmp_path / "r.csv", [r for r in ROWS if r[0] != "dqn_dovs"]))
+    with pytest.raises(ValueError, match="dqn_dovs"):
+        br.summarize(recs)
+
+
+def test_malformed_row_names_file_and_line(tmp_path):
+    path = write_results(tmp_path / "bad.csv", ROWS[:2])
+    with open(path, "a") as f:
+        f.write("dqn_dovs,x,1,1-5/1,success,1,1,1,0,1,0\n")
+    with pytest.raises(ValueError, match=r"bad\.csv:4"):
+        br.read_results(path)
+
+
+def test_read_paper_skips_comments(tmp_path):
+    p = tmp_path / "paper.csv"
+    p.write_text("# comment, with a comma\nobstacles,dqn_dovs,s_dovs,s_dovs_time_ratio,orca\n"
+                 "5,0.82,0.73,1.07,0.76\n6,0.80,0.71,1.06,0.65\n")
+    paper = br.read_paper(str(p))
+    assert paper["dqn_dovs"] == {5: 0.82, 6: 0.80}
+    assert paper["s_dovs_time_ratio"][6] == 1.06
+    table = br.success_table(br.summarize([br.Record("dqn_dovs", 5, 1, "success", 1.0, 0, 1)]), paper)
+    assert "paper s_dovs" in table and "0.73 (1.07)" in table and "paper s_dovs_time_ratio" not in table
+
+
+def test_report_end_to_end(tmp_path):
+    tracker = write_results(tmp_path / "tracker.csv", ROWS)
+    perfect = write_results(tmp_path / "perfect.csv", [r[:3] + ("success",) + r[4:] for r in ROWS])
+    paper = tmp_path / "paper.csv"
+    paper.write_text("obstacles,dqn_dovs,s_dovs,s_dovs_time_ratio,orca\n5,0.82,0.73,1.07,0.76\n"
+                     "6,0.80,0.71,1.06,0.65\n")
+    discussion = tmp_path / "discussion.md"
+    discussion.write_text("Hand-written *prose*, kept verbatim.\n\n- a point\n")
+    out = tmp_path / "docs" / "benchmark.md"
+    plots = tmp_path / "docs" / "benchmark"
+    rc = br.main(["--tracker", str(tracker), "--perfect", str(perfect), "--paper", str(paper),
+                  "--discussion", str(discussion), "--run-info", str(tmp_path / "missing.json"),
+                  "--plots", str(plots), "--out", str(out)])
+    assert rc == 0
+    text = out.read_text()
+    assert "Hand-written *prose*, kept verbatim.\n\n- a point\n" in text
+    assert "## Where we stand" in text and "**Perfect information**" in text
+    assert "| 5 | 1.00 | 0.50 (1.50) | 0.00 (-) | 1.00 (1.00) | 0.82 | 0.73 (1.07) | 0.76 |" in text
+    for png in ("success_vs_n_tracker.png", "success_vs_n_perfect.png", "collision_vs_n.png"):
+        assert os.path.getsize(plots / png) > 1000
+        assert f"(benchmark/{png})" in text
+    assert "not recorded" in text
+
+
+def test_report_without_perfect_run(tmp_path):
+    tracker = write_results(tmp_path / "tracker.csv", ROWS)
+    out = tmp_path / "benchmark.md"
+    rc = br.main(["--tracker", str(tracker), "--perfect", str(tmp_path / "none.csv"), "--paper", "",
+                  "--discussion", "", "--run-info", "", "--plots", str(tmp_path), "--out", str(out)])
+    assert rc == 0
+    assert "## Perfect information\n\nNot run" in out.read_text()
