@@ -44,7 +44,7 @@ def test_figures_rss_and_throughput(tmp_path):
     text = out.read_text()
     assert "| world steps per second (one 720-beam scan per step, 15 obstacles) | 18,980 1/s | `make bench-sim` |" \
         in text
-    assert "| Q-network decision (qValues + masked argmax) | p99 | 70.2 us | `make bench-inference` |" in text
+    assert "| Q-network decision, qValues + masked argmax (wall clock) | p99 | 70.2 us | `make bench-inference` |" in text
     assert "| sim | 51.4 MiB | `make bench-sim` |" in text
     assert "| inference | 2.0 MiB | `make bench-inference` |" in text
     assert "| tracker | not measured | `make bench-tracker` |" in text
