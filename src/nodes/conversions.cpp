@@ -26,6 +26,15 @@ std::string laserScanFromMsg(const sensor_msgs::LaserScan& msg, LaserScan2& out,
         << " rad: more than one turn";
     return why.str();
   }
+  // The angles must describe the ranges: angle_max = angle_min + (n - 1) angle_increment, give or take a beam
+  // (drivers differ on whether angle_max is the last beam's angle or one increment past it).
+  const double described = (static_cast<double>(msg.angle_max) - msg.angle_min) / msg.angle_increment + 1.0;
+  if (!(std::abs(described - static_cast<double>(msg.ranges.size())) <= 1.01)) {
+    why << "scan has " << msg.ranges.size() << " ranges but its angles (angle_min " << msg.angle_min
+        << ", angle_max " << msg.angle_max << ", angle_increment " << msg.angle_increment << ") describe "
+        << described << " beams";
+    return why.str();
+  }
   out.stamp_s = msg.header.stamp.toSec();
   out.angle_min = msg.angle_min;
   out.angle_increment = msg.angle_increment;

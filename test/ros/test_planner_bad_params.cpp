@@ -1,13 +1,16 @@
 // Starts the real planner_node executable with bad parameters (against the rostest master) and checks that
-// it exits non-zero at start with a message naming the culprit: a model path that does not exist, no model,
-// a corrupt model file, parameters out of range. A run with good parameters must keep running (so the
-// harness can tell a refusal from a node that never starts).
+// it fails fast at start (exit code 1, well before the harness's timeout) with a FATAL message naming the
+// culprit: a model path that does not exist, is a directory or is unset, a corrupt model file, parameters out
+// of range. The other nodes (dovs_node, obstacle_tracker_node, simulator_node) refuse out-of-range parameters
+// the same way. A run with good parameters must keep running (so the harness can tell a refusal from a node
+// that never starts).
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -17,30 +20,50 @@ namespace {
 struct NodeRun {
   int exit_code = -1;  // the node's; 124: still running when `timeout` stopped it
   std::string output;  // stdout and stderr
+  double seconds = 0.0;
 };
 
-/// planner_node sits next to this test executable (catkin's devel lib folder).
-std::string plannerExecutable() {
+/// The nodes sit next to this test executable (catkin's devel lib folder).
+std::string nodeExecutable(const std::string& name) {
   std::array<char, 4096> buf{};
   const ssize_t n = readlink("/proc/self/exe", buf.data(), buf.size() - 1);
   std::string self = n > 0 ? std::string(buf.data(), static_cast<size_t>(n)) : std::string();
-  return self.substr(0, self.rfind('/') + 1) + "planner_node";
+  return self.substr(0, self.rfind('/') + 1) + name;
 }
+std::string plannerExecutable() { return nodeExecutable("planner_node"); }
 
 std::string modelPath() { return std::string(DQN_DOVS_SOURCE_DIR) + "/models/dqn_dovs.dqnw"; }
 
-NodeRun runPlanner(const std::string& name, const std::string& args, double run_s = 15.0) {
-  const std::string cmd = "timeout " + std::to_string(run_s) + " " + plannerExecutable() + " __name:=" + name + " " +
+NodeRun runNode(const std::string& exe, const std::string& name, const std::string& args, double run_s = 15.0) {
+  const std::string cmd = "timeout " + std::to_string(run_s) + " " + nodeExecutable(exe) + " __name:=" + name + " " +
                           args + " 2>&1; echo \"EXIT=$?\"";
   NodeRun r;
+  const auto t0 = std::chrono::steady_clock::now();
   FILE* pipe = popen(cmd.c_str(), "r");
   if (!pipe) return r;
   std::array<char, 1024> line{};
   while (fgets(line.data(), static_cast<int>(line.size()), pipe)) r.output += line.data();
   pclose(pipe);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const size_t at = r.output.rfind("EXIT=");
   if (at != std::string::npos) r.exit_code = std::stoi(r.output.substr(at + 5));
   return r;
+}
+
+NodeRun runPlanner(const std::string& name, const std::string& args, double run_s = 15.0) {
+  return runNode("planner_node", name, args, run_s);
+}
+
+/// A refusal to start: exit code 1, within a few seconds (not the harness's timeout), with a FATAL line that
+/// names `culprit`.
+void expectFatal(const NodeRun& r, const std::string& culprit, const std::string& what) {
+  EXPECT_EQ(r.exit_code, 1) << what << ":\n" << r.output;
+  EXPECT_LT(r.seconds, 10.0) << what << ": the node must fail fast";
+  const size_t fatal = r.output.find("FATAL");
+  ASSERT_NE(fatal, std::string::npos) << what << ": no FATAL message:\n" << r.output;
+  const size_t line_end = r.output.find('\n', fatal);
+  const std::string line = r.output.substr(fatal, line_end == std::string::npos ? std::string::npos : line_end - fatal);
+  EXPECT_NE(line.find(culprit), std::string::npos) << what << ": the FATAL line does not name '" << culprit << "': " << line;
 }
 
 TEST(PlannerBadParams, GoodParametersKeepTheNodeRunning) {
@@ -91,6 +114,50 @@ TEST(PlannerBadParams, OutOfRangeParametersAreNamed) {
     EXPECT_NE(r.exit_code, 0) << arg;
     EXPECT_NE(r.exit_code, 124) << arg;
     EXPECT_NE(r.output.find(name), std::string::npos) << "the message does not name '" << name << "':\n" << r.output;
+  }
+}
+
+// The same refusals, held to the stricter form: exit code 1, fast, the FATAL line itself naming the culprit.
+TEST(PlannerBadParams, WrongModelPathAtStartIsFatalAndNamed) {
+  const std::string missing = "/nonexistent_dir/no_such_model.dqnw";
+  expectFatal(runPlanner("planner_fatal_missing", "_model_path:=" + missing), missing, "missing model");
+  expectFatal(runPlanner("planner_fatal_dir", "_model_path:=/tmp"), "/tmp", "model path is a directory");
+  expectFatal(runPlanner("planner_fatal_unset", ""), "model_path", "unset model path");
+}
+
+TEST(PlannerBadParams, OutOfRangeParametersAreFatalAndNamed) {
+  const std::array<std::pair<const char*, const char*>, 7> cases = {{
+      {"max_input_age", "_max_input_age:=10.0"},
+      {"ramp_rate", "_ramp_rate:=5.0"},
+      {"goal_speed", "_goal_speed:=3.0"},
+      {"tf_timeout", "_tf_timeout:=-0.1"},
+      {"scan_max_nan_fraction", "_scan_max_nan_fraction:=1.5"},
+      {"deadline_fraction", "_deadline_fraction:=0.0"},
+      {"a_v", "_robot/a_v:=0.0"},
+  }};
+  int k = 0;
+  for (const auto& [name, arg] : cases) {
+    expectFatal(runPlanner("planner_fatal_param_" + std::to_string(k++), "_model_path:=" + modelPath() + " " + arg),
+                name, arg);
+  }
+}
+
+TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
+  struct Case {
+    const char *exe, *culprit, *args;
+  };
+  const std::array<Case, 5> cases = {{
+      {"dovs_node", "max_input_age", "_max_input_age:=0.0"},
+      {"dovs_node", "v_max", "_robot/v_max:=-1.0"},
+      {"obstacle_tracker_node", "tf_timeout", "_tf_timeout:=9.0"},
+      {"simulator_node", "period", "_period:=0.0"},
+      {"simulator_node", "realtime_factor", "_realtime_factor:=-1.0"},
+  }};
+  int k = 0;
+  for (const Case& c : cases) {
+    ASSERT_EQ(access(nodeExecutable(c.exe).c_str(), X_OK), 0) << "no executable " << nodeExecutable(c.exe);
+    expectFatal(runNode(c.exe, std::string("bad_param_node_") + std::to_string(k++), c.args), c.culprit,
+                std::string(c.exe) + " " + c.args);
   }
 }
 

@@ -149,7 +149,13 @@ class FakeRobot {
         t.transform.translation.y = p.y;
         t.transform.rotation.z = std::sin(p.theta / 2.0);
         t.transform.rotation.w = std::cos(p.theta / 2.0);
-        tf_.sendTransform(t);
+        // The laser sits on the base (its scans must be placeable in the fixed frame, or they are rejected).
+        geometry_msgs::TransformStamped laser;
+        laser.header.stamp = now;
+        laser.header.frame_id = "base_footprint";
+        laser.child_frame_id = "laser";
+        laser.transform.rotation.w = 1.0;
+        tf_.sendTransform({t, laser});
         std::lock_guard<std::mutex> l(mutex_);
         last_tf_stamp_ = now;
       }
