@@ -5,8 +5,9 @@ export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
 export PYTHONNOUSERSITE := 1
 JOBS ?= 2
 BENCHES := sim tracker dovs inference training e2e eval-sdovs eval-dqn
+SOAK_SECONDS ?= 3600
 
-.PHONY: all setup build test test-cpp test-python bench demo clean format help fuzz test-asan
+.PHONY: all setup build test test-cpp test-python bench demo clean format help soak fuzz test-asan
 all: build
 .PHONY: benchmark-table performance-report
 
@@ -19,6 +20,7 @@ help:
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
 	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information (EPISODES=100)"
 	@echo "make demo    the ROS pipeline in simulation on shared scenarios"
+	@echo "make soak    the full pipeline in real time over random scenarios for SOAK_SECONDS (3600) s: crashes, RSS, deadlines"
 
 setup:
 	@bash scripts/setup.sh
@@ -54,6 +56,9 @@ bench-run-%:
 
 demo: build
 	@bash scripts/demo.sh
+
+soak: build
+	@SOAK_SECONDS=$(SOAK_SECONDS) bash scripts/soak.sh
 
 format:
 	@find include src test bench tools -name '*.cpp' -o -name '*.h' | xargs clang-format -i
