@@ -65,7 +65,7 @@ struct LayerRecord {
   /// [out_channels] or [out_features]. Empty for relu.
   std::vector<float> bias;
 
-  /// Number of weight elements the declared shape needs (0 for relu).
+  /// Number of weight elements the declared shape needs (0 for relu; UINT64_MAX when it does not fit 64 bits).
   std::uint64_t weightCount() const;
   /// Number of bias elements the declared shape needs (0 for relu).
   std::uint64_t biasCount() const;

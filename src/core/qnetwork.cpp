@@ -12,6 +12,12 @@ namespace {
 
 using AlignedFloats = std::vector<float, Eigen::aligned_allocator<float>>;
 
+// Largest activation (or im2col matrix) of one layer, and largest scratch buffer of a loaded network, in floats
+// (16 and 64 MiB): far above the real network (a few thousand floats), low enough that every size and offset
+// fits an int and that a corrupt shape cannot make each thread allocate gigabytes.
+constexpr std::int64_t kMaxActivation = std::int64_t{1} << 22;
+constexpr std::int64_t kMaxScratch = std::int64_t{1} << 24;
+
 // Keeps every scratch region on its own cache line.
 int roundUp16(int n) { return (n + 15) / 16 * 16; }
 
@@ -249,10 +255,22 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
              << padded_w;
           fail(layerName(p.index, l) + " shape", os.str());
         }
+        // Sizes in 64 bits, bounded before they become ints: padding alone can make an output far larger than
+        // the file (a 1x1 kernel with 65536 padding is 131092 x 131092 pixels per channel).
+        const std::int64_t out_h = (padded_h - l.kernel_h) / l.stride_h + 1;
+        const std::int64_t out_w = (padded_w - l.kernel_w) / l.stride_w + 1;
+        const std::int64_t pixels = out_h * out_w;
+        const std::int64_t taps = std::int64_t{l.in_channels} * l.kernel_h * l.kernel_w;
+        if (std::int64_t{l.out_channels} * pixels > kMaxActivation || taps > kMaxActivation / pixels) {
+          std::ostringstream os;
+          os << "output " << l.out_channels << " x " << out_h << " x " << out_w << " with " << taps
+             << " kernel taps per pixel exceeds the " << kMaxActivation << "-value limit of one activation";
+          fail(layerName(p.index, l) + " shape", os.str());
+        }
         ch = static_cast<int>(l.out_channels);
-        h = static_cast<int>((padded_h - l.kernel_h) / l.stride_h + 1);
-        w = static_cast<int>((padded_w - l.kernel_w) / l.stride_w + 1);
-        max_col = std::max(max_col, static_cast<int>(l.in_channels * l.kernel_h * l.kernel_w) * h * w);
+        h = static_cast<int>(out_h);
+        w = static_cast<int>(out_w);
+        max_col = std::max(max_col, static_cast<int>(taps * pixels));
       }
       p.out_c = ch;
       p.out_h = h;
@@ -279,8 +297,11 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   net.metadata_ = c.metadata;
   net.normalization_ = c.normalization;
   int cursor = 0;
-  auto alloc = [&cursor](int n) {
+  auto alloc = [&cursor, &fail](int n) {
     const int at = cursor;
+    if (std::int64_t{cursor} + roundUp16(n) > kMaxScratch) {
+      fail("layers", "the activations need more than the " + std::to_string(kMaxScratch) + "-float scratch limit");
+    }
     cursor += roundUp16(n);
     return at;
   };

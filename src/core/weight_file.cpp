@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <sstream>
 
 namespace dqn_dovs {
@@ -93,7 +94,12 @@ class ByteReader {
     return v;
   }
   std::vector<float> f32s(std::uint64_t count, const std::string& field) {
-    need(count * sizeof(float), field);
+    if (count > (end_ - pos_) / sizeof(float)) {  // count * 4 may not fit 64 bits
+      std::ostringstream os;
+      os << "truncated: needs " << count << " floats at offset " << pos_ << " but only " << (end_ - pos_)
+         << " bytes remain before the checksum (file size " << bytes_.size() << ")";
+      throw WeightFileError(path_, field, os.str());
+    }
     std::vector<float> out(count);
     if (count > 0) std::memcpy(out.data(), bytes_.data() + pos_, count * sizeof(float));
     pos_ += count * sizeof(float);
@@ -165,8 +171,12 @@ const char* layerStreamName(LayerStream stream) {
 
 std::uint64_t LayerRecord::weightCount() const {
   switch (type) {
-    case LayerType::kConv2d:
-      return std::uint64_t{out_channels} * in_channels * kernel_h * kernel_w;
+    case LayerType::kConv2d: {
+      // Four 32-bit factors can exceed 64 bits (65536^4 wraps to 0): saturate, no file holds that many.
+      const std::uint64_t a = std::uint64_t{out_channels} * in_channels, b = std::uint64_t{kernel_h} * kernel_w;
+      return (b != 0 && a > std::numeric_limits<std::uint64_t>::max() / b) ? std::numeric_limits<std::uint64_t>::max()
+                                                                           : a * b;
+    }
     case LayerType::kLinear:
       return std::uint64_t{out_features} * in_features;
     case LayerType::kRelu:

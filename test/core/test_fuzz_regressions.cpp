@@ -58,6 +58,34 @@ TEST(FuzzRegressions, WeightFileErrorsEscapeFileBytes) {
   EXPECT_EQ(printableBytes(std::string("a\\b\x7f\xff", 5)), "a\\\\b\\x7f\\xff");
 }
 
+TEST(FuzzRegressions, WeightFileShapesThatOverflowAreRejected) {
+  const fs::path dir = fs::path(DQN_DOVS_SOURCE_DIR) / "fuzz" / "regressions" / "weight_file";
+  // 2^62 conv weights: 4 * 2^62 bytes wrapped to 0 and the reader asked std::vector for 2^62 floats.
+  std::vector<std::uint8_t> bytes = readAll(dir / "weight_bytes_overflow_64_bits");
+  bytes.erase(bytes.begin());  // the fuzz mode byte
+  try {
+    (void)parseWeightFile(bytes, "big.dqnw");
+    FAIL() << "accepted";
+  } catch (const WeightFileError& e) {
+    EXPECT_EQ(e.field(), "layer 0 (grid conv2d) weight");
+    EXPECT_NE(std::string(e.what()).find("truncated: needs 4611686018427387904 floats"), std::string::npos) << e.what();
+  }
+  // Padding 65536 on a 1x1 kernel: 131092 x 131092 outputs overflowed int (undefined behaviour).
+  bytes = readAll(dir / "conv_padding_output_overflows_int");
+  bytes.erase(bytes.begin());
+  try {
+    (void)QNetwork::fromBytes(bytes, "pad.dqnw");
+    FAIL() << "accepted";
+  } catch (const WeightFileError& e) {
+    EXPECT_EQ(e.field(), "layer 0 (grid conv2d) shape");
+    EXPECT_NE(std::string(e.what()).find("exceeds the 4194304-value limit"), std::string::npos) << e.what();
+  }
+  LayerRecord l;
+  l.type = LayerType::kConv2d;
+  l.in_channels = l.out_channels = l.kernel_h = l.kernel_w = 65536;  // 2^64 wrapped to 0
+  EXPECT_EQ(l.weightCount(), std::numeric_limits<std::uint64_t>::max());
+}
+
 TEST(FuzzRegressions, PredictedSceneBeyondTheTimeGapHasNoObstacles) {
   // One confirmed track, then a prediction far beyond max_time_gap_s: no (non-finite) obstacles.
   TrackerConfig config;
