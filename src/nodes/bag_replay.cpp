@@ -108,8 +108,8 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     if (!robot_pose) continue;
     DovsStep step;
     const Twist2 odom_twist{odom->twist.twist.linear.x, odom->twist.twist.angular.z};
-    if (!buildDovsStep(obstacles, *robot_pose, odom_twist, goal, config.limits, normalization, config.base_frame,
-                       builder, dovs, step)
+    if (!buildDovsStep(obstacles, *robot_pose, odom_twist, goal, config.limits, normalization, config.shield,
+                       config.base_frame, builder, dovs, step)
              .empty()) {
       continue;
     }

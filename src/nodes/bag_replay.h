@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/robot_model.h"
 #include "dqn_dovs/tracker.h"
@@ -32,6 +33,8 @@ struct ReplayConfig {
   TrackerConfig tracker;
   /// dovs_node's `dovs/*`.
   DovsConfig dovs;
+  /// dovs_node's `action_shield/*`.
+  ActionShieldConfig shield;
   /// Every node's `robot/*`.
   RobotLimits limits;
   /// Frame the tracks and the goal live in (the nodes' `fixed_frame`).

@@ -29,6 +29,19 @@ DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
   return c;
 }
 
+ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh) {
+  ActionShieldConfig c;
+  c.enabled = param<bool>(pnh, "action_shield/enabled", c.enabled);
+  c.robust_dv_mps = param<double>(pnh, "action_shield/robust_dv", c.robust_dv_mps);
+  c.robust_dw_rps = param<double>(pnh, "action_shield/robust_dw", c.robust_dw_rps);
+  c.last_resort_horizon_s = param<double>(pnh, "action_shield/last_resort_horizon", c.last_resort_horizon_s);
+  c.last_resort_step_s = param<double>(pnh, "action_shield/last_resort_step", c.last_resort_step_s);
+  c.last_resort_tolerance_s = param<double>(pnh, "action_shield/last_resort_tolerance", c.last_resort_tolerance_s);
+  const std::string error = c.validate();
+  if (!error.empty()) throw ParameterError(pnh.resolveName("action_shield") + ": " + error);
+  return c;
+}
+
 DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh),
       pnh_(pnh),
@@ -43,6 +56,7 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   image_size_px_ = static_cast<int>(paramInRange(pnh_, "image_size", 400, 100, 2000));
   checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
   normalization_ = dovsStateNormalization(limits_, builder_.config());
+  shield_ = loadActionShieldConfig(pnh_);
 
   dovs_pub_ = nh_.advertise<Dovs>("dovs", 5);
   image_pub_ = nh_.advertise<sensor_msgs::Image>("dovs/image", 2);
@@ -126,7 +140,7 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   DovsStep step;
   try {
     const std::string obstacle_error = buildDovsStep(*msg, robot_pose, odom_twist, goal_, limits_, normalization_,
-                                                     base_frame_, builder_, dovs_, step);
+                                                     shield_, base_frame_, builder_, dovs_, step);
     if (!obstacle_error.empty()) {
       ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());
       return;

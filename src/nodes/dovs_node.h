@@ -13,6 +13,7 @@
 #include <string>
 
 #include "dqn_dovs/TrackedObstacleArray.h"
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/state.h"
@@ -37,6 +38,7 @@ class DovsNode {
   RobotLimits limits_;
   DovsBuilder builder_;
   StateNormalization normalization_;
+  ActionShieldConfig shield_;
   VelocitySpace dovs_;
 
   std::optional<Vec2> goal_;         // in fixed_frame_
@@ -52,5 +54,8 @@ class DovsNode {
 
 /// Reads `dovs/*` parameters (config/dovs.yaml) over the defaults and validates them.
 DovsConfig loadDovsConfig(const ros::NodeHandle& pnh);
+
+/// Reads `action_shield/*` parameters (config/dovs.yaml) over the defaults and validates them.
+ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh);
 
 }  // namespace dqn_dovs

@@ -28,8 +28,8 @@ StateNormalization dovsStateNormalization(const RobotLimits& limits, const DovsC
 
 std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
-                          const StateNormalization& normalization, const std::string& base_frame, DovsBuilder& builder,
-                          VelocitySpace& dovs, DovsStep& out) {
+                          const StateNormalization& normalization, const ActionShieldConfig& shield,
+                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out) {
   Observation& obs = out.observation;
   obs.robot_pose = robot_pose;
   obs.stamp_s = obstacles.header.stamp.toSec();
@@ -41,6 +41,13 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   builder.build(obs, dovs);
   out.actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
   const ActionSet& actions = out.actions;
+  // Without a goal there is no goal line: the shield chooses among the window actions only.
+  ActionSet choosable = actions;
+  if (!goal) {
+    for (size_t i = static_cast<size_t>(kActionGoalHigh); i < choosable.valid.size(); ++i) choosable.valid[i] = false;
+  }
+  const ShieldedMask shielded = shieldActions(choosable, dovs, obs, shield);
+  out.shield_level = shielded.level;
 
   Dovs& m = out.msg;
   m = Dovs();
@@ -69,7 +76,7 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
     m.action_v[i] = actions.velocities[i].v;
     m.action_w[i] = actions.velocities[i].w;
-    m.action_valid[i] = actions.valid[i] && (m.has_goal || i < static_cast<size_t>(kActionGoalHigh));
+    m.action_valid[i] = shielded.mask[i];
   }
   const int n = dovs.numTrajectories();
   m.trajectory_curvature.reserve(static_cast<size_t>(n));

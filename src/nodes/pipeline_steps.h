@@ -10,6 +10,7 @@
 
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/qnetwork.h"
@@ -32,17 +33,19 @@ StateNormalization dovsStateNormalization(const RobotLimits& limits, const DovsC
 struct DovsStep {
   Observation observation;  ///< robot pose, clipped velocity, goal and obstacles (fixed frame)
   ActionSet actions;
+  ShieldLevel shield_level = ShieldLevel::kDisabled;
   Dovs msg;  ///< ready to publish (stamp = the obstacles' stamp, frame = base frame)
 };
 
 /// dovs_node's step after the odom and transform checks: builds the observation (the odom velocity clipped
 /// into the feasible set; without a goal, the goal is the robot's own position), the velocity space, the
-/// actions and the Dovs message. Returns why the obstacles were dropped (NaN fields, non-positive radius),
+/// actions and the Dovs message, whose action_valid is the mask the network chooses under: the validity mask
+/// narrowed by the action shield (action_shield.h; the shield's level goes into `out.shield_level`). Returns why the obstacles were dropped (NaN fields, non-positive radius),
 /// else "". Throws (DovsError, ActionError, StateError) when the core rejects the observation.
 std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
-                          const StateNormalization& normalization, const std::string& base_frame, DovsBuilder& builder,
-                          VelocitySpace& dovs, DovsStep& out);
+                          const StateNormalization& normalization, const ActionShieldConfig& shield,
+                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out);
 
 /// planner_node's choice for one Dovs message: the network's best valid action (masked by action_valid; an
 /// action with a NaN/inf velocity is never chosen). Returns the action, or -1 with `why` naming the problem

@@ -26,6 +26,7 @@ dqn_dovs::ReplayConfig loadConfig() {
   const ros::NodeHandle tracker_ns(pnh, "obstacle_tracker"), dovs_ns(pnh, "dovs"), planner_ns(pnh, "planner");
   c.tracker = dqn_dovs::loadTrackerConfig(tracker_ns);
   c.dovs = dqn_dovs::loadDovsConfig(dovs_ns);
+  c.shield = dqn_dovs::loadActionShieldConfig(dovs_ns);
   c.limits = dqn_dovs::loadRobotLimits(dovs_ns);
   c.fixed_frame = dqn_dovs::param<std::string>(dovs_ns, "fixed_frame", "odom");
   c.base_frame = dqn_dovs::param<std::string>(dovs_ns, "base_frame", "base_footprint");

@@ -30,6 +30,12 @@ Built buildMessage(const dqn_dovs::Twist2& current, const std::optional<dqn_dovs
                    const std::vector<dqn_dovs::Segment>& walls = {}) {
   const dqn_dovs::RobotLimits limits;
   const dqn_dovs::DovsConfig config;
+  // The drawing is checked against the validity mask alone (the shield's narrowing is tested in the core).
+  const auto unshielded = [] {
+    dqn_dovs::ActionShieldConfig c;
+    c.enabled = false;
+    return c;
+  };
   dqn_dovs::DovsBuilder builder(limits, config);
   dqn_dovs::TrackedObstacleArray obstacles_msg = dqn_dovs::movingObstaclesToMsg(obstacles, walls);
   obstacles_msg.header.stamp = ros::Time(10.0);
@@ -37,8 +43,8 @@ Built buildMessage(const dqn_dovs::Twist2& current, const std::optional<dqn_dovs
   Built b;
   dqn_dovs::DovsStep step;
   const std::string error = dqn_dovs::buildDovsStep(obstacles_msg, dqn_dovs::Pose2{}, current, goal, limits,
-                                                    dqn_dovs::dovsStateNormalization(limits, config), "base_footprint",
-                                                    builder, b.space, step);
+                                                    dqn_dovs::dovsStateNormalization(limits, config), unshielded(),
+                                                    "base_footprint", builder, b.space, step);
   EXPECT_EQ(error, "");
   b.msg = step.msg;
   return b;
