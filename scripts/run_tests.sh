@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Runs every test (core gtests, rostests, Python tests) and ends with one line "N passed, N failed".
+# Runs every test (core gtests, rostests, Python tests, fuzz targets, core gtests under ASan) and ends with one
+# line "N passed, N failed".
 # Exits non-zero when any test fails or errors, or when no test ran.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -56,8 +57,18 @@ if ! [[ "${fz_pass:-}" =~ ^[0-9]+$ ]]; then
   echo "[test] could not read the fuzz summary (log/fuzz.last.txt)" >&2; fz_pass=0; fz_fail=1
 fi
 
+# Core gtests under AddressSanitizer + UBSan (scripts/test_asan.sh, build_asan/): one test per gtest executable.
+echo "[test] core gtests under ASan + UBSan (scripts/test_asan.sh)"
+bash scripts/test_asan.sh >log/asan.last.txt 2>&1
+grep -v -E "^$|^[0-9]+ passed, [0-9]+ failed" log/asan.last.txt
+read -r as_pass as_fail < <(tail -n 1 log/asan.last.txt | sed -nE 's/^([0-9]+) passed, ([0-9]+) failed.*/\1 \2/p')
+if ! [[ "${as_pass:-}" =~ ^[0-9]+$ ]]; then
+  echo "[test] could not read the ASan summary (log/asan.last.txt)" >&2; as_pass=0; as_fail=1
+fi
+
 c_pass=$((c_tests - c_fail - c_err - c_skip))
-passed=$((c_pass + py_pass + fz_pass)); failed=$((c_fail + c_err + py_fail + fz_fail)); skipped=$((c_skip + py_skip))
+passed=$((c_pass + py_pass + fz_pass + as_pass)); failed=$((c_fail + c_err + py_fail + fz_fail + as_fail))
+skipped=$((c_skip + py_skip))
 echo
 echo "$passed passed, $failed failed, $skipped skipped"
 [ "$failed" -eq 0 ] && [ "$passed" -gt 0 ]
