@@ -31,8 +31,10 @@ struct ActionShieldConfig {
   double last_resort_horizon_s = 3.0;
   /// ... in steps of this (s) ...
   double last_resort_step_s = 0.1;
-  /// ... and only those whose first inflated contact comes no more than this before the latest one remain (s).
-  double last_resort_tolerance_s = 0.1;
+  /// ... only those whose first inflated contact comes no more than this before the latest one remain (s) ...
+  double last_resort_tolerance_s = 0.0;
+  /// ... and of those, the ones whose least clearance on the way is within this of the widest (m).
+  double last_resort_clearance_tolerance_m = 0.02;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -43,7 +45,7 @@ enum class ShieldLevel : int {
   kDisabled = 0,  ///< shield off: the validity mask
   kRobust = 1,    ///< at least one valid action is robustly safe: only those remain
   kFree = 2,      ///< no robust one, but at least one valid action is free: only the free ones remain
-  kLatest = 3,    ///< every valid action is in the DOV: only those that collide latest in a roll-out remain
+  kLatest = 3,    ///< every valid action is in the DOV: those that collide latest in a roll-out, widest first
 };
 const char* shieldLevelName(ShieldLevel level);
 

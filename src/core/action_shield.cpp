@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "dqn_dovs/rollout.h"
@@ -21,6 +22,9 @@ std::string ActionShieldConfig::validate() const {
     os << "action_shield.last_resort_step_s = " << last_resort_step_s << ": must be > 0 and <= last_resort_horizon_s";
   } else if (!(std::isfinite(last_resort_tolerance_s) && last_resort_tolerance_s >= 0.0)) {
     os << "action_shield.last_resort_tolerance_s = " << last_resort_tolerance_s << ": must be finite and >= 0";
+  } else if (!(std::isfinite(last_resort_clearance_tolerance_m) && last_resort_clearance_tolerance_m >= 0.0)) {
+    os << "action_shield.last_resort_clearance_tolerance_m = " << last_resort_clearance_tolerance_m
+       << ": must be finite and >= 0";
   }
   return os.str();
 }
@@ -86,16 +90,23 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
     // Boxed in: put off the contact as long as possible (what S-DOVS's escape does over the whole window).
     out.level = ShieldLevel::kLatest;
     const LocalScene scene(observation, dovs.limits().radius, dovs.config().safety_factor);
-    std::array<double, kNumActions> ttc{};
+    std::array<double, kNumActions> ttc{}, clearance{};
     double latest = -1.0;
     for (size_t i = 0; i < ttc.size(); ++i) {
       if (!actions.valid[i]) continue;
       const Rollout r = rollOut(scene, actions.velocities[i], config.last_resort_horizon_s, config.last_resort_step_s);
       ttc[i] = std::min(r.collision_time_s, config.last_resort_horizon_s);
+      clearance[i] = r.min_clearance_m;
       latest = std::max(latest, ttc[i]);
     }
+    // Among those colliding latest, the ones keeping the most clearance on the way.
+    double widest = -std::numeric_limits<double>::infinity();
     for (size_t i = 0; i < ttc.size(); ++i) {
       out.mask[i] = actions.valid[i] && ttc[i] >= latest - config.last_resort_tolerance_s - 1e-9;
+      if (out.mask[i]) widest = std::max(widest, clearance[i]);
+    }
+    for (size_t i = 0; i < ttc.size(); ++i) {
+      out.mask[i] = out.mask[i] && clearance[i] >= widest - config.last_resort_clearance_tolerance_m - 1e-9;
     }
   }
   return out;

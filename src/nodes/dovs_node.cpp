@@ -37,6 +37,8 @@ ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh) {
   c.last_resort_horizon_s = param<double>(pnh, "action_shield/last_resort_horizon", c.last_resort_horizon_s);
   c.last_resort_step_s = param<double>(pnh, "action_shield/last_resort_step", c.last_resort_step_s);
   c.last_resort_tolerance_s = param<double>(pnh, "action_shield/last_resort_tolerance", c.last_resort_tolerance_s);
+  c.last_resort_clearance_tolerance_m =
+      param<double>(pnh, "action_shield/last_resort_clearance_tolerance", c.last_resort_clearance_tolerance_m);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("action_shield") + ": " + error);
   return c;
