@@ -123,6 +123,12 @@ Scenario parseDovsScenario(const unsigned char* data, size_t size, const std::st
   for (size_t r = 1; r < rows; ++r) {
     const double* row = &v[r * kValuesPerRow];
     checkInside(row[0], row[1], describeRow(r));
+    if (std::abs(row[3]) > kMaxScenarioSpeedMps || std::abs(row[4]) > kMaxScenarioTurnRateRadps) {
+      std::ostringstream os;
+      os << describeRow(r) << " motion v = " << row[3] << " m/s, w = " << row[4] << " rad/s exceeds the limits |v| <= "
+         << kMaxScenarioSpeedMps << " m/s, |w| <= " << kMaxScenarioTurnRateRadps << " rad/s";
+      fail(path, os.str());
+    }
     MovingObstacle o;
     o.center = {row[0], row[1]};
     o.radius = obstacle_radius_m;

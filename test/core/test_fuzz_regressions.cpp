@@ -42,6 +42,20 @@ void replay(const std::string& target, void (*body)(const std::uint8_t*, std::si
 
 TEST(FuzzRegressions, WeightFile) { replay("weight_file", fuzz::weightFileOne); }
 TEST(FuzzRegressions, ScanTracker) { replay("scan_tracker", fuzz::scanTrackerOne); }
+TEST(FuzzRegressions, Scenario) { replay("scenario", fuzz::scenarioOne); }
+
+TEST(FuzzRegressions, ScenarioWithAbsurdObstacleSpeedIsRejected) {
+  // Obstacle 4 at 2.6e183 m/s: accepted before, and every 0.2 s world step then ran the 100000-sub-step cap.
+  const fs::path file = fs::path(DQN_DOVS_SOURCE_DIR) / "fuzz" / "regressions" / "scenario" / "obstacle_speed_1e183";
+  try {
+    (void)sim::loadDovsScenario(file.string());
+    FAIL() << "accepted";
+  } catch (const sim::ScenarioError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.find("scenario file '" + file.string() + "': row 4 (obstacle 4) motion v = 2.6"), 0u) << what;
+    EXPECT_NE(what.find("exceeds the limits |v| <= 10 m/s, |w| <= 10 rad/s"), std::string::npos) << what;
+  }
+}
 
 TEST(FuzzRegressions, WeightFileErrorsEscapeFileBytes) {
   // A normalisation name with a NUL and a newline, and a NaN value: the message must name the entry in full.

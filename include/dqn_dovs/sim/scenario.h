@@ -27,12 +27,19 @@ struct Scenario {
 /// Default disc radius of the obstacles of the `.dovs` files (m); the format does not store radii.
 constexpr double kDefaultObstacleRadius = 0.2;
 
+/// Largest obstacle speed |v| (m/s) and turn rate |w| (rad/s) a `.dovs` file may hold: far above the
+/// evaluation files (v <= 1.2, |w| <= 0.53), low enough that the world's tunnelling guard keeps a step to a few
+/// dozen sub-steps (an obstacle at 1e183 m/s made every step run the 100000-sub-step cap).
+constexpr double kMaxScenarioSpeedMps = 10.0;
+constexpr double kMaxScenarioTurnRateRadps = 10.0;
+
 /// Reads a `.dovs` scenario (little-endian float64 rows of 5; row 0 robot x, y, theta, goal_x, goal_y; rows
 /// 1..N obstacles x, y, theta, v, w). Every obstacle gets `obstacle_radius_m`; an obstacle with v = w = 0 is
 /// marked static; a negative v is stored as the equivalent forward motion (heading + pi, speed |v|).
 /// Throws ScenarioError naming the file and the reason when the file is missing or unreadable, its size is
-/// not a positive multiple of 40 bytes, a value is NaN/inf, or a position (robot, goal, obstacle centre)
-/// is not strictly inside the room.
+/// not a positive multiple of 40 bytes, a value is NaN/inf, a position (robot, goal, obstacle centre)
+/// is not strictly inside the room, or an obstacle's |v| or |w| exceeds kMaxScenarioSpeedMps /
+/// kMaxScenarioTurnRateRadps.
 Scenario loadDovsScenario(const std::string& path, double obstacle_radius_m = kDefaultObstacleRadius,
                           double room_half_size_m = 4.0);
 
