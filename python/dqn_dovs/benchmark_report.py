@@ -34,6 +34,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402 - the backend must be chosen first
 
+from .performance_report import machine_info  # noqa: E402 - /proc/cpuinfo model and nproc, one reader
+
 REFERENCE = "dqn_dovs"
 # dqn_dovs_unshielded is an ablation of our own method, not a baseline.
 ABLATIONS = ("dqn_dovs_unshielded",)
@@ -364,19 +366,6 @@ def _perception_section(title: str, s: Summary, paper, plot_rel: str) -> list[st
             "all episodes).", "", metric_table(s, "danger_frequency", 3), ""]
     out += ["### Mean time on success (s)", "", metric_table(s, "mean_time_success_s", 1), ""]
     return out
-
-
-def machine_info() -> dict:
-    cpu = "unknown"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return {"nproc": os.cpu_count(), "cpu_model": cpu}
 
 
 def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: dict, discussion: str | None,

@@ -51,10 +51,9 @@ int ShieldedMask::numAllowed() const {
 
 namespace {
 
-// Free in the DOVS, and so are its neighbours dv / dw away that are feasible (the triangle's edge is not a
+// The neighbours dv / dw away from a free velocity that are feasible are free too (the triangle's edge is not a
 // velocity obstacle: a neighbour outside it does not count against the action).
-bool robustlyFree(const VelocitySpace& dovs, const Twist2& u, double dv, double dw) {
-  if (!dovs.isFree(u)) return false;
+bool neighboursFree(const VelocitySpace& dovs, const Twist2& u, double dv, double dw) {
   const Twist2 neighbours[4] = {{u.v + dv, u.w}, {u.v - dv, u.w}, {u.v, u.w + dw}, {u.v, u.w - dw}};
   for (const Twist2& n : neighbours) {
     if (dovs.isFeasible(n) && !dovs.isFree(n)) return false;
@@ -76,7 +75,7 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
     if (!actions.valid[i]) continue;
     const Twist2& u = actions.velocities[i];
     free[i] = dovs.isFree(u);
-    robust[i] = free[i] && robustlyFree(dovs, u, config.robust_dv_mps, config.robust_dw_rps);
+    robust[i] = free[i] && neighboursFree(dovs, u, config.robust_dv_mps, config.robust_dw_rps);
     any_free = any_free || free[i];
     any_robust = any_robust || robust[i];
   }

@@ -130,9 +130,15 @@ class VecEnv {
           es[i] = ep.steps();
           copyState(ep, ns + i * kStateSize);
           copyMask(ep, nm + i * kNumActions);
-          if (ep.done()) resetEnv(i);
-          copyState(envs_[i]->episode, st + i * kStateSize);
-          copyMask(envs_[i]->episode, mk + i * kNumActions);
+          if (ep.done()) {
+            resetEnv(i);
+            copyState(envs_[i]->episode, st + i * kStateSize);
+            copyMask(envs_[i]->episode, mk + i * kNumActions);
+          } else {
+            // The episode goes on: what to act on next is the successor just copied (shielded once, not twice).
+            std::memcpy(st + i * kStateSize, ns + i * kStateSize, sizeof(float) * kStateSize);
+            std::memcpy(mk + i * kNumActions, nm + i * kNumActions, sizeof(bool) * kNumActions);
+          }
         } catch (const std::exception& e) {
           errors[i] = e.what();
         }
