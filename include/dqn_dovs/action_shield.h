@@ -35,6 +35,12 @@ struct ActionShieldConfig {
   double last_resort_tolerance_s = 0.0;
   /// ... and of those, the ones whose least clearance on the way is within this of the widest (m).
   double last_resort_clearance_tolerance_m = 0.02;
+  /// Escape, when no valid action is free: the planner holds, instead of an action, the velocity of the whole
+  /// dynamic window (a lattice of escape_window_samples steps per half-diagonal) that puts the first true
+  /// contact off longest over last_resort_horizon_s, each followed after one period by its best change inside
+  /// the next window; then the widest clearance, then the closest to the goal. false: the last-resort action.
+  bool escape_enabled = true;
+  int escape_window_samples = 10;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -52,6 +58,9 @@ const char* shieldLevelName(ShieldLevel level);
 struct ShieldedMask {
   std::array<bool, kNumActions> mask{};
   ShieldLevel level = ShieldLevel::kDisabled;
+  /// kLatest with escape_enabled (and some valid action): the escape velocity the planner holds instead.
+  bool has_escape = false;
+  Twist2 escape;
   int numAllowed() const;
 };
 
@@ -61,5 +70,10 @@ struct ShieldedMask {
 /// validity mask. Throws DovsError when the configuration is invalid.
 ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
                            const ActionShieldConfig& config);
+
+/// The escape velocity for a boxed-in robot (see ActionShieldConfig::escape_enabled): from the robot's current
+/// velocity in `observation`, against its obstacles. Throws DovsError when the configuration is invalid.
+Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits, double safety_factor,
+                      const ActionShieldConfig& config);
 
 }  // namespace dqn_dovs

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <vector>
 #include <string>
 
 #include "dqn_dovs/geometry.h"
@@ -54,6 +55,9 @@ struct DynamicWindow {
   bool containsRhombus(const Twist2& t, double tol = 1e-9) const;
   /// True when t is inside the rhombus and feasible for `limits`.
   bool contains(const Twist2& t, const RobotLimits& limits, double tol = 1e-9) const;
+  /// The feasible velocities of the rhombus on a lattice of n steps per half-diagonal (|i| + |j| <= n), in a
+  /// fixed order: (2n^2 + 2n + 1) samples before the feasibility cut.
+  std::vector<Twist2> samples(int n, const RobotLimits& limits) const;
 };
 
 DynamicWindow makeDynamicWindow(const Twist2& current, const RobotLimits& limits);

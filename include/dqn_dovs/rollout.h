@@ -101,4 +101,12 @@ struct Rollout {
 /// inflation, a contact counts only once the clearance drops below the starting one.
 Rollout rollOut(const LocalScene& scene, const Twist2& u, double horizon_s, double step_s);
 
+/// The contact that ends a roll-out: entering an obstacle's inflation (safety factor) or touching it.
+enum class Contact { kInflated, kTrue };
+
+/// Holds u1 for switch_s, then u2 up to horizon_s, and stops at the first `contact` (starting in contact, only
+/// once the clearance gets worse). rollOut is this with u2 = u1 and kInflated.
+Rollout rollOutSwitching(const LocalScene& scene, const Twist2& u1, double switch_s, const Twist2& u2, double horizon_s,
+                         double step_s, Contact contact);
+
 }  // namespace dqn_dovs

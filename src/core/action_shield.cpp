@@ -22,6 +22,8 @@ std::string ActionShieldConfig::validate() const {
     os << "action_shield.last_resort_step_s = " << last_resort_step_s << ": must be > 0 and <= last_resort_horizon_s";
   } else if (!(std::isfinite(last_resort_tolerance_s) && last_resort_tolerance_s >= 0.0)) {
     os << "action_shield.last_resort_tolerance_s = " << last_resort_tolerance_s << ": must be finite and >= 0";
+  } else if (escape_window_samples < 1 || escape_window_samples > 30) {
+    os << "action_shield.escape_window_samples = " << escape_window_samples << ": must be in [1, 30]";
   } else if (!(std::isfinite(last_resort_clearance_tolerance_m) && last_resort_clearance_tolerance_m >= 0.0)) {
     os << "action_shield.last_resort_clearance_tolerance_m = " << last_resort_clearance_tolerance_m
        << ": must be finite and >= 0";
@@ -107,8 +109,51 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
     for (size_t i = 0; i < ttc.size(); ++i) {
       out.mask[i] = out.mask[i] && clearance[i] >= widest - config.last_resort_clearance_tolerance_m - 1e-9;
     }
+    if (config.escape_enabled && actions.numValid() > 0) {
+      out.has_escape = true;
+      out.escape = escapeVelocity(observation, dovs.limits(), dovs.config().safety_factor, config);
+    }
   }
   return out;
+}
+
+Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits, double safety_factor,
+                      const ActionShieldConfig& config) {
+  if (const std::string e = config.validate(); !e.empty()) throw DovsError(e);
+  const LocalScene scene(observation, limits.radius, safety_factor);
+  const Twist2 current = limits.clipToFeasible(observation.robot_twist);
+  const Vec2 goal = observation.robot_pose.toLocal(observation.goal);
+  const double horizon = config.last_resort_horizon_s, step = config.last_resort_step_s;
+  double best_ttc = -1.0, best_clearance = -std::numeric_limits<double>::infinity(),
+         best_goal = std::numeric_limits<double>::infinity();
+  Twist2 chosen = current;
+  for (const Twist2& u1 : makeDynamicWindow(current, limits).samples(config.escape_window_samples, limits)) {
+    // The best follow-up one period on: a corner or the centre of u1's own window (its 3 x 3 box).
+    double ttc = -1.0, clearance = -std::numeric_limits<double>::infinity();
+    for (int i = -1; i <= 1; ++i) {
+      for (int j = -1; j <= 1; ++j) {
+        const Twist2 u2{u1.v + i * limits.dv(), u1.w + j * limits.dw()};
+        if (!limits.feasible(u2, 1e-9)) continue;
+        const Rollout r = rollOutSwitching(scene, u1, limits.dt, u2, horizon, step, Contact::kTrue);
+        const double t = std::min(r.collision_time_s, horizon);
+        if (t > ttc + 1e-9 || (t > ttc - 1e-9 && r.min_clearance_m > clearance)) {
+          ttc = t;
+          clearance = r.min_clearance_m;
+        }
+      }
+    }
+    const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
+    const bool better = ttc > best_ttc + 1e-9 ||
+                        (ttc > best_ttc - 1e-9 && (clearance > best_clearance + 1e-3 ||
+                                                   (clearance > best_clearance - 1e-3 && g < best_goal)));
+    if (better) {
+      best_ttc = ttc;
+      best_clearance = clearance;
+      best_goal = g;
+      chosen = u1;
+    }
+  }
+  return chosen;
 }
 
 }  // namespace dqn_dovs

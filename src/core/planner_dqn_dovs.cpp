@@ -59,6 +59,14 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
     const ShieldedMask shielded = shieldActions(*input.actions, *input.dovs, *input.observation, config_.shield);
     mask = shielded.mask;
     shield_level = shielded.level;
+    if (shielded.has_escape) {
+      // Boxed in: the shield's escape velocity, not an action.
+      if (!std::isfinite(shielded.escape.v) || !std::isfinite(shielded.escape.w)) return decelerate("escape is not finite");
+      decision.command = shielded.escape;
+      decision.action = -1;
+      decision.note = "escape (shield: latest)";
+      return decision;
+    }
   }
   int a = -1;
   try {

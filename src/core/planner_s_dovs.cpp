@@ -176,17 +176,7 @@ double SDovsPlanner::brakingSpeedCap(double d_goal_m, const RobotLimits& limits)
 }
 
 std::vector<Twist2> SDovsPlanner::windowSamples(const Twist2& current, const RobotLimits& limits) const {
-  std::vector<Twist2> out;
-  const int n = config_.window_samples;
-  out.reserve(static_cast<size_t>((2 * n + 1) * (2 * n + 1)));
-  for (int i = -n; i <= n; ++i) {
-    for (int j = -n; j <= n; ++j) {
-      if (std::abs(i) + std::abs(j) > n) continue;
-      const Twist2 t{current.v + limits.dv() * i / n, current.w + limits.dw() * j / n};
-      if (limits.feasible(t, 1e-9)) out.push_back(t);
-    }
-  }
-  return out;
+  return makeDynamicWindow(current, limits).samples(config_.window_samples, limits);
 }
 
 PlannerDecision SDovsPlanner::decide(const PlannerInput& input) {

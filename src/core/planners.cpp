@@ -33,6 +33,13 @@ const std::vector<std::pair<std::string, PlannerFactory>>& registry() {
          config.shield.enabled = false;
          return std::make_unique<DqnDovsPlanner>(config);
        }},
+      {"dqn_dovs_no_escape",
+       [](const std::string& model_path) -> std::unique_ptr<Planner> {
+         DqnDovsConfig config;
+         if (!model_path.empty()) config.model_path = model_path;
+         config.shield.escape_enabled = false;
+         return std::make_unique<DqnDovsPlanner>(config);
+       }},
       {"s_dovs", [](const std::string&) -> std::unique_ptr<Planner> { return std::make_unique<SDovsPlanner>(); }},
       {"orca_holonomic", [](const std::string&) { return makeOrcaHolonomicPlanner(); }},
       {"orca_diffdrive", [](const std::string&) { return makeOrcaDiffDrivePlanner(); }},

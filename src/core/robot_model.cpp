@@ -66,6 +66,20 @@ bool DynamicWindow::contains(const Twist2& t, const RobotLimits& limits, double 
   return containsRhombus(t, tol) && limits.feasible(t, tol);
 }
 
+std::vector<Twist2> DynamicWindow::samples(int n, const RobotLimits& limits) const {
+  std::vector<Twist2> out;
+  if (n < 1) return out;
+  out.reserve(static_cast<size_t>(2 * n * n + 2 * n + 1));
+  for (int i = -n; i <= n; ++i) {
+    for (int j = -n; j <= n; ++j) {
+      if (std::abs(i) + std::abs(j) > n) continue;
+      const Twist2 t{center.v + dv * i / n, center.w + dw * j / n};
+      if (limits.feasible(t, 1e-9)) out.push_back(t);
+    }
+  }
+  return out;
+}
+
 DynamicWindow makeDynamicWindow(const Twist2& current, const RobotLimits& limits) {
   return {current, limits.dv(), limits.dw()};
 }

@@ -39,6 +39,8 @@ ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh) {
   c.last_resort_tolerance_s = param<double>(pnh, "action_shield/last_resort_tolerance", c.last_resort_tolerance_s);
   c.last_resort_clearance_tolerance_m =
       param<double>(pnh, "action_shield/last_resort_clearance_tolerance", c.last_resort_clearance_tolerance_m);
+  c.escape_enabled = param<bool>(pnh, "action_shield/escape", c.escape_enabled);
+  c.escape_window_samples = param<int>(pnh, "action_shield/escape_window_samples", c.escape_window_samples);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("action_shield") + ": " + error);
   return c;
@@ -79,7 +81,10 @@ void DovsNode::onOdom(const nav_msgs::Odometry::ConstPtr& msg) {
   have_odom_ = true;
 }
 
-void DovsNode::onChosenAction(const std_msgs::Int8::ConstPtr& msg) { chosen_action_ = msg->data; }
+void DovsNode::onChosenAction(const std_msgs::Int8::ConstPtr& msg) {
+  // 0-7 an action; 8 (the shield's escape) and -1 mark none of the 8 in the image.
+  chosen_action_ = msg->data >= 0 && msg->data < kNumActions ? msg->data : -1;
+}
 
 void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
   if (!std::isfinite(msg->pose.position.x) || !std::isfinite(msg->pose.position.y)) {

@@ -3,6 +3,7 @@
 #include "conversions.h"
 
 #include <cmath>
+#include <stdexcept>
 
 namespace dqn_dovs {
 
@@ -78,6 +79,9 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
     m.action_w[i] = actions.velocities[i].w;
     m.action_valid[i] = shielded.mask[i];
   }
+  m.escape = shielded.has_escape;
+  m.escape_v = shielded.has_escape ? shielded.escape.v : 0.0;
+  m.escape_w = shielded.has_escape ? shielded.escape.w : 0.0;
   const int n = dovs.numTrajectories();
   m.trajectory_curvature.reserve(static_cast<size_t>(n));
   m.interval_begin.reserve(static_cast<size_t>(n) + 1);
@@ -100,6 +104,12 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   return {};
 }
 
+Twist2 choiceVelocity(const Dovs& dovs, int choice) {
+  if (choice == kEscapeChoice) return {dovs.escape_v, dovs.escape_w};
+  if (choice < 0 || choice >= kNumActions) throw std::out_of_range("choiceVelocity: choice " + std::to_string(choice));
+  return {dovs.action_v[static_cast<size_t>(choice)], dovs.action_w[static_cast<size_t>(choice)]};
+}
+
 int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
   why.clear();
   if (dovs.state.size() != static_cast<size_t>(QNetwork::kStateSize)) {
@@ -108,6 +118,14 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
   }
   // An action whose velocity is NaN/inf cannot be commanded (clipping it into the feasible set would turn it
   // into a silent stop while the planner reports itself active): it is never chosen.
+  if (dovs.escape) {
+    // Boxed in: the shield's escape velocity, not the network's choice.
+    if (!std::isfinite(dovs.escape_v) || !std::isfinite(dovs.escape_w)) {
+      why = "planner error: the shield's escape velocity is NaN/inf";
+      return -1;
+    }
+    return kEscapeChoice;
+  }
   QNetwork::ActionMask mask;
   int non_finite = -1;
   for (size_t i = 0; i < mask.size(); ++i) {

@@ -47,9 +47,16 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
                           const StateNormalization& normalization, const ActionShieldConfig& shield,
                           const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out);
 
-/// planner_node's choice for one Dovs message: the network's best valid action (masked by action_valid; an
-/// action with a NaN/inf velocity is never chosen). Returns the action, or -1 with `why` naming the problem
-/// (wrong state size, every action masked, the network rejecting the state).
+/// The choice that stands for the action shield's escape velocity (Dovs.escape), after the 8 actions.
+constexpr int kEscapeChoice = kNumActions;
+
+/// planner_node's choice for one Dovs message: kEscapeChoice when the message carries the shield's escape, else
+/// the network's best valid action (masked by action_valid; an action with a NaN/inf velocity is never chosen).
+/// Returns the choice, or -1 with `why` naming the problem (wrong state size, every action masked, the network
+/// rejecting the state, a NaN/inf escape velocity).
 int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why);
+
+/// The velocity a choice of chooseAction commands. Throws std::out_of_range for -1 or other non-choices.
+Twist2 choiceVelocity(const Dovs& dovs, int choice);
 
 }  // namespace dqn_dovs

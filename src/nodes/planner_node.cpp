@@ -288,7 +288,7 @@ std::string PlannerNode::decide(const ros::Time& now, std::optional<double>& goa
   const int a = actionForLastDovs(why);
   if (a < 0) return why;
   action_ = a;
-  target_ = limits_.clipToFeasible({d.action_v[static_cast<size_t>(a)], d.action_w[static_cast<size_t>(a)]});
+  target_ = limits_.clipToFeasible(choiceVelocity(d, a));
   return {};
 }
 

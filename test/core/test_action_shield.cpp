@@ -128,6 +128,70 @@ TEST(ActionShield, RandomScenesKeepOnlySafeActionsAndNeverEmptyTheMask) {
   EXPECT_GT(latest, 0);
 }
 
+TEST(ActionShield, BoxedInEscapePutsTheTrueContactOffAtLeastAsLongAsAnyAction) {
+  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0, kPi, 1.0), disc(0.7, 0.6, -kPi / 2, 0.6)});
+  const ActionShieldConfig config;
+  const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, config);
+  ASSERT_EQ(m.level, ShieldLevel::kLatest);
+  ASSERT_TRUE(m.has_escape);
+  const RobotLimits limits;
+  EXPECT_TRUE(makeDynamicWindow(limits.clipToFeasible(s.obs.robot_twist), limits).contains(m.escape, limits, 1e-9));
+  // The escape's time to touching, with its best follow-up, beats every corner of the window and "keep" with
+  // theirs (the corners and the centre are lattice points of the escape's search).
+  const LocalScene local(s.obs, limits.radius, DovsConfig{}.safety_factor);
+  auto bestFollowUp = [&](const Twist2& u1) {
+    double best = -1.0;
+    for (int i = -1; i <= 1; ++i) {
+      for (int j = -1; j <= 1; ++j) {
+        const Twist2 u2{u1.v + i * limits.dv(), u1.w + j * limits.dw()};
+        if (!limits.feasible(u2, 1e-9)) continue;
+        best = std::max(best, std::min(3.0, rollOutSwitching(local, u1, limits.dt, u2, 3.0, 0.1, Contact::kTrue)
+                                                .collision_time_s));
+      }
+    }
+    return best;
+  };
+  const double escape_ttc = bestFollowUp(m.escape);
+  for (int a : {kActionDwTop, kActionDwBottom, kActionDwLeft, kActionDwRight, kActionKeep}) {
+    EXPECT_GE(escape_ttc, bestFollowUp(s.actions.velocities[static_cast<size_t>(a)]) - 1e-9) << "action " << a;
+  }
+  ActionShieldConfig off = config;
+  off.escape_enabled = false;
+  EXPECT_FALSE(shieldActions(s.actions, s.dovs, s.obs, off).has_escape);
+}
+
+TEST(Rollout, SwitchingRollOutGeneralisesTheConstantOne) {
+  Observation obs;
+  obs.obstacles = {disc(1.5, 0.1, kPi, 0.5), disc(0.5, -1.0, kPi / 2, 0.3)};
+  const LocalScene local(obs, 0.2, 1.2);
+  for (const Twist2 u : {Twist2{0.5, 0.0}, Twist2{0.3, 0.8}, Twist2{0.0, -1.0}}) {
+    const Rollout a = rollOut(local, u, 3.0, 0.1);
+    const Rollout b = rollOutSwitching(local, u, 3.0, u, 3.0, 0.1, Contact::kInflated);
+    EXPECT_EQ(a.collision_time_s, b.collision_time_s);
+    EXPECT_EQ(a.min_clearance_m, b.min_clearance_m);
+    // Touching comes no earlier than entering the inflation.
+    EXPECT_GE(rollOutSwitching(local, u, 3.0, u, 3.0, 0.1, Contact::kTrue).collision_time_s, a.collision_time_s);
+  }
+  // Driving at the disc ahead, then stopping after 0.2 s: contact only when the disc itself arrives.
+  const Rollout stop = rollOutSwitching(local, {0.5, 0.0}, 0.2, {0.0, 0.0}, 3.0, 0.1, Contact::kTrue);
+  const Rollout go = rollOutSwitching(local, {0.5, 0.0}, 0.2, {0.5, 0.0}, 3.0, 0.1, Contact::kTrue);
+  EXPECT_GT(stop.collision_time_s, go.collision_time_s);
+}
+
+TEST(DynamicWindow, LatticeSamplesAreInsideAndCountedRight) {
+  const RobotLimits limits;
+  const DynamicWindow w = makeDynamicWindow({0.3, 0.0}, limits);  // whole rhombus feasible
+  for (int n : {1, 3, 10}) {
+    const std::vector<Twist2> samples = w.samples(n, limits);
+    EXPECT_EQ(samples.size(), static_cast<size_t>(2 * n * n + 2 * n + 1)) << n;
+    for (const Twist2& t : samples) EXPECT_TRUE(w.contains(t, limits, 1e-9));
+  }
+  const DynamicWindow at_rest = makeDynamicWindow({0.0, 0.0}, limits);  // half of it is backwards
+  for (const Twist2& t : at_rest.samples(10, limits)) EXPECT_TRUE(limits.feasible(t, 1e-9));
+  EXPECT_LT(at_rest.samples(10, limits).size(), w.samples(10, limits).size());
+  EXPECT_TRUE(w.samples(0, limits).empty());
+}
+
 TEST(ActionShield, BadMarginsAreNamed) {
   const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {});
   ActionShieldConfig c;
@@ -137,6 +201,9 @@ TEST(ActionShield, BadMarginsAreNamed) {
   c = ActionShieldConfig{};
   c.robust_dv_mps = std::nan("");
   EXPECT_NE(c.validate().find("robust_dv_mps"), std::string::npos);
+  c = ActionShieldConfig{};
+  c.escape_window_samples = 0;
+  EXPECT_NE(c.validate().find("escape_window_samples"), std::string::npos);
 }
 
 }  // namespace

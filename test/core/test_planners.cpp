@@ -222,7 +222,7 @@ TEST(DqnDovsPlanner, ChoosesOnlyAmongShieldedActionsAndTheAblationDoesNot) {
   sim::GeneratorConfig g;
   g.goal_distance_min_m = 4.0;
   g.obstacle_count_min = g.obstacle_count_max = 12;
-  int decisions = 0, narrowed = 0, outside_shield = 0;
+  int decisions = 0, narrowed = 0, outside_shield = 0, escapes = 0;
   for (uint64_t seed = 1; seed <= 6; ++seed) {
     Episode ep(EpisodeConfig{});
     ep.reset(sim::generateScenario(g, seed), seed);
@@ -230,6 +230,18 @@ TEST(DqnDovsPlanner, ChoosesOnlyAmongShieldedActionsAndTheAblationDoesNot) {
       const PlannerInput in = ep.plannerInput();
       const ShieldedMask m = shieldActions(ep.actions(), ep.dovs(), ep.observation(), ActionShieldConfig{});
       const PlannerDecision d = shielded.decide(in);
+      if (m.has_escape) {
+        // Boxed in: the shield's escape velocity, not an action.
+        ASSERT_EQ(m.level, ShieldLevel::kLatest);
+        EXPECT_EQ(d.action, -1);
+        EXPECT_EQ(d.note, "escape (shield: latest)");
+        EXPECT_EQ(d.command.v, m.escape.v);
+        EXPECT_EQ(d.command.w, m.escape.w);
+        ++escapes;
+        ++decisions;
+        ep.step(d.command);
+        continue;
+      }
       ASSERT_GE(d.action, 0) << d.note;
       ASSERT_TRUE(m.mask[static_cast<size_t>(d.action)]) << "seed " << seed << " step " << ep.steps() << ": " << d.note;
       EXPECT_NE(d.note.find(std::string("shield: ") + shieldLevelName(m.level)), std::string::npos) << d.note;
@@ -244,6 +256,7 @@ TEST(DqnDovsPlanner, ChoosesOnlyAmongShieldedActionsAndTheAblationDoesNot) {
   }
   EXPECT_GT(decisions, 100);
   EXPECT_GT(narrowed, 0) << "12 moving obstacles and the shield never removed an action";
+  EXPECT_GT(escapes, 0) << "12 moving obstacles and the robot was never boxed in";
   // Without the shield, the network does pick actions the shield forbids (that is what the shield is for).
   EXPECT_GT(outside_shield, 0);
 }
