@@ -30,6 +30,8 @@ Contract of `dqn_dovs._core.VecEnv` (n = num_envs, all arrays numpy):
                                           episode where one ended (automatic reset)
         'mask'          bool    [n, 8]    valid actions in 'state'
         'episode_steps' int32   [n]       steps of the episode that this step belongs to
+        'escaped'       bool    [n]       (optional) boxed in, the step ran the shield's escape
+                                          velocity instead of the action (as the robot does)
     core.normalization() -> dict[str, float]
         The state normaliser's named constants; the weight file stores them so that the
         planner can check that it builds states the same way.
@@ -86,6 +88,8 @@ class StepResult:
     state: np.ndarray
     mask: np.ndarray
     episode_steps: np.ndarray
+    # Optional in the contract: which environments ran the shield's escape instead of the action (None: not said).
+    escaped: np.ndarray | None = None
 
 
 _STEP_FIELDS = {
@@ -154,7 +158,12 @@ class VecEnv:
             raise EnvContractError(f"VecEnv.step: environment {i} has outcome {int(outcome[i])} but "
                                    f"terminated={bool(values['terminated'][i])}, "
                                    f"truncated={bool(values['truncated'][i])}")
-        return StepResult(**values)
+        escaped = None
+        if "escaped" in out:
+            escaped = np.asarray(out["escaped"], dtype=np.bool_)
+            if escaped.shape != (self.num_envs,):
+                raise EnvContractError(f"VecEnv.step: escaped has shape {escaped.shape}, expected ({self.num_envs},)")
+        return StepResult(**values, escaped=escaped)
 
     def normalization(self) -> dict[str, float]:
         norm = self._core.normalization()

@@ -28,6 +28,7 @@ import yaml
 from .agent import AgentConfig, DQNAgent
 from .curriculum import Curriculum, CurriculumError
 from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
+from .export import WeightFileError
 from .replay import NStepAccumulator, PrioritizedReplay
 
 TRAIN_LOG = "train_log.csv"
@@ -737,7 +738,19 @@ def build_parser() -> argparse.ArgumentParser:
                         "PyTorch threads competing with them for few cores slow learning down many times; "
                         "0 keeps PyTorch's default)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (e.g. in CI logs)")
+    p.add_argument("--init-from", default=None, metavar="MODEL.dqnw",
+                   help="start a fresh run from the network of this weight file (fine-tuning: new optimizer, "
+                        "replay and counters; the file must have been trained with the environment's state "
+                        "normalisation)")
     return p
+
+
+def init_from_factory(path: str) -> Callable[[], torch.nn.Module]:
+    """A model factory returning the network stored in the weight file `path` (for --init-from)."""
+    from .export import load_weights, model_from_weights  # noqa: PLC0415
+
+    weights = load_weights(path)  # read (and checked) once, before any training starts
+    return lambda: model_from_weights(weights)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -759,11 +772,14 @@ def main(argv: list[str] | None = None) -> int:
         message = config.validate()
         if message:
             raise ConfigError(message)
+        if args.init_from and args.resume:
+            raise ConfigError("--init-from starts a new run; --resume continues one from its own checkpoint")
+        model_factory = init_from_factory(args.init_from) if args.init_from else None
         trainer = Trainer(config, args.out, device=args.device, threads=args.threads, resume=args.resume,
-                          progress=not args.no_progress,
+                          model_factory=model_factory, progress=not args.no_progress,
                           command="python -m dqn_dovs.train " + " ".join(shlex.quote(a) for a in argv_list))
         summary = trainer.run()
-    except (ConfigError, CurriculumError, FileExistsError, FileNotFoundError, ImportError) as error:
+    except (ConfigError, CurriculumError, FileExistsError, FileNotFoundError, ImportError, WeightFileError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     final = summary["final_eval"]

@@ -81,7 +81,7 @@ class VecEnv {
     py::array_t<bool> mask({n, static_cast<size_t>(kNumActions)});
     for (size_t i = 0; i < n; ++i) {
       copyState(envs_[i]->episode, state.mutable_data(i, 0));
-      copyMask(envs_[i]->episode, mask.mutable_data(i, 0));
+      copyMask(*envs_[i], mask.mutable_data(i, 0));
     }
     return py::make_tuple(state, mask);
   }
@@ -105,6 +105,8 @@ class VecEnv {
     py::array_t<bool> terminated(shape1), truncated(shape1);
     py::array_t<int8_t> outcome(shape1);
     py::array_t<int32_t> episode_steps(shape1);
+    py::array_t<bool> escaped(shape1);
+    bool* esc = escaped.mutable_data();
     float* ns = next_state.mutable_data();
     float* st = state.mutable_data();
     bool* nm = next_mask.mutable_data();
@@ -118,22 +120,27 @@ class VecEnv {
     {
       py::gil_scoped_release release;
       parallelFor([&](size_t i) {
-        Episode& ep = envs_[i]->episode;
+        Env& env = *envs_[i];
+        Episode& ep = env.episode;
         try {
           const int act = static_cast<int>(a[i]);
-          // A masked action falls back to "keep" (always valid); the trainer never sends one.
-          const StepResult r = ep.actions().valid[static_cast<size_t>(act)] ? ep.stepAction(act) : ep.stepAction(kActionKeep);
+          // Boxed in, the shield's escape velocity is what runs (as the planner does on the robot), whatever
+          // the action; otherwise a masked action falls back to "keep" (always valid; the trainer never sends one).
+          esc[i] = env.has_escape;
+          const StepResult r = env.has_escape ? ep.step(env.escape)
+                               : ep.actions().valid[static_cast<size_t>(act)] ? ep.stepAction(act)
+                                                                               : ep.stepAction(kActionKeep);
           rw[i] = static_cast<float>(r.reward);
           te[i] = r.terminated;
           tr[i] = r.truncated;
           oc[i] = static_cast<int8_t>(r.outcome);
           es[i] = ep.steps();
           copyState(ep, ns + i * kStateSize);
-          copyMask(ep, nm + i * kNumActions);
+          copyMask(env, nm + i * kNumActions);
           if (ep.done()) {
             resetEnv(i);
-            copyState(envs_[i]->episode, st + i * kStateSize);
-            copyMask(envs_[i]->episode, mk + i * kNumActions);
+            copyState(env.episode, st + i * kStateSize);
+            copyMask(env, mk + i * kNumActions);
           } else {
             // The episode goes on: what to act on next is the successor just copied (shielded once, not twice).
             std::memcpy(st + i * kStateSize, ns + i * kStateSize, sizeof(float) * kStateSize);
@@ -157,6 +164,7 @@ class VecEnv {
     out["state"] = state;
     out["mask"] = mask;
     out["episode_steps"] = episode_steps;
+    out["escaped"] = escaped;
     return out;
   }
 
@@ -174,6 +182,9 @@ class VecEnv {
     explicit Env(const EpisodeConfig& c) : episode(c) {}
     Episode episode;
     uint64_t episodes = 0;
+    // The shield's escape for the state the agent acts on next (set by copyMask).
+    bool has_escape = false;
+    Twist2 escape;
   };
 
   void resetEnv(size_t i) {
@@ -193,10 +204,13 @@ class VecEnv {
     std::memcpy(dst, ep.state().data(), sizeof(float) * kStateSize);
   }
   // The mask the agent chooses under: the validity mask, narrowed by the action shield when it is on (the same
-  // function the DQN-DOVS planner applies on the robot and in evaluation).
-  void copyMask(const Episode& ep, bool* dst) const {
+  // function the DQN-DOVS planner applies on the robot and in evaluation), and the shield's escape if boxed in.
+  void copyMask(Env& env, bool* dst) const {
+    const Episode& ep = env.episode;
     const ShieldedMask m = shieldActions(ep.actions(), ep.dovs(), ep.observation(), shield_);
     for (int k = 0; k < kNumActions; ++k) dst[k] = m.mask[static_cast<size_t>(k)];
+    env.has_escape = m.has_escape;
+    env.escape = m.escape;
   }
 
   template <typename F>

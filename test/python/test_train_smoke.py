@@ -20,7 +20,8 @@ import torch
 from dqn_dovs.env import OUTCOME_COLLISION, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
 from dqn_dovs.export import load_weights
 from dqn_dovs.model import masked_argmax
-from dqn_dovs.train import Trainer, load_config
+from dqn_dovs.train import Trainer, init_from_factory, load_config
+from dqn_dovs.train import main as train_main
 
 REPO = os.path.join(os.path.dirname(__file__), "..", "..")
 REQUIRE_CORE = os.environ.get("DQN_DOVS_REQUIRE_CORE") == "1"
@@ -66,7 +67,8 @@ def smoke_config():
 
 
 def test_action_shield_only_narrows_the_mask():
-    """The shielded environment is the same world; its masks are non-empty subsets of the validity masks."""
+    """The shielded environment is the same world until it escapes; its masks are non-empty subsets of the
+    validity masks; boxed in, it runs the shield's escape instead of the action (and the worlds part)."""
     core = _core_or_skip()
     plain = VecEnv(4, seed=21, core=core.VecEnv(4, 21, False))
     shielded = VecEnv(4, seed=21, core=core.VecEnv(4, 21, False, action_shield=True))
@@ -77,16 +79,23 @@ def test_action_shield_only_narrows_the_mask():
     state_s, mask_s = shielded.reset()
     rng = np.random.default_rng(3)
     narrower = 0
+    parted = np.zeros(4, dtype=bool)  # environments whose shielded world has escaped (and so differs) once
     for _ in range(300):
-        np.testing.assert_array_equal(state_p, state_s)
-        assert not np.any(mask_s & ~mask_p), "the shield allowed an invalid action"
+        same = ~parted
+        np.testing.assert_array_equal(state_p[same], state_s[same])
+        assert not np.any(mask_s[same] & ~mask_p[same]), "the shield allowed an invalid action"
         assert np.all(mask_s.any(axis=1)), "the shield emptied a mask"
-        narrower += int(np.sum(mask_s.sum(axis=1) < mask_p.sum(axis=1)))
+        narrower += int(np.sum(mask_s[same].sum(axis=1) < mask_p[same].sum(axis=1)))
         actions = np.array([rng.choice(np.flatnonzero(m)) for m in mask_s])
         out_p, out_s = plain.step(actions), shielded.step(actions)
-        np.testing.assert_array_equal(out_p.reward, out_s.reward)
+        assert out_s.escaped is not None and out_p.escaped is not None
+        assert not out_p.escaped.any(), "the environment without the shield escaped"
+        parted |= out_s.escaped
+        same = ~parted
+        np.testing.assert_array_equal(out_p.reward[same], out_s.reward[same])
         state_p, mask_p, state_s, mask_s = out_p.state, out_p.mask, out_s.state, out_s.mask
     assert narrower > 0, "300 steps among 12 obstacles and the shield never removed an action"
+    assert parted.any(), "300 steps among 12 obstacles and the robot was never boxed in"
 
 
 @pytest.fixture(scope="module")
@@ -202,3 +211,22 @@ def test_exported_model_runs_in_cpp_like_in_pytorch(smoke_run, tmp_path):
     clear = sorted_q[:, -1] - sorted_q[:, -2] > 1e-3
     np.testing.assert_array_equal(a_cpp[clear], trainer.agent.greedy(states, masks)[clear])
     assert load_weights(model_path).normalization == env.normalization()
+
+
+def test_fine_tuning_starts_from_the_weight_file(smoke_run, tmp_path):
+    out, trainer, _ = smoke_run
+    model_path = os.path.join(out, "model.dqnw")
+    tuned = Trainer(smoke_config(), str(tmp_path / "tuned"), device="cpu", threads=1, progress=False,
+                    model_factory=init_from_factory(model_path), command="fine-tuning test")
+    states = np.random.default_rng(0).normal(size=(16, 408)).astype(np.float32)
+    np.testing.assert_allclose(tuned.agent.q_values(states), trainer.agent.q_values(states), atol=1e-5)
+    assert tuned.episodes_done == 0 and tuned.agent.updates == 0
+
+
+def test_fine_tuning_rejects_bad_files_and_resume(tmp_path, capsys):
+    bad = tmp_path / "bad.dqnw"
+    bad.write_bytes(b"not a weight file")
+    assert train_main(["--out", str(tmp_path / "a"), "--init-from", str(bad), "--no-progress"]) == 2
+    assert "bad.dqnw" in capsys.readouterr().err
+    assert train_main(["--out", str(tmp_path / "b"), "--init-from", str(bad), "--resume", "--no-progress"]) == 2
+    assert "--init-from" in capsys.readouterr().err
