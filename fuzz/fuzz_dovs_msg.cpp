@@ -42,8 +42,9 @@ bool lengthsFit(const std::uint8_t* data, std::size_t size) {
   };
   // header: seq, stamp, frame_id
   if (!skip(4 + 8) || !array(1)) return false;
-  // has_goal, v_max w_max dv dw v w, goal_line_kind, goal_curvature goal_turn_sign, action_v/w/valid
-  if (!skip(1 + 6 * 8 + 1 + 2 * 8 + 8 * 8 + 8 * 8 + 8)) return false;
+  // has_goal, v_max w_max dv dw v w, goal_line_kind, goal_curvature goal_turn_sign, action_v/w/valid,
+  // escape, escape_v, escape_w
+  if (!skip(1 + 6 * 8 + 1 + 2 * 8 + 8 * 8 + 8 * 8 + 8 + 1 + 2 * 8)) return false;
   // trajectory_curvature, trajectory_pure_rotation, v_top, w_top, interval_begin, interval_lo, interval_hi
   if (!array(4) || !array(1) || !array(4) || !array(4) || !array(4) || !array(4) || !array(4)) return false;
   if (!skip(2 + 2)) return false;  // grid_rows, grid_cols
@@ -74,9 +75,13 @@ void consume(const std::uint8_t* data, std::size_t size) {
     return;
   }
   require(why.empty(), "a chosen action comes without a problem");
-  require(a < dqn_dovs::QNetwork::kActionCount && msg.action_valid[static_cast<std::size_t>(a)],
+  require((a == dqn_dovs::kEscapeChoice) == static_cast<bool>(msg.escape),
+          "the escape is chosen exactly when the message carries one");
+  require(a == dqn_dovs::kEscapeChoice ||
+              (a < dqn_dovs::QNetwork::kActionCount && msg.action_valid[static_cast<std::size_t>(a)]),
           "the chosen action is one the message marks valid");
-  const double v = msg.action_v[static_cast<std::size_t>(a)], w = msg.action_w[static_cast<std::size_t>(a)];
+  const dqn_dovs::Twist2 chosen = dqn_dovs::choiceVelocity(msg, a);
+  const double v = chosen.v, w = chosen.w;
   require(std::isfinite(v) && std::isfinite(w), "the chosen action has a finite velocity");
   const dqn_dovs::RobotLimits limits;
   const dqn_dovs::Twist2 target = limits.clipToFeasible({v, w});

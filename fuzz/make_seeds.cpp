@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/qnetwork.h"
@@ -128,6 +129,11 @@ std::vector<std::uint8_t> dovsMessage(const sim::Scenario& scenario, bool with_g
     m.action_w[i] = actions.velocities[i].w;
     m.action_valid[i] = actions.valid[i] && (with_goal || i < 5);
   }
+  // Boxed in, the message carries the shield's escape (as dovs_node sends it).
+  const ShieldedMask shielded = shieldActions(actions, dovs, obs, ActionShieldConfig{});
+  m.escape = shielded.has_escape;
+  m.escape_v = shielded.has_escape ? shielded.escape.v : 0.0;
+  m.escape_w = shielded.has_escape ? shielded.escape.w : 0.0;
   for (int i = 0; i < dovs.numTrajectories(); ++i) {
     const Trajectory& t = dovs.trajectory(i);
     m.trajectory_curvature.push_back(static_cast<float>(t.curvature_1pm));

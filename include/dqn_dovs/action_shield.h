@@ -40,7 +40,7 @@ struct ActionShieldConfig {
   /// contact off longest over last_resort_horizon_s, each followed after one period by its best change inside
   /// the next window; then the widest clearance, then the closest to the goal. false: the last-resort action.
   bool escape_enabled = true;
-  int escape_window_samples = 10;
+  int escape_window_samples = 5;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;

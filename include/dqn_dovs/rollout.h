@@ -62,10 +62,17 @@ class LocalScene {
   /// Surface-to-surface clearance (true radii) of the robot at q at time t; `collides` is set when q is inside
   /// an inflated obstacle or wall band.
   double clearance(const Vec2& q, double t, bool& collides) const {
+    return clearanceWith(q, [&](size_t j) { return obstacles_[j].at(t); }, collides);
+  }
+
+  /// clearance() with the obstacle centres given by at(j) (j indexes obstacles()), e.g. precomputed ones.
+  template <typename At>
+  double clearanceWith(const Vec2& q, At&& at, bool& collides) const {
     double best = std::numeric_limits<double>::infinity();
     collides = false;
-    for (const LocalObstacle& o : obstacles_) {
-      const double dist = (q - o.at(t)).norm();
+    for (size_t j = 0; j < obstacles_.size(); ++j) {
+      const LocalObstacle& o = obstacles_[j];
+      const double dist = (q - at(j)).norm();
       best = std::min(best, dist - o.radius - robot_radius_);
       if (dist < (o.radius + robot_radius_) * safety_factor_) collides = true;
     }
@@ -83,6 +90,8 @@ class LocalScene {
     bool unused = false;
     return clearance(Vec2::Zero(), 0.0, unused);
   }
+
+  const std::vector<LocalObstacle>& obstacles() const { return obstacles_; }
 
  private:
   double robot_radius_;
@@ -108,5 +117,25 @@ enum class Contact { kInflated, kTrue };
 /// once the clearance gets worse). rollOut is this with u2 = u1 and kInflated.
 Rollout rollOutSwitching(const LocalScene& scene, const Twist2& u1, double switch_s, const Twist2& u2, double horizon_s,
                          double step_s, Contact contact);
+
+/// A LocalScene whose obstacles are placed once at the roll-out times t_k = min(horizon, k step), k = 1..steps,
+/// for many roll-outs over the same times (the escape's search). Its roll-outs equal the LocalScene ones.
+class SampledScene {
+ public:
+  SampledScene(const LocalScene& scene, double horizon_s, double step_s);
+
+  /// rollOutSwitching on the sampled times. A roll-out whose least clearance falls below give_up_below_m is
+  /// abandoned there (`abandoned` set; its figures are then only bounds): for searches that need no more.
+  Rollout rollOutSwitching(const Twist2& u1, double switch_s, const Twist2& u2, Contact contact,
+                           double give_up_below_m, bool& abandoned) const;
+
+  double horizon() const { return horizon_s_; }
+
+ private:
+  const LocalScene& scene_;
+  double horizon_s_, step_s_;
+  int steps_;
+  std::vector<Vec2> centres_;  // steps x obstacles, row k - 1 at t_k
+};
 
 }  // namespace dqn_dovs

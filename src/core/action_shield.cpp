@@ -127,14 +127,24 @@ Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits,
   double best_ttc = -1.0, best_clearance = -std::numeric_limits<double>::infinity(),
          best_goal = std::numeric_limits<double>::infinity();
   Twist2 chosen = current;
+  const SampledScene sampled(scene, horizon, step);  // up to 9 x 61 roll-outs over the same times
+  constexpr double kNone = -std::numeric_limits<double>::infinity();
   for (const Twist2& u1 : makeDynamicWindow(current, limits).samples(config.escape_window_samples, limits)) {
     // The best follow-up one period on: a corner or the centre of u1's own window (its 3 x 3 box).
-    double ttc = -1.0, clearance = -std::numeric_limits<double>::infinity();
+    double ttc = -1.0, clearance = kNone;
     for (int i = -1; i <= 1; ++i) {
       for (int j = -1; j <= 1; ++j) {
         const Twist2 u2{u1.v + i * limits.dv(), u1.w + j * limits.dw()};
         if (!limits.feasible(u2, 1e-9)) continue;
-        const Rollout r = rollOutSwitching(scene, u1, limits.dt, u2, horizon, step, Contact::kTrue);
+        // Once a roll-out has reached the horizon untouched, one whose clearance falls below its clearance can
+        // no longer be u1's best follow-up, nor (1 mm below the best so far) tie the best velocity: abandoned,
+        // which leaves the choice exactly what the full search makes.
+        const double below_best = best_ttc >= horizon - 1e-9 ? best_clearance - 1e-3 - 1e-9 : kNone;
+        const double below_own = ttc >= horizon - 1e-9 ? clearance : kNone;
+        bool abandoned = false;
+        const Rollout r = sampled.rollOutSwitching(u1, limits.dt, u2, Contact::kTrue, std::max(below_best, below_own),
+                                                   abandoned);
+        if (abandoned) continue;
         const double t = std::min(r.collision_time_s, horizon);
         if (t > ttc + 1e-9 || (t > ttc - 1e-9 && r.min_clearance_m > clearance)) {
           ttc = t;
@@ -142,6 +152,7 @@ Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits,
         }
       }
     }
+    if (ttc < 0.0) continue;  // every follow-up abandoned: u1 cannot beat the best
     const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
     const bool better = ttc > best_ttc + 1e-9 ||
                         (ttc > best_ttc - 1e-9 && (clearance > best_clearance + 1e-3 ||

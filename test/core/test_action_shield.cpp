@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -9,19 +11,12 @@
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/rollout.h"
+#include "obstacle_test_helpers.h"
 
 namespace dqn_dovs {
 namespace {
 
-MovingObstacle disc(double x, double y, double heading = 0.0, double speed = 0.0) {
-  MovingObstacle o;
-  o.center = {x, y};
-  o.radius = 0.2;
-  o.heading = heading;
-  o.speed = speed;
-  o.is_static = speed == 0.0;
-  return o;
-}
+using test::movingDisc;
 
 struct Scene {
   Observation obs;
@@ -48,7 +43,7 @@ TEST(ActionShield, EmptySpaceKeepsEveryValidAction) {
 }
 
 TEST(ActionShield, DisabledIsTheValidityMask) {
-  const Scene s = scene({0.6, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0)});
+  const Scene s = scene({0.6, 0.0}, {4.0, 0.0}, {movingDisc(0.9, 0.0)});
   ActionShieldConfig off;
   off.enabled = false;
   const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, off);
@@ -58,7 +53,7 @@ TEST(ActionShield, DisabledIsTheValidityMask) {
 
 TEST(ActionShield, SpeedingTowardAStaticObstacleIsMasked) {
   // 0.5 m/s with a static disc 0.9 m ahead: faster is unsafe (cannot brake in time), slowing down is safe.
-  const Scene s = scene({0.5, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0)});
+  const Scene s = scene({0.5, 0.0}, {4.0, 0.0}, {movingDisc(0.9, 0.0)});
   ASSERT_FALSE(s.dovs.isFree(s.actions.velocities[kActionDwTop]));
   ASSERT_TRUE(s.dovs.isFree(s.actions.velocities[kActionDwBottom]));
   const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, ActionShieldConfig{});
@@ -69,7 +64,7 @@ TEST(ActionShield, SpeedingTowardAStaticObstacleIsMasked) {
 
 TEST(ActionShield, NothingSafeKeepsTheActionsThatCollideLatest) {
   // A disc coming head-on at 1 m/s, touching distance: every velocity of the window is in its DOV.
-  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0, kPi, 1.0)});
+  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {movingDisc(0.9, 0.0, kPi, 1.0)});
   bool any_free = false;
   for (size_t i = 0; i < s.actions.valid.size(); ++i) {
     any_free = any_free || (s.actions.valid[i] && s.dovs.isFree(s.actions.velocities[i]));
@@ -101,7 +96,7 @@ TEST(ActionShield, RandomScenesKeepOnlySafeActionsAndNeverEmptyTheMask) {
     const int n = static_cast<int>(u01(rng) * 8);
     for (int i = 0; i < n; ++i) {
       const double r = 0.6 + 3.0 * u01(rng), a = (u01(rng) * 2 - 1) * kPi;
-      obstacles.push_back(disc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi, u01(rng) < 0.3 ? 0.0 : u01(rng)));
+      obstacles.push_back(movingDisc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi, u01(rng) < 0.3 ? 0.0 : u01(rng)));
     }
     const double v = u01(rng) * limits.v_max;
     const double w = (u01(rng) * 2 - 1) * limits.w_max * (1 - v / limits.v_max);
@@ -129,7 +124,7 @@ TEST(ActionShield, RandomScenesKeepOnlySafeActionsAndNeverEmptyTheMask) {
 }
 
 TEST(ActionShield, BoxedInEscapePutsTheTrueContactOffAtLeastAsLongAsAnyAction) {
-  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {disc(0.9, 0.0, kPi, 1.0), disc(0.7, 0.6, -kPi / 2, 0.6)});
+  const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {movingDisc(0.9, 0.0, kPi, 1.0), movingDisc(0.7, 0.6, -kPi / 2, 0.6)});
   const ActionShieldConfig config;
   const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, config);
   ASSERT_EQ(m.level, ShieldLevel::kLatest);
@@ -162,7 +157,7 @@ TEST(ActionShield, BoxedInEscapePutsTheTrueContactOffAtLeastAsLongAsAnyAction) {
 
 TEST(Rollout, SwitchingRollOutGeneralisesTheConstantOne) {
   Observation obs;
-  obs.obstacles = {disc(1.5, 0.1, kPi, 0.5), disc(0.5, -1.0, kPi / 2, 0.3)};
+  obs.obstacles = {movingDisc(1.5, 0.1, kPi, 0.5), movingDisc(0.5, -1.0, kPi / 2, 0.3)};
   const LocalScene local(obs, 0.2, 1.2);
   for (const Twist2 u : {Twist2{0.5, 0.0}, Twist2{0.3, 0.8}, Twist2{0.0, -1.0}}) {
     const Rollout a = rollOut(local, u, 3.0, 0.1);
@@ -176,6 +171,114 @@ TEST(Rollout, SwitchingRollOutGeneralisesTheConstantOne) {
   const Rollout stop = rollOutSwitching(local, {0.5, 0.0}, 0.2, {0.0, 0.0}, 3.0, 0.1, Contact::kTrue);
   const Rollout go = rollOutSwitching(local, {0.5, 0.0}, 0.2, {0.5, 0.0}, 3.0, 0.1, Contact::kTrue);
   EXPECT_GT(stop.collision_time_s, go.collision_time_s);
+}
+
+// The escape as its documentation states it: every lattice velocity with every follow-up, nothing abandoned.
+Twist2 escapeByFullSearch(const Observation& obs, const ActionShieldConfig& config) {
+  const RobotLimits limits;
+  const LocalScene scene(obs, limits.radius, DovsConfig{}.safety_factor);
+  const Twist2 current = limits.clipToFeasible(obs.robot_twist);
+  const Vec2 goal = obs.robot_pose.toLocal(obs.goal);
+  const double h = config.last_resort_horizon_s;
+  double best_ttc = -1.0, best_clearance = -1e300, best_goal = 1e300;
+  Twist2 chosen = current;
+  for (const Twist2& u1 : makeDynamicWindow(current, limits).samples(config.escape_window_samples, limits)) {
+    double ttc = -1.0, clearance = -1e300;
+    for (int i = -1; i <= 1; ++i) {
+      for (int j = -1; j <= 1; ++j) {
+        const Twist2 u2{u1.v + i * limits.dv(), u1.w + j * limits.dw()};
+        if (!limits.feasible(u2, 1e-9)) continue;
+        const Rollout r = rollOutSwitching(scene, u1, limits.dt, u2, h, config.last_resort_step_s, Contact::kTrue);
+        const double t = std::min(r.collision_time_s, h);
+        if (t > ttc + 1e-9 || (t > ttc - 1e-9 && r.min_clearance_m > clearance)) {
+          ttc = t;
+          clearance = r.min_clearance_m;
+        }
+      }
+    }
+    const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
+    if (ttc > best_ttc + 1e-9 || (ttc > best_ttc - 1e-9 && (clearance > best_clearance + 1e-3 ||
+                                                           (clearance > best_clearance - 1e-3 && g < best_goal)))) {
+      best_ttc = ttc;
+      best_clearance = clearance;
+      best_goal = g;
+      chosen = u1;
+    }
+  }
+  return chosen;
+}
+
+// Random crowded scenes around a robot at the origin (some moving, some turning), with walls.
+Observation crowd(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const RobotLimits limits;
+  Observation obs;
+  const double v = u01(rng) * limits.v_max;
+  obs.robot_twist = {v, (u01(rng) * 2 - 1) * limits.w_max * (1 - v / limits.v_max)};
+  obs.goal = {4.0 * (u01(rng) * 2 - 1), 4.0 * (u01(rng) * 2 - 1)};
+  const int n = 4 + static_cast<int>(u01(rng) * 12);
+  for (int i = 0; i < n; ++i) {
+    const double r = 0.5 + 2.0 * u01(rng), a = (u01(rng) * 2 - 1) * kPi;
+    MovingObstacle o = movingDisc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi,
+                                  u01(rng) < 0.2 ? 0.0 : 1.2 * u01(rng));
+    if (u01(rng) < 0.3) o.turn_rate = u01(rng) * 2 - 1;
+    obs.obstacles.push_back(o);
+  }
+  obs.segments = {Segment{{-3.0, -3.0}, {3.0, -3.0}}, Segment{{3.0, -3.0}, {3.0, 3.0}}};
+  return obs;
+}
+
+TEST(Rollout, SampledSceneRollsOutExactlyLikeTheLocalScene) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const RobotLimits limits;
+  int abandoned_seen = 0;
+  for (int k = 0; k < 200; ++k) {
+    const Observation obs = crowd(rng);
+    const LocalScene scene(obs, limits.radius, 1.1);
+    const SampledScene sampled(scene, 3.0, 0.1);
+    for (int m = 0; m < 5; ++m) {
+      const Twist2 u1{u01(rng) * 0.7, (u01(rng) * 2 - 1)}, u2{u01(rng) * 0.7, (u01(rng) * 2 - 1)};
+      for (Contact c : {Contact::kInflated, Contact::kTrue}) {
+        const Rollout a = rollOutSwitching(scene, u1, 0.2, u2, 3.0, 0.1, c);
+        bool abandoned = true;
+        const Rollout b = sampled.rollOutSwitching(u1, 0.2, u2, c, -std::numeric_limits<double>::infinity(), abandoned);
+        ASSERT_FALSE(abandoned);
+        ASSERT_EQ(a.collision_time_s, b.collision_time_s) << "scene " << k;
+        ASSERT_EQ(a.min_clearance_m, b.min_clearance_m) << "scene " << k;
+        // Giving up below a level: abandoned exactly when the full roll-out's clearance went below it before
+        // its contact.
+        const double level = a.min_clearance_m + 0.05;
+        const Rollout g = sampled.rollOutSwitching(u1, 0.2, u2, c, level, abandoned);
+        if (abandoned) {
+          ++abandoned_seen;
+          EXPECT_LT(g.min_clearance_m, level);
+          EXPECT_GE(g.collision_time_s, a.collision_time_s);
+        } else {
+          EXPECT_EQ(g.collision_time_s, a.collision_time_s);
+        }
+      }
+    }
+  }
+  EXPECT_GT(abandoned_seen, 100);
+}
+
+TEST(ActionShield, EscapeSearchAbandonsNothingThatCouldWin) {
+  std::mt19937 rng(9);
+  int compared = 0;
+  for (int k = 0; k < 150; ++k) {
+    const Observation obs = crowd(rng);
+    for (int n : {2, 5}) {
+      ActionShieldConfig config;
+      config.escape_window_samples = n;
+      const Twist2 fast = escapeVelocity(obs, RobotLimits{}, DovsConfig{}.safety_factor, config);
+      const Twist2 full = escapeByFullSearch(obs, config);
+      ASSERT_EQ(fast.v, full.v) << "scene " << k << ", lattice " << n;
+      ASSERT_EQ(fast.w, full.w) << "scene " << k << ", lattice " << n;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 300);
 }
 
 TEST(DynamicWindow, LatticeSamplesAreInsideAndCountedRight) {

@@ -12,20 +12,13 @@
 #include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/qnetwork.h"
+#include "../core/obstacle_test_helpers.h"
 #include "pipeline_steps.h"
 
 namespace dqn_dovs {
 namespace {
 
-MovingObstacle disc(double x, double y, double heading, double speed) {
-  MovingObstacle o;
-  o.center = {x, y};
-  o.radius = 0.2;
-  o.heading = heading;
-  o.speed = speed;
-  o.is_static = speed == 0.0;
-  return o;
-}
+using test::movingDisc;
 
 struct Step {
   DovsStep step;
@@ -51,7 +44,7 @@ QNetwork shippedNetwork() { return QNetwork::load(std::string(DQN_DOVS_SOURCE_DI
 
 TEST(PipelineSteps, BoxedInTheMessageCarriesTheEscapeAndThePlannerHoldsIt) {
   // A disc coming head-on at 1 m/s, nearly touching: every velocity of the window is in its DOV.
-  const Step s = build({0.3, 0.0}, {disc(0.9, 0.0, kPi, 1.0)});
+  const Step s = build({0.3, 0.0}, {movingDisc(0.9, 0.0, kPi, 1.0)});
   ASSERT_EQ(s.step.shield_level, ShieldLevel::kLatest);
   const Dovs& d = s.step.msg;
   ASSERT_TRUE(d.escape);
@@ -77,7 +70,7 @@ TEST(PipelineSteps, BoxedInTheMessageCarriesTheEscapeAndThePlannerHoldsIt) {
 }
 
 TEST(PipelineSteps, WithAFreeActionThereIsNoEscapeAndTheNetworkChooses) {
-  const Step s = build({0.3, 0.0}, {disc(2.5, 1.5, 0.0, 0.3)});
+  const Step s = build({0.3, 0.0}, {movingDisc(2.5, 1.5, 0.0, 0.3)});
   const Dovs& d = s.step.msg;
   EXPECT_FALSE(d.escape);
   EXPECT_EQ(d.escape_v, 0.0);
