@@ -29,6 +29,8 @@ LATENCY = [
     ("DOVS build, one scene (median of 11 builds per scene)", "dovs", "build_ms_p99", "p99 over scenes", "ms"),
     ("DOVS build, one scene (median of 11 builds per scene)", "dovs", "build_ms_max", "max over scenes", "ms"),
     ("DOVS build, every build", "dovs", "build_ms_p99_all_builds", "p99", "ms"),
+    ("action shield escape search, one scene (boxed in only)", "dovs", "escape_ms_median", "median over scenes", "ms"),
+    ("action shield escape search, one scene (boxed in only)", "dovs", "escape_ms_p99", "p99 over scenes", "ms"),
     ("Q-network decision, qValues + masked argmax (wall clock)", "inference", "decision_us_median", "median", "us"),
     ("Q-network decision, qValues + masked argmax (wall clock)", "inference", "decision_us_p99", "p99", "us"),
     ("Q-network decision, qValues + masked argmax (wall clock)", "inference", "decision_us_max", "max", "us"),
