@@ -757,6 +757,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     argv_list = sys.argv[1:] if argv is None else argv
     try:
+        if args.init_from and args.resume:
+            raise ConfigError("--init-from starts a new run; --resume continues one from its own checkpoint")
         if args.resume:
             config_path = args.config or os.path.join(args.out, CONFIG_COPY)
         else:
@@ -772,8 +774,6 @@ def main(argv: list[str] | None = None) -> int:
         message = config.validate()
         if message:
             raise ConfigError(message)
-        if args.init_from and args.resume:
-            raise ConfigError("--init-from starts a new run; --resume continues one from its own checkpoint")
         model_factory = init_from_factory(args.init_from) if args.init_from else None
         trainer = Trainer(config, args.out, device=args.device, threads=args.threads, resume=args.resume,
                           model_factory=model_factory, progress=not args.no_progress,
