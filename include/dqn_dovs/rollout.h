@@ -129,12 +129,12 @@ class SampledScene {
   Rollout rollOutSwitching(const Twist2& u1, double switch_s, const Twist2& u2, Contact contact,
                            double give_up_below_m, bool& abandoned) const;
 
-  double horizon() const { return horizon_s_; }
-
  private:
   const LocalScene& scene_;
   double horizon_s_, step_s_;
   int steps_;
+  double start_clearance_m_;   // the robot's clearance where it stands, once for every roll-out
+  bool start_inflated_ = false;
   std::vector<Vec2> centres_;  // steps x obstacles, row k - 1 at t_k
 };
 

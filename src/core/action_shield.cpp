@@ -65,6 +65,12 @@ bool neighboursFree(const VelocitySpace& dovs, const Twist2& u, double dv, doubl
 
 }  // namespace
 
+namespace {
+// escapeVelocity without the configuration check (shieldActions has made it).
+Twist2 searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
+                    const ActionShieldConfig& config);
+}  // namespace
+
 ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
                            const ActionShieldConfig& config) {
   if (const std::string e = config.validate(); !e.empty()) throw DovsError(e);
@@ -111,7 +117,7 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
     }
     if (config.escape_enabled && actions.numValid() > 0) {
       out.has_escape = true;
-      out.escape = escapeVelocity(observation, dovs.limits(), dovs.config().safety_factor, config);
+      out.escape = searchEscape(observation, dovs.limits(), dovs.config().safety_factor, config);
     }
   }
   return out;
@@ -120,6 +126,13 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
 Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits, double safety_factor,
                       const ActionShieldConfig& config) {
   if (const std::string e = config.validate(); !e.empty()) throw DovsError(e);
+  return searchEscape(observation, limits, safety_factor, config);
+}
+
+namespace {
+
+Twist2 searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
+                    const ActionShieldConfig& config) {
   const LocalScene scene(observation, limits.radius, safety_factor);
   const Twist2 current = limits.clipToFeasible(observation.robot_twist);
   const Vec2 goal = observation.robot_pose.toLocal(observation.goal);
@@ -166,5 +179,7 @@ Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits,
   }
   return chosen;
 }
+
+}  // namespace
 
 }  // namespace dqn_dovs

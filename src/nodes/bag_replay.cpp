@@ -125,13 +125,13 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     for (size_t i = 0; i < row.valid.size(); ++i) row.valid[i] = d.action_valid[i];
     std::string why;
     row.action = chooseAction(network, d, why);
-    if (row.action == kEscapeChoice) {
+    if (row.action >= 0) {
       const Twist2 u = choiceVelocity(d, row.action);
       row.target_v = u.v;
       row.target_w = u.w;
-    } else if (row.action >= 0) {
-      row.target_v = d.action_v[static_cast<size_t>(row.action)];
-      row.target_w = d.action_w[static_cast<size_t>(row.action)];
+      row.q_gap = 1e9;  // the escape is no network choice: a different one on replay is a real difference
+    }
+    if (row.action >= 0 && row.action != kEscapeChoice) {
       const Eigen::Map<const Eigen::VectorXf> state(d.state.data(), static_cast<Eigen::Index>(d.state.size()));
       const QNetwork::QValues q = network.qValues(state);
       double second = -std::numeric_limits<double>::infinity();
