@@ -9,7 +9,7 @@ SOAK_SECONDS ?= 3600
 
 .PHONY: all setup build test test-cpp test-python bench demo clean format help soak fuzz test-asan
 all: build
-.PHONY: benchmark-table performance-report
+.PHONY: benchmark-table performance-report select-model
 
 help:
 	@echo "make setup   install Debian ROS 1 packages and the Python venv (idempotent)"
@@ -19,6 +19,7 @@ help:
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
 	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information (EPISODES=100)"
+	@echo "make select-model RUN=runs/NAME  rank a training run's snapshots on held-out generated scenarios"
 	@echo "make demo    the ROS pipeline in simulation on shared scenarios"
 	@echo "make soak    the full pipeline in real time over random scenarios for SOAK_SECONDS (3600) s: crashes, RSS, deadlines"
 
@@ -47,6 +48,9 @@ performance-report: setup
 
 benchmark-table: build
 	@bash scripts/benchmark_table.sh
+
+select-model: build
+	@bash scripts/select_model.sh $(RUN)
 
 bench-%: build
 	@$(MAKE) --no-print-directory bench-run-$*

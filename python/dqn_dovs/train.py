@@ -39,6 +39,7 @@ CONFIG_COPY = "config.yaml"
 SUMMARY = "summary.json"
 MODEL_FILE = "model.dqnw"
 BEST_MODEL_FILE = "best.dqnw"
+SNAPSHOT_DIR = "snapshots"
 
 TRAIN_COLUMNS = ["episode", "stage", "stage_name", "steps", "env_steps", "return", "outcome", "epsilon", "loss",
                  "mean_q", "lr", "beta", "updates", "wall_s"]
@@ -108,6 +109,9 @@ class EvalConfig:
     num_envs: int = 8
     # Seed of the evaluation environments; the same for every evaluation.
     seed: int = 100003
+    # Also export every network evaluated in the last stage to snapshots/ep<EPISODE>.dqnw, for model
+    # selection on held-out scenarios (scripts/select_model.sh); 630 KB each.
+    keep_snapshots: bool = False
 
     def validate(self) -> str:
         if self.every_episodes < 0:
@@ -619,9 +623,14 @@ class Trainer:
         log.write(row)
         log.flush()
         self._timing["eval_s"] += time.perf_counter() - t0
-        if stage == len(self.curriculum.stages) - 1 and row["success_rate"] > self.best_eval:
+        last_stage = stage == len(self.curriculum.stages) - 1
+        if last_stage and row["success_rate"] > self.best_eval:
             self.best_eval = row["success_rate"]
             self._export(os.path.join(self.out_dir, BEST_MODEL_FILE), row)
+        if last_stage and ec.keep_snapshots:
+            snapshots = os.path.join(self.out_dir, SNAPSHOT_DIR)
+            os.makedirs(snapshots, exist_ok=True)
+            self._export(os.path.join(snapshots, f"ep{self.episodes_done:06d}.dqnw"), row)
         return row
 
     # ---- files -------------------------------------------------------------------------

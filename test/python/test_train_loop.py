@@ -23,7 +23,7 @@ RAW = {
     "seed": 3, "num_envs": 4, "gamma": 0.97, "n_step": 3,
     "agent": {"lr_start": 1e-3, "lr_end": 3e-4, "target_update_period": 50},
     "replay": {"capacity": 5000, "batch_size": 32, "learning_starts": 200, "transitions_per_update": 2},
-    "evaluation": {"every_episodes": 50, "episodes": 12, "num_envs": 4, "seed": 7},
+    "evaluation": {"every_episodes": 50, "episodes": 12, "num_envs": 4, "seed": 7, "keep_snapshots": True},
     "checkpoint": {"every_episodes": 50, "save_replay": True},
     "log": {"success_window": 20, "plot_every_episodes": 100},
     "curriculum": {
@@ -81,6 +81,13 @@ def test_training_learns_the_task_and_writes_every_file(full_run):
     assert [int(r["episode"]) for r in evals] == [50, 100, 150, 200]
     assert evals[-1]["stage_name"] == "far"
     assert float(evals[-1]["success_rate"]) > float(evals[0]["success_rate"])
+    # Snapshots: every network evaluated in the last stage ("far" starts at episode 120).
+    assert sorted(os.listdir(out / "snapshots")) == ["ep000150.dqnw", "ep000200.dqnw"]
+    last = load_weights(out / "snapshots" / "ep000200.dqnw")
+    final = load_weights(out / "model.dqnw")
+    assert len(last.layers) == len(final.layers)
+    for a, b in zip(last.layers, final.layers):
+        assert np.array_equal(a.weight, b.weight) and np.array_equal(a.bias, b.bias)
 
 
 def test_exported_model_matches_the_trained_network(full_run):
