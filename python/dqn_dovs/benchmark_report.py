@@ -197,6 +197,46 @@ def beats_every_baseline(summary: Summary, n: int, method: str = REFERENCE,
     return mine.success_rate > best_rate, best, best_rate
 
 
+@dataclass
+class Paired:
+    """Success of two methods on the same episodes (matched by obstacle count and episode number)."""
+
+    episodes: int = 0  # episodes both methods ran
+    wins: int = 0      # the first method succeeded, the second did not
+    losses: int = 0    # the second succeeded, the first did not
+    p_value: float = 1.0  # exact two-sided sign test (McNemar) on the wins and losses
+
+
+def sign_test_p(wins: int, losses: int) -> float:
+    """Exact two-sided sign test: the probability, with both methods equally good (each discordant episode a fair
+    coin), of a split at least as uneven as wins : losses. 1 without discordant episodes."""
+    n = wins + losses
+    if n == 0:
+        return 1.0
+    k = min(wins, losses)
+    tail = sum(math.comb(n, i) for i in range(k + 1)) / 2.0 ** n
+    return min(1.0, 2.0 * tail)
+
+
+def paired_comparison(records: list[Record], method: str, rival: str) -> dict[int | None, Paired]:
+    """Per obstacle count (and pooled over every count, key None): wins, losses and the sign test of `method`
+    against `rival` on the episodes both ran."""
+    ok = {(r.method, r.obstacles, r.episode): r.outcome == "success" for r in records if r.method in (method, rival)}
+    out: dict[int | None, Paired] = {}
+    for (m, n, k), mine in sorted(ok.items(), key=lambda item: (item[0][1], item[0][2])):
+        if m != method or (rival, n, k) not in ok:
+            continue
+        theirs = ok[(rival, n, k)]
+        for key in (n, None):
+            c = out.setdefault(key, Paired())
+            c.episodes += 1
+            c.wins += mine and not theirs
+            c.losses += theirs and not mine
+    for c in out.values():
+        c.p_value = sign_test_p(c.wins, c.losses)
+    return out
+
+
 def read_paper(path: str) -> dict[str, dict[int, float]]:
     """Columns of paper_table1.csv (comment lines start with '#') keyed by obstacle count."""
     with open(path, newline="") as f:
@@ -300,6 +340,37 @@ def stand_list(s: Summary, counts=STAND_COUNTS, method: str = REFERENCE) -> list
     return lines
 
 
+SIGNIFICANCE = 0.05
+
+
+def paired_table(records: list[Record], s: Summary, method: str = REFERENCE) -> tuple[str, list[str]]:
+    """Markdown table of `method` against every baseline, per N and pooled: wins - losses (p), and the summary
+    lines naming the counts where a difference is significant at SIGNIFICANCE."""
+    rivals = baselines_of(s, method)
+    paired = {b: paired_comparison(records, method, b) for b in rivals}
+    rows = []
+    for n in list(s.counts) + [None]:
+        row = ["all" if n is None else str(n)]
+        for b in rivals:
+            c = paired[b].get(n)
+            row.append("-" if c is None else f"+{c.wins} / -{c.losses} ({c.p_value:.2g})")
+        rows.append(row)
+    lines = []
+    for b in rivals:
+        better = [n for n in s.counts if n in paired[b] and paired[b][n].p_value < SIGNIFICANCE
+                  and paired[b][n].wins > paired[b][n].losses]
+        worse = [n for n in s.counts if n in paired[b] and paired[b][n].p_value < SIGNIFICANCE
+                 and paired[b][n].losses > paired[b][n].wins]
+        pooled = paired[b].get(None, Paired())
+        verdict = ("better" if pooled.wins > pooled.losses else "worse") if pooled.p_value < SIGNIFICANCE else \
+            "no significant difference"
+        lines.append(f"- vs {b}: pooled +{pooled.wins} / -{pooled.losses} of {pooled.episodes} paired episodes, "
+                     f"p = {pooled.p_value:.2g} ({verdict}); significantly better at N = "
+                     f"{', '.join(map(str, better)) or 'none'}, significantly worse at N = "
+                     f"{', '.join(map(str, worse)) or 'none'}")
+    return _table(["N"] + [f"vs {b}" for b in rivals], rows), lines
+
+
 # ----------------------------------------------------------------------------------------------- plots
 
 
@@ -350,7 +421,8 @@ def plot_collision(summaries: dict[str, Summary], path: str) -> None:
 # ----------------------------------------------------------------------------------------------- report
 
 
-def _perception_section(title: str, s: Summary, paper, plot_rel: str) -> list[str]:
+def _perception_section(title: str, s: Summary, paper, plot_rel: str,
+                        records: list[Record] | None = None) -> list[str]:
     out = [f"## {title}", ""]
     out += ["### Success rate", "",
             "Reached the goal and stopped on it. In brackets: total time of the method over total time of "
@@ -365,11 +437,19 @@ def _perception_section(title: str, s: Summary, paper, plot_rel: str) -> list[st
             "Fraction of steps ending with clearance below 0.2 m (sum of danger steps over sum of steps, "
             "all episodes).", "", metric_table(s, "danger_frequency", 3), ""]
     out += ["### Mean time on success (s)", "", metric_table(s, "mean_time_success_s", 1), ""]
+    if records is not None and s.reference in s.methods and baselines_of(s):
+        table, lines = paired_table(records, s)
+        out += ["### Paired comparison", "",
+                f"Each cell: episodes `{s.reference}` solved and the baseline did not (+), the reverse (-), and in "
+                "brackets the exact two-sided sign test (McNemar) on those discordant episodes: the chance of a split "
+                "at least this uneven if both methods were equally good. Episodes both solve or both fail say "
+                f"nothing about the difference. Significant: p < {SIGNIFICANCE}.", "", table, ""] + lines + [""]
     return out
 
 
 def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: dict, discussion: str | None,
-           plots: dict[str, str]) -> str:
+           plots: dict[str, str], records: dict[str, list[Record]] | None = None) -> str:
+    records = records or {}
     out = ["# Benchmark: DQN-DOVS and the baselines on the shared scenarios", "",
            "Generated by `make benchmark-table` (scripts/benchmark_table.sh, python/dqn_dovs/benchmark_report.py); "
            "do not edit by hand except `docs/benchmark_discussion.md`, included below.", ""]
@@ -408,12 +488,12 @@ def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: di
         out += [f"**{label}**", ""] + stand_list(s) + [""]
     if tracker is not None:
         out += _perception_section("Tracker in the loop (LIDAR + obstacle tracker)", tracker, paper,
-                                   plots.get("tracker", ""))
+                                   plots.get("tracker", ""), records.get("tracker"))
     else:
         out += ["## Tracker in the loop", "", "Not run (no results.csv).", ""]
     if perfect is not None:
         out += _perception_section("Perfect information (simulator ground truth)", perfect, paper,
-                                   plots.get("perfect", ""))
+                                   plots.get("perfect", ""), records.get("perfect"))
     else:
         out += ["## Perfect information", "", "Not run (no results.csv).", ""]
     if "collision" in plots:
@@ -434,10 +514,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="docs/benchmark.md")
     a = p.parse_args(argv)
 
-    summaries = {}
+    summaries, records = {}, {}
     for key, path in (("tracker", a.tracker), ("perfect", a.perfect)):
         if path and os.path.exists(path):
-            summaries[key] = summarize(read_results(path))
+            records[key] = read_results(path)
+            summaries[key] = summarize(records[key])
         else:
             print(f"benchmark_report: {path} does not exist; that section says 'not run'", file=sys.stderr)
     if not summaries:
@@ -466,7 +547,7 @@ def main(argv=None) -> int:
     plot_collision(summaries, path)
     plots["collision"] = os.path.relpath(path, out_dir)
 
-    text = render(summaries.get("tracker"), summaries.get("perfect"), paper, run_info, discussion, plots)
+    text = render(summaries.get("tracker"), summaries.get("perfect"), paper, run_info, discussion, plots, records)
     with open(a.out, "w") as f:
         f.write(text)
     print(f"wrote {a.out}")

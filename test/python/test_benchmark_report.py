@@ -176,3 +176,40 @@ def test_report_without_perfect_run(tmp_path):
                   "--discussion", "", "--run-info", "", "--plots", str(tmp_path), "--out", str(out)])
     assert rc == 0
     assert "## Perfect information\n\nNot run" in out.read_text()
+
+
+def test_sign_test_p_values():
+    assert br.sign_test_p(0, 0) == 1.0
+    assert br.sign_test_p(1, 0) == 1.0
+    assert br.sign_test_p(5, 0) == pytest.approx(2 / 32)
+    assert br.sign_test_p(8, 2) == pytest.approx(2 * (1 + 10 + 45) / 1024)
+    assert br.sign_test_p(2, 8) == br.sign_test_p(8, 2)
+    assert br.sign_test_p(10, 0) == pytest.approx(2 / 1024)
+    assert br.sign_test_p(6, 6) == 1.0
+
+
+def test_paired_comparison_counts_discordant_episodes(records):
+    vs_sdovs = br.paired_comparison(records, "dqn_dovs", "s_dovs")
+    assert (vs_sdovs[5].episodes, vs_sdovs[5].wins, vs_sdovs[5].losses) == (2, 1, 0)  # (5,2): s_dovs timed out
+    assert (vs_sdovs[6].episodes, vs_sdovs[6].wins, vs_sdovs[6].losses) == (2, 0, 1)  # (6,2): dqn_dovs collided
+    assert (vs_sdovs[None].episodes, vs_sdovs[None].wins, vs_sdovs[None].losses) == (4, 1, 1)
+    assert vs_sdovs[None].p_value == 1.0
+    vs_dwa = br.paired_comparison(records, "dqn_dovs", "dwa")
+    assert (vs_dwa[None].wins, vs_dwa[None].losses) == (2, 1)
+    assert vs_dwa[5].p_value == pytest.approx(0.5)
+    # Episodes only one method ran are not paired.
+    partial = [r for r in records if not (r.method == "dwa" and r.obstacles == 6)]
+    assert 6 not in br.paired_comparison(partial, "dqn_dovs", "dwa")
+
+
+def test_report_has_the_paired_table(tmp_path):
+    tracker = write_results(tmp_path / "tracker.csv", ROWS)
+    out = tmp_path / "benchmark.md"
+    assert br.main(["--tracker", str(tracker), "--perfect", "", "--paper", "", "--discussion", "", "--run-info", "",
+                    "--plots", str(tmp_path), "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "### Paired comparison" in text
+    assert "| N | vs s_dovs | vs dwa |" in text
+    assert "| 5 | +1 / -0 (1) | +2 / -0 (0.5) |" in text
+    assert "| all | +1 / -1 (1) | +2 / -1 (1) |" in text
+    assert "- vs s_dovs: pooled +1 / -1 of 4 paired episodes, p = 1 (no significant difference)" in text
