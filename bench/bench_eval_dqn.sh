@@ -3,7 +3,9 @@
 # the loop) with the evaluation CLI; writes to the JSON path $1 the flat figures of dqn_dovs (success_mean,
 # success_1..success_15, collision_mean, timeout_mean, danger_frequency), s_dovs_success_mean,
 # time_ratio_vs_sdovs (s_dovs's total time over dqn_dovs's on the episodes both solved), episodes_per_count,
-# episodes (all methods), wall_s and episodes_per_s.
+# episodes (all methods), wall_s and episodes_per_s; and the paired comparison pooled over the counts:
+# wins_vs_sdovs (episodes dqn_dovs solved and s_dovs did not), losses_vs_sdovs (the reverse) and
+# sign_test_p_vs_sdovs (exact two-sided sign test on those, python/dqn_dovs/benchmark_report.py).
 # Run from the repository root (scripts/bench.sh does): bash bench/bench_eval_dqn.sh bench/results/eval-dqn.json
 # Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), MODEL (models/dqn_dovs.dqnw).
 set -euo pipefail
@@ -48,4 +50,18 @@ awk -v episodes="$episodes" -v total="$total" -v wall="$(echo "$end - $start" | 
     printf "  \"episodes_per_count\": %d,\n  \"episodes\": %d,\n  \"wall_s\": %.1f,\n  \"episodes_per_s\": %.2f\n}\n",
       episodes, total, wall, (wall > 0 ? total / wall : 0)
   }' "$out_dir/summary.json" > "$out_json"
+MPLBACKEND=Agg PYTHONPATH="$(pwd)/python" .venv/bin/python - "$out_dir/results.csv" "$out_json" <<'EOF'
+import json
+import sys
+
+from dqn_dovs.benchmark_report import paired_comparison, read_results
+
+pooled = paired_comparison(read_results(sys.argv[1]), "dqn_dovs", "s_dovs")[None]
+with open(sys.argv[2]) as f:
+    figures = json.load(f)
+figures.update(wins_vs_sdovs=pooled.wins, losses_vs_sdovs=pooled.losses, sign_test_p_vs_sdovs=pooled.p_value)
+with open(sys.argv[2], "w") as f:
+    json.dump(figures, f, indent=2)
+    f.write("\n")
+EOF
 echo "wrote $out_json"
