@@ -6,7 +6,6 @@ executables, e.g. install/lib/dqn_dovs or a CMake build directory). This test bu
 
 from __future__ import annotations
 
-import os
 import subprocess
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 import pytest
 import torch
 
+from built_tools import built_tool
 from dqn_dovs.export import export_model
 from dqn_dovs.model import DuelingQNet, masked_argmax
 
@@ -21,13 +21,7 @@ NORMALIZATION = {"v_max": 0.7, "w_max": 3.14159265, "goal_distance_scale": 8.0}
 
 
 def _eval_tool() -> Path:
-    bin_dir = os.environ.get("DQN_DOVS_BIN_DIR")
-    if not bin_dir:
-        pytest.fail("DQN_DOVS_BIN_DIR is not set: point it at the directory holding the built dqn_dovs_qnet_eval")
-    tool = Path(bin_dir) / "dqn_dovs_qnet_eval"
-    if not (tool.is_file() and os.access(tool, os.X_OK)):
-        pytest.fail(f"dqn_dovs_qnet_eval not found or not executable in DQN_DOVS_BIN_DIR={bin_dir}: build the core tools first")
-    return tool
+    return built_tool("dqn_dovs_qnet_eval")
 
 
 def _random_net(seed: int) -> DuelingQNet:

@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from built_tools import built_tool
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "scripts" / "select_model.sh"
@@ -16,13 +17,7 @@ MODEL = REPO / "models" / "dqn_dovs.dqnw"
 
 
 def _eval_tool() -> Path:
-    bin_dir = os.environ.get("DQN_DOVS_BIN_DIR")
-    if not bin_dir:
-        pytest.fail("DQN_DOVS_BIN_DIR is not set: point it at the directory holding the built dqn_dovs_eval")
-    tool = Path(bin_dir) / "dqn_dovs_eval"
-    if not (tool.is_file() and os.access(tool, os.X_OK)):
-        pytest.fail(f"dqn_dovs_eval not found or not executable in DQN_DOVS_BIN_DIR={bin_dir}")
-    return tool
+    return built_tool("dqn_dovs_eval")
 
 
 def _run(run_dir, **env):
