@@ -3,6 +3,7 @@
 # snapshots/ep*.dqnw, best.dqnw and model.dqnw, plus any files named in EXTRA) is evaluated as `dqn_dovs` with the
 # tracker in the loop on seeded generated episodes, never on the shared evaluation files, and ranked by mean
 # success (ties: the higher mean success at the top half of the obstacle counts).
+# Identical files are evaluated once (the others are listed as aliases).
 # Usage: scripts/select_model.sh RUN_DIR    -> RUN_DIR/selection/{selection.csv,selection.md}, best file on stdout.
 # Environment: SEEDS (generator seeds, default "9101 9102"), OBSTACLES (3-15), EPISODES (40 per count and seed),
 # THREADS (2), EXTRA (more .dqnw files, space-separated), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval).
@@ -23,9 +24,19 @@ export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 [ -x "$exe" ] || { echo "select_model: $exe not found; run 'make build' (or set DQN_DOVS_EVAL)" >&2; exit 2; }
 [ -x .venv/bin/python ] || { echo "select_model: .venv missing; run 'make setup'" >&2; exit 2; }
 
+# A file with the same bytes as an earlier candidate (best.dqnw and model.dqnw are copies of snapshots) is not
+# evaluated again; it is listed as that candidate's alias.
 candidates=()
+declare -A first_of aliases
 for f in "$run"/snapshots/ep*.dqnw "$run"/best.dqnw "$run"/model.dqnw ${EXTRA:-}; do
-  [ -f "$f" ] && candidates+=("$f")
+  [ -f "$f" ] || continue
+  sum=$(sha256sum "$f" | cut -d' ' -f1)
+  if [ -n "${first_of[$sum]:-}" ]; then
+    aliases[$sum]="${aliases[$sum]:+${aliases[$sum]} }$f"
+  else
+    first_of[$sum]="$f"
+    candidates+=("$f")
+  fi
 done
 [ ${#candidates[@]} -gt 0 ] || { echo "select_model: no .dqnw files in $run (snapshots/, best.dqnw, model.dqnw)" >&2; exit 2; }
 
@@ -45,6 +56,7 @@ for f in "${candidates[@]}"; do
     rm -f "$dir/eval.log" "$dir/results.csv" "$dir/success_vs_obstacles.png"
   done
   echo "$f" >"$out/c$i/model_path"
+  echo "${aliases[$(sha256sum "$f" | cut -d' ' -f1)]:-}" >"$out/c$i/aliases"
 done
 
 OUT="$out" SEEDS="$seeds" OBSTACLES="$obstacles" EPISODES="$episodes" .venv/bin/python - <<'EOF'
@@ -61,29 +73,31 @@ for c in sorted(os.listdir(out), key=lambda d: int(d[1:]) if re.fullmatch(r"c\d+
         continue
     with open(os.path.join(out, c, "model_path")) as f:
         path = f.read().strip()
+    with open(os.path.join(out, c, "aliases")) as f:
+        also = f.read().strip()
     per_n = {n: [] for n in counts}
     for s in seeds:
         with open(os.path.join(out, c, s, "summary.json")) as f:
             summary = json.load(f)
         for n in counts:
-            # One method: unprefixed keys (several: "dqn_dovs.success_N").
-            per_n[n].append(summary.get(f"success_{n}", summary.get(f"dqn_dovs.success_{n}")))
+            per_n[n].append(summary[f"success_{n}"])  # one method: unprefixed keys
     success = {n: sum(v) / len(v) for n, v in per_n.items()}
-    rows.append({"model": path, "mean": sum(success.values()) / len(counts),
+    rows.append({"model": path, "also": also, "mean": sum(success.values()) / len(counts),
                  "upper_mean": sum(success[n] for n in upper) / len(upper), **{f"success_{n}": success[n] for n in counts}})
 rows.sort(key=lambda r: (-r["mean"], -r["upper_mean"]))
 keys = list(rows[0].keys())
 with open(os.path.join(out, "selection.csv"), "w") as f:
     f.write(",".join(keys) + "\n")
     for r in rows:
-        f.write(",".join(r[k] if k == "model" else f"{r[k]:.4f}" for k in keys) + "\n")
+        f.write(",".join(r[k] if k in ("model", "also") else f"{r[k]:.4f}" for k in keys) + "\n")
 with open(os.path.join(out, "selection.md"), "w") as f:
     f.write(f"# Model selection\n\nHeld-out generated scenarios (seeds {' '.join(seeds)}, obstacles "
             f"{counts[0]}-{counts[-1]}, {os.environ['EPISODES']} episodes per count and seed), tracker in the loop, "
             "method dqn_dovs. Ranked by mean success, then by the mean over the upper half of the counts "
             f"({upper[0]}-{upper[-1]}).\n\n| rank | model | mean | {upper[0]}-{upper[-1]} |\n|---|---|---|---|\n")
     for i, r in enumerate(rows, 1):
-        f.write(f"| {i} | `{r['model']}` | {r['mean']:.3f} | {r['upper_mean']:.3f} |\n")
+        also = f" (same file: {', '.join(f'`{a}`' for a in r['also'].split())})" if r["also"] else ""
+        f.write(f"| {i} | `{r['model']}`{also} | {r['mean']:.3f} | {r['upper_mean']:.3f} |\n")
 for r in rows:
     print(f"  {r['mean']:.3f}  {r['upper_mean']:.3f}  {r['model']}", file=sys.stderr)
 print(rows[0]["model"])

@@ -223,7 +223,7 @@ def paired_comparison(records: list[Record], method: str, rival: str) -> dict[in
     against `rival` on the episodes both ran."""
     ok = {(r.method, r.obstacles, r.episode): r.outcome == "success" for r in records if r.method in (method, rival)}
     out: dict[int | None, Paired] = {}
-    for (m, n, k), mine in sorted(ok.items(), key=lambda item: (item[0][1], item[0][2])):
+    for (m, n, k), mine in ok.items():
         if m != method or (rival, n, k) not in ok:
             continue
         theirs = ok[(rival, n, k)]

@@ -9,7 +9,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+import torch
 from built_tools import built_tool
+from dqn_dovs.export import export_model, load_weights, model_from_weights
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "scripts" / "select_model.sh"
@@ -27,27 +29,43 @@ def _run(run_dir, **env):
                           env=full, cwd=REPO)
 
 
-def test_ranks_every_candidate(tmp_path):
+def _perturbed_copy(path):
+    """The shipped network with slightly different weights: another valid candidate."""
+    weights = load_weights(MODEL)
+    net = model_from_weights(weights)
+    with torch.no_grad():
+        for p in net.parameters():
+            p.add_(0.01 * torch.randn_like(p, generator=torch.Generator().manual_seed(5)))
+    export_model(net, path, weights.normalization, "perturbed copy for test_select_model")
+
+
+def test_ranks_every_candidate_once(tmp_path):
     run = tmp_path / "run"
     (run / "snapshots").mkdir(parents=True)
-    shutil.copy(MODEL, run / "snapshots" / "ep000250.dqnw")
-    shutil.copy(MODEL, run / "best.dqnw")
+    snapshot, best, model = run / "snapshots" / "ep000250.dqnw", run / "best.dqnw", run / "model.dqnw"
+    shutil.copy(MODEL, snapshot)
+    shutil.copy(MODEL, best)  # the same bytes as the snapshot: evaluated once, listed as its alias
+    _perturbed_copy(model)
     result = _run(run)
     assert result.returncode == 0, result.stderr
+    assert result.stderr.count("generator seed 9101") == 2  # two distinct candidates, one run per seed each
     winner = result.stdout.strip().splitlines()[-1]
-    assert winner in (str(run / "snapshots" / "ep000250.dqnw"), str(run / "best.dqnw"))
+    assert winner in (str(snapshot), str(model))
     with open(run / "selection" / "selection.csv", newline="") as f:
         rows = list(csv.DictReader(f))
-    assert {r["model"] for r in rows} == {str(run / "snapshots" / "ep000250.dqnw"), str(run / "best.dqnw")}
-    assert set(rows[0]) == {"model", "mean", "upper_mean", "success_3", "success_4"}
-    # The same network on the same episodes scores the same, and the rates are those of 2 x 2 episodes per count.
-    assert rows[0]["mean"] == rows[1]["mean"]
+    assert {r["model"] for r in rows} == {str(snapshot), str(model)}
+    assert set(rows[0]) == {"model", "also", "mean", "upper_mean", "success_3", "success_4"}
+    assert {r["model"]: r["also"] for r in rows} == {str(snapshot): str(best), str(model): ""}
+    assert [float(r["mean"]) for r in rows] == sorted((float(r["mean"]) for r in rows), reverse=True)
+    # The rates are those of 2 seeds x 2 episodes per count.
     for r in rows:
         for n in (3, 4):
             assert float(r[f"success_{n}"]) in (0.0, 0.25, 0.5, 0.75, 1.0)
+        assert float(r["mean"]) == pytest.approx((float(r["success_3"]) + float(r["success_4"])) / 2, abs=1e-4)
     text = (run / "selection" / "selection.md").read_text()
     assert "seeds 9101 9102, obstacles 3-4, 2 episodes per count and seed" in text
-    assert text.count("| 1 |") == 1 and "| 2 |" in text
+    assert text.count("| 1 |") == 1 and "| 2 |" in text and "| 3 |" not in text
+    assert f"(same file: `{best}`)" in text
 
 
 def test_corrupt_candidate_fails_with_its_name(tmp_path):
