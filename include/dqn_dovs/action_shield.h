@@ -12,6 +12,7 @@
 
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
+#include "dqn_dovs/static_safety.h"
 #include "dqn_dovs/types.h"
 
 namespace dqn_dovs {
@@ -35,12 +36,25 @@ struct ActionShieldConfig {
   double last_resort_tolerance_s = 0.0;
   /// ... and of those, the ones whose least clearance on the way is within this of the widest (m).
   double last_resort_clearance_tolerance_m = 0.02;
-  /// Escape, when no valid action is free: the planner holds, instead of an action, the velocity of the whole
-  /// dynamic window (a lattice of escape_window_samples steps per half-diagonal) that puts the first true
-  /// contact off longest over last_resort_horizon_s, each followed after one period by its best change inside
-  /// the next window; then the widest clearance, then the closest to the goal. false: the last-resort action.
+  /// Escape, when no valid action is free (or none is statically safe): the planner holds, instead of an
+  /// action, a velocity of the dynamic window (a lattice of escape_window_samples steps per half-diagonal, plus
+  /// the strongest braking), chosen passively safe (see EscapeTier): statically safe first; then one whose best
+  /// follow-up after one period keeps every true contact away over last_resort_horizon_s (widest clearance,
+  /// then closest to the goal); else one whose braking trajectory comes to rest before any contact (the latest
+  /// contact of its best follow-up, then the widest clearance while moving); else the lowest speed at contact.
+  /// false: the last-resort action.
   bool escape_enabled = true;
   int escape_window_samples = 5;
+  /// The robot counts as at rest below this speed (a contact then is the other party's), m/s.
+  double rest_speed_mps = 0.05;
+  /// false: the escape of the previous release below tier kFree (latest true contact, any speed).
+  bool passive_escape = true;
+  /// Also narrow the free actions to those whose braking trajectory comes to rest before any contact with a
+  /// moving obstacle, whenever any of them does (passive safety beyond the escape).
+  bool passive_actions = false;
+  /// The static braking rule (static_safety.h): no action, escape or fallback whose braking trajectory reaches
+  /// static geometry is ever allowed while a statically safe one exists. Applies while `enabled`.
+  StaticSafetyConfig statics;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -52,6 +66,23 @@ enum class ShieldLevel : int {
   kRobust = 1,    ///< at least one valid action is robustly safe: only those remain
   kFree = 2,      ///< no robust one, but at least one valid action is free: only the free ones remain
   kLatest = 3,    ///< every valid action is in the DOV: those that collide latest in a roll-out, widest first
+  kStatic = 4,    ///< no valid action is statically safe: the escape (or the action keeping most clearance)
+};
+
+/// How passively safe the escape velocity is, best first.
+enum class EscapeTier : int {
+  kFree = 0,       ///< statically safe, and a follow-up keeps every contact away over the horizon
+  kRest = 1,       ///< statically safe, and braking comes to rest before any contact
+  kSlowest = 2,    ///< statically safe, moving at a contact: the lowest speed at contact
+  kUnsafe = 3,     ///< nothing is statically safe: the most clearance to static geometry
+};
+const char* escapeTierName(EscapeTier tier);
+
+/// The escape the shield chose, with why.
+struct Escape {
+  Twist2 velocity;
+  EscapeTier tier = EscapeTier::kUnsafe;
+  double contact_speed_mps = 0.0;  ///< kSlowest: the speed at the predicted contact
 };
 const char* shieldLevelName(ShieldLevel level);
 
@@ -61,6 +92,9 @@ struct ShieldedMask {
   /// kLatest with escape_enabled (and some valid action): the escape velocity the planner holds instead.
   bool has_escape = false;
   Twist2 escape;
+  EscapeTier escape_tier = EscapeTier::kFree;
+  /// Per action: its braking trajectory keeps clear of static geometry (all true when the rule is off).
+  std::array<bool, kNumActions> static_safe{};
   int numAllowed() const;
 };
 
@@ -75,5 +109,8 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
 /// velocity in `observation`, against its obstacles. Throws DovsError when the configuration is invalid.
 Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits, double safety_factor,
                       const ActionShieldConfig& config);
+/// escapeVelocity with its tier.
+Escape searchEscapeTiered(const Observation& observation, const RobotLimits& limits, double safety_factor,
+                          const ActionShieldConfig& config);
 
 }  // namespace dqn_dovs

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -53,6 +54,17 @@ struct EvalConfig {
   std::string validate() const;
 };
 
+/// Collisions split by who could have avoided them (passive safety): hitting static geometry (walls, furniture,
+/// static obstacles) is never necessary; a robot at rest (speed below kRestSpeedMps) was walked into; a moving
+/// robot drove into a moving obstacle.
+enum class CollisionKind { kNone = 0, kStatic = 1, kRest = 2, kMoving = 3 };
+/// "", "static", "rest", "moving".
+const char* collisionKindName(CollisionKind kind);
+/// The robot counts as at rest at a contact below this linear speed, m/s.
+constexpr double kRestSpeedMps = 0.05;
+/// The kind of a simulator collision.
+CollisionKind classifyCollision(const sim::CollisionInfo& collision);
+
 /// One episode's scenario with its place in the protocol.
 struct EvalScenario {
   int obstacles = 0;  ///< obstacle count N
@@ -74,6 +86,10 @@ struct EpisodeRecord {
   int danger_steps = 0;          ///< steps ending with clearance below the reward's safe distance
   int steps = 0;                 ///< decisions taken
   int planner_errors = 0;        ///< decisions where the planner threw and the robot decelerated instead
+  /// Collisions only: what kind (collisionKindName: static geometry, robot at rest, robot moving) and the robot's
+  /// linear speed at the contact (m/s; NaN without a collision).
+  CollisionKind collision_kind = CollisionKind::kNone;
+  double contact_speed_mps = std::numeric_limits<double>::quiet_NaN();
   /// Robot poses at every step (only for jobs listed in EvalConfig::keep_paths).
   std::vector<Pose2> robot_path;
   /// Per obstacle, its centre at every step (same jobs).
@@ -110,6 +126,11 @@ struct EvalCell {
   int both_solved = 0;             ///< episodes behind time_ratio
   double danger_frequency = 0.0;   ///< danger steps / steps, over all episodes
   double mean_min_clearance_m = 0.0;  ///< mean over episodes of the smallest clearance
+  int static_collisions = 0;       ///< collisions with static geometry (must be 0)
+  int rest_collisions = 0;         ///< collisions with the robot at rest
+  int moving_collisions = 0;       ///< collisions with the robot moving into a moving obstacle
+  double mean_contact_speed_mps = 0.0;  ///< robot speed at contact over the collisions; NaN when none
+  double p95_contact_speed_mps = 0.0;   ///< its 95th percentile (nearest rank); NaN when none
 };
 
 struct EvalSummary {

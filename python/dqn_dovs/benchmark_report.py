@@ -6,14 +6,17 @@
         --plots docs/benchmark --out docs/benchmark.md
 
 Reads the per-episode results.csv files written by dqn_dovs_eval (method, obstacles, episode, scenario,
-outcome, time_s, path_length_m, min_clearance_m, danger_steps, steps, planner_errors) and computes, per
-method and obstacle count, what the evaluation's own summary computes (src/core/eval.cpp):
+outcome, time_s, path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind,
+contact_speed_mps; files from before the last two read as "not recorded") and computes, per method and obstacle
+count, what the evaluation's own summary computes (src/core/eval.cpp):
 
 - success / collision / timeout rate; the mean row is the mean of the per-count rates (the paper's mean row);
 - time ratio to the reference method: the method's total time over the reference's total time on the
   episodes both solved (episodes are matched by obstacle count and episode number);
 - danger frequency: sum of danger_steps (clearance < 0.2 m) over sum of steps;
-- mean time on success.
+- mean time on success;
+- collisions by kind (static geometry / robot at rest / robot moving) and the robot's speed at contact (mean and
+  nearest-rank 95th percentile over the collisions); the pooled row sums every count.
 
 scripts/benchmark_table.sh (make benchmark-table) runs the evaluations and then this module. The discussion
 file is hand-written and included verbatim.
@@ -27,6 +30,7 @@ import json
 import math
 import os
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import matplotlib
@@ -44,6 +48,10 @@ KINODYNAMIC_BASELINES = ("s_dovs", "orca_diffdrive", "dwa")
 # The paper's columns that have a time ratio beside them.
 PAPER_RATIO_SUFFIX = "_time_ratio"
 STAND_COUNTS = range(5, 16)
+# results.csv's collision_kind values (src/core/eval.cpp, collisionKindName); empty for a non-collision.
+COLLISION_KINDS = ("static", "rest", "moving")
+# Below this robot speed at contact a collision is "rest" (kRestSpeedMps, include/dqn_dovs/eval.h).
+REST_SPEED_MPS = 0.05
 
 
 @dataclass
@@ -56,6 +64,8 @@ class Record:
     danger_steps: int
     steps: int
     min_clearance_m: float = math.nan
+    collision_kind: str | None = None  # one of COLLISION_KINDS, "" for none; None: not recorded (older files)
+    contact_speed_mps: float = math.nan  # the robot's linear speed at contact; NaN without collision or record
 
 
 @dataclass
@@ -71,6 +81,10 @@ class Cell:
     time_ratio: float = math.nan
     both_solved: int = 0
     danger_frequency: float = math.nan
+    # Collisions per kind (COLLISION_KINDS); None when a collision's kind was not recorded.
+    collisions_by_kind: dict[str, int] | None = field(default_factory=lambda: dict.fromkeys(COLLISION_KINDS, 0))
+    mean_contact_speed_mps: float = math.nan
+    p95_contact_speed_mps: float = math.nan
 
 
 @dataclass
@@ -85,8 +99,22 @@ class Summary:
         return self.cells.get((method, n), Cell())
 
 
+def _optional_float(text: str | None) -> float:
+    return float(text) if text else math.nan
+
+
+def _collision_kind(text: str | None) -> str | None:
+    """A collision_kind cell: "" (no collision), one of COLLISION_KINDS, or None when the column is absent."""
+    if text is not None and text not in ("",) + COLLISION_KINDS:
+        raise ValueError(f"unknown collision_kind '{text}' (expected one of {', '.join(COLLISION_KINDS)})")
+    return text
+
+
 def read_results(path: str) -> list[Record]:
-    """The episodes of one results.csv; raises ValueError naming the file and line on a malformed row."""
+    """The episodes of one results.csv; raises ValueError naming the file and line on a malformed row.
+
+    collision_kind and contact_speed_mps are optional (files written before them): absent, they read as None
+    and NaN."""
     records = []
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
@@ -99,8 +127,9 @@ def read_results(path: str) -> list[Record]:
                 records.append(Record(
                     method=row["method"], obstacles=int(row["obstacles"]), episode=int(row["episode"]),
                     outcome=row["outcome"], time_s=float(row["time_s"]), danger_steps=int(row["danger_steps"]),
-                    steps=int(row["steps"]),
-                    min_clearance_m=float(row["min_clearance_m"]) if row.get("min_clearance_m") else math.nan))
+                    steps=int(row["steps"]), min_clearance_m=_optional_float(row.get("min_clearance_m")),
+                    collision_kind=_collision_kind(row.get("collision_kind")),
+                    contact_speed_mps=_optional_float(row.get("contact_speed_mps"))))
             except (TypeError, ValueError) as e:
                 raise ValueError(f"{path}:{line}: {e}") from None
     return records
@@ -128,10 +157,23 @@ def danger_frequency(records: list[Record]) -> float:
     return sum(r.danger_steps for r in records) / steps if steps else math.nan
 
 
+def nearest_rank(values: list[float], q: float) -> float:
+    """The q-quantile by nearest rank (the ceil(q n)-th smallest, as src/core/eval.cpp); NaN without values."""
+    if not values:
+        return math.nan
+    return sorted(values)[max(math.ceil(q * len(values)), 1) - 1]
+
+
 def _cell(records: list[Record], reference: list[Record]) -> Cell:
     c = Cell(episodes=len(records))
     c.successes = sum(r.outcome == "success" for r in records)
-    c.collisions = sum(r.outcome == "collision" for r in records)
+    crashes = [r for r in records if r.outcome == "collision"]
+    c.collisions = len(crashes)
+    c.collisions_by_kind = (None if any(r.collision_kind is None for r in crashes) else
+                            {k: sum(r.collision_kind == k for r in crashes) for k in COLLISION_KINDS})
+    speeds = [r.contact_speed_mps for r in crashes if math.isfinite(r.contact_speed_mps)]
+    c.mean_contact_speed_mps = _mean(speeds)
+    c.p95_contact_speed_mps = nearest_rank(speeds, 0.95)
     c.timeouts = sum(r.outcome == "timeout" for r in records)
     if records:
         c.success_rate = c.successes / len(records)
@@ -151,7 +193,8 @@ def _mean(values) -> float:
 
 def summarize(records: list[Record], reference: str = REFERENCE) -> Summary:
     """Per (method, count) cells and a per-method overall cell (rates: mean of the per-count rates; time
-    ratio, danger frequency and mean time on success: pooled over every episode)."""
+    ratio, danger frequency, mean time on success, collisions by kind and contact speed: pooled over every
+    episode)."""
     methods: list[str] = []
     for r in records:
         if r.method not in methods:
@@ -297,15 +340,37 @@ def success_table(s: Summary, paper: dict[str, dict[int, float]] | None) -> str:
     return _table(header, rows)
 
 
-def metric_table(s: Summary, attr: str, digits: int = 2) -> str:
+def method_table(s: Summary, value: Callable[[Cell], str], last: str = "mean") -> str:
+    """One row per N and a last row (labelled `last`) of the overall cells; one column per method."""
     rows = []
     for n in list(s.counts) + [None]:
-        row = ["mean" if n is None else str(n)]
-        for m in s.methods:
-            c = s.overall[m] if n is None else s.cell(m, n)
-            row.append(_f(getattr(c, attr), digits))
-        rows.append(row)
+        cells = [s.overall[m] if n is None else s.cell(m, n) for m in s.methods]
+        rows.append([last if n is None else str(n)] + [value(c) for c in cells])
     return _table(["N"] + s.methods, rows)
+
+
+def metric_table(s: Summary, attr: str, digits: int = 2) -> str:
+    return method_table(s, lambda c: _f(getattr(c, attr), digits))
+
+
+def _kinds_text(c: Cell) -> str:
+    return "-" if c.collisions_by_kind is None else " / ".join(str(c.collisions_by_kind[k]) for k in COLLISION_KINDS)
+
+
+def _contact_speed_text(c: Cell) -> str:
+    if math.isnan(c.mean_contact_speed_mps):
+        return "-"
+    return f"{_f(c.mean_contact_speed_mps, 3)} ({_f(c.p95_contact_speed_mps, 3)})"
+
+
+def collision_kind_table(s: Summary) -> str:
+    """Per N and pooled (`all`): static / rest / moving collision counts; "-" where a kind was not recorded."""
+    return method_table(s, _kinds_text, last="all")
+
+
+def contact_speed_table(s: Summary) -> str:
+    """Per N and pooled (`all`): mean robot speed at contact (95th percentile); "-" without a recorded speed."""
+    return method_table(s, _contact_speed_text, last="all")
 
 
 def stand_list(s: Summary, counts=STAND_COUNTS, method: str = REFERENCE) -> list[str]:
@@ -431,6 +496,15 @@ def _perception_section(title: str, s: Summary, paper, plot_rel: str,
             success_table(s, paper), "", f"![Success rate vs N]({plot_rel})", ""]
     out += ["### Collision rate", "", "Episodes ending in contact with an obstacle or a wall.", "",
             metric_table(s, "collision_rate"), ""]
+    out += ["### Collisions by kind", "",
+            "Counts, static / rest / moving: the robot hit a wall or a static obstacle (must be 0) / the robot was "
+            f"at rest (below {REST_SPEED_MPS} m/s: walked into) / the robot moved into a moving obstacle. `all` "
+            "sums every N; `-`: kinds not recorded (results.csv from before `collision_kind`).", "",
+            collision_kind_table(s), ""]
+    out += ["### Robot speed at contact (m/s)", "",
+            "The robot's linear speed when it collided: mean over the method's collisions, 95th percentile "
+            "(nearest rank) in brackets. `all` pools every N; `-`: no collision (or speeds not recorded).", "",
+            contact_speed_table(s), ""]
     out += ["### Timeout rate", "", "Episodes still running after 500 steps (100 s).", "",
             metric_table(s, "timeout_rate"), ""]
     out += ["### Danger frequency", "",

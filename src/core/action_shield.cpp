@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 
+#include "dqn_dovs/planner.h"
 #include "dqn_dovs/rollout.h"
 
 namespace dqn_dovs {
@@ -27,6 +28,10 @@ std::string ActionShieldConfig::validate() const {
   } else if (!(std::isfinite(last_resort_clearance_tolerance_m) && last_resort_clearance_tolerance_m >= 0.0)) {
     os << "action_shield.last_resort_clearance_tolerance_m = " << last_resort_clearance_tolerance_m
        << ": must be finite and >= 0";
+  } else if (!(std::isfinite(rest_speed_mps) && rest_speed_mps >= 0.0 && rest_speed_mps <= 0.3)) {
+    os << "action_shield.rest_speed_mps = " << rest_speed_mps << ": must be in [0, 0.3] m/s";
+  } else if (const std::string e = statics.validate(); !e.empty()) {
+    os << "action_shield." << e;
   }
   return os.str();
 }
@@ -41,6 +46,22 @@ const char* shieldLevelName(ShieldLevel level) {
       return "free";
     case ShieldLevel::kLatest:
       return "latest";
+    case ShieldLevel::kStatic:
+      return "static";
+  }
+  return "unknown";
+}
+
+const char* escapeTierName(EscapeTier tier) {
+  switch (tier) {
+    case EscapeTier::kFree:
+      return "free";
+    case EscapeTier::kRest:
+      return "rest";
+    case EscapeTier::kSlowest:
+      return "slowest";
+    case EscapeTier::kUnsafe:
+      return "unsafe";
   }
   return "unknown";
 }
@@ -66,9 +87,12 @@ bool neighboursFree(const VelocitySpace& dovs, const Twist2& u, double dv, doubl
 }  // namespace
 
 namespace {
-// escapeVelocity without the configuration check (shieldActions has made it).
-Twist2 searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
+// searchEscapeTiered without the configuration check (shieldActions has made it).
+Escape searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
                     const ActionShieldConfig& config);
+// True when the braking trajectory of u comes to rest before any true contact with a moving obstacle.
+bool restsBeforeContact(const LocalScene& scene, const Twist2& current, const Twist2& u, const RobotLimits& limits,
+                        const ActionShieldConfig& config);
 }  // namespace
 
 ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
@@ -76,16 +100,75 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
   if (const std::string e = config.validate(); !e.empty()) throw DovsError(e);
   ShieldedMask out;
   out.mask = actions.valid;
+  out.static_safe.fill(true);
   if (!config.enabled) return out;
+  const RobotLimits& limits = dovs.limits();
+  const Twist2 current = observation.robot_twist;
+  // The static braking rule first: it is binding whenever any valid action passes it.
+  std::array<bool, kNumActions> choosable = actions.valid;
+  bool any_static_safe = false;
+  std::array<double, kNumActions> static_clearance{};
+  if (config.statics.enabled) {
+    const StaticScene statics(observation, limits, config.statics);
+    for (size_t i = 0; i < choosable.size(); ++i) {
+      if (!actions.valid[i]) continue;
+      const BrakingPath p = brakingPath(statics, current, actions.velocities[i], limits, config.statics);
+      out.static_safe[i] = p.safe;
+      static_clearance[i] = p.min_clearance_m;
+      any_static_safe = any_static_safe || p.safe;
+    }
+    for (size_t i = 0; i < choosable.size(); ++i) choosable[i] = actions.valid[i] && out.static_safe[i];
+  } else {
+    any_static_safe = true;
+  }
+  const bool any_valid = actions.numValid() > 0;
+  if (!any_static_safe && any_valid) {
+    // Every valid action ends in a wall: the escape searches the whole window; without it, the action keeping
+    // the most static clearance.
+    out.level = ShieldLevel::kStatic;
+    double widest = -std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < choosable.size(); ++i) {
+      if (actions.valid[i]) widest = std::max(widest, static_clearance[i]);
+    }
+    for (size_t i = 0; i < choosable.size(); ++i) {
+      out.mask[i] = actions.valid[i] && static_clearance[i] >= widest - 1e-6;
+    }
+    if (config.escape_enabled) {
+      const Escape e = searchEscape(observation, limits, dovs.config().safety_factor, config);
+      out.has_escape = true;
+      out.escape = e.velocity;
+      out.escape_tier = e.tier;
+    }
+    return out;
+  }
   std::array<bool, kNumActions> free{}, robust{};
   bool any_free = false, any_robust = false;
   for (size_t i = 0; i < free.size(); ++i) {
-    if (!actions.valid[i]) continue;
+    if (!choosable[i]) continue;
     const Twist2& u = actions.velocities[i];
     free[i] = dovs.isFree(u);
     robust[i] = free[i] && neighboursFree(dovs, u, config.robust_dv_mps, config.robust_dw_rps);
     any_free = any_free || free[i];
     any_robust = any_robust || robust[i];
+  }
+  if (any_free && config.passive_actions) {
+    // Among the free actions, those from which braking comes to rest before any contact, when there are any.
+    const LocalScene scene(observation, limits.radius, dovs.config().safety_factor);
+    std::array<bool, kNumActions> passive{};
+    bool any_passive = false, any_passive_robust = false;
+    for (size_t i = 0; i < free.size(); ++i) {
+      if (!free[i]) continue;
+      passive[i] = restsBeforeContact(scene, current, actions.velocities[i], limits, config);
+      any_passive = any_passive || passive[i];
+      any_passive_robust = any_passive_robust || (passive[i] && robust[i]);
+    }
+    if (any_passive) {
+      for (size_t i = 0; i < free.size(); ++i) {
+        free[i] = free[i] && passive[i];
+        robust[i] = robust[i] && passive[i];
+      }
+      any_robust = any_passive_robust;
+    }
   }
   if (any_robust) {
     out.mask = robust;
@@ -96,11 +179,11 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
   } else {
     // Boxed in: put off the contact as long as possible (what S-DOVS's escape does over the whole window).
     out.level = ShieldLevel::kLatest;
-    const LocalScene scene(observation, dovs.limits().radius, dovs.config().safety_factor);
+    const LocalScene scene(observation, limits.radius, dovs.config().safety_factor);
     std::array<double, kNumActions> ttc{}, clearance{};
     double latest = -1.0;
     for (size_t i = 0; i < ttc.size(); ++i) {
-      if (!actions.valid[i]) continue;
+      if (!choosable[i]) continue;
       const Rollout r = rollOut(scene, actions.velocities[i], config.last_resort_horizon_s, config.last_resort_step_s);
       ttc[i] = std::min(r.collision_time_s, config.last_resort_horizon_s);
       clearance[i] = r.min_clearance_m;
@@ -109,15 +192,17 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
     // Among those colliding latest, the ones keeping the most clearance on the way.
     double widest = -std::numeric_limits<double>::infinity();
     for (size_t i = 0; i < ttc.size(); ++i) {
-      out.mask[i] = actions.valid[i] && ttc[i] >= latest - config.last_resort_tolerance_s - 1e-9;
+      out.mask[i] = choosable[i] && ttc[i] >= latest - config.last_resort_tolerance_s - 1e-9;
       if (out.mask[i]) widest = std::max(widest, clearance[i]);
     }
     for (size_t i = 0; i < ttc.size(); ++i) {
       out.mask[i] = out.mask[i] && clearance[i] >= widest - config.last_resort_clearance_tolerance_m - 1e-9;
     }
-    if (config.escape_enabled && actions.numValid() > 0) {
+    if (config.escape_enabled && any_valid) {
+      const Escape e = searchEscape(observation, limits, dovs.config().safety_factor, config);
       out.has_escape = true;
-      out.escape = searchEscape(observation, dovs.limits(), dovs.config().safety_factor, config);
+      out.escape = e.velocity;
+      out.escape_tier = e.tier;
     }
   }
   return out;
@@ -125,24 +210,103 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
 
 Twist2 escapeVelocity(const Observation& observation, const RobotLimits& limits, double safety_factor,
                       const ActionShieldConfig& config) {
+  return searchEscapeTiered(observation, limits, safety_factor, config).velocity;
+}
+
+Escape searchEscapeTiered(const Observation& observation, const RobotLimits& limits, double safety_factor,
+                          const ActionShieldConfig& config) {
   if (const std::string e = config.validate(); !e.empty()) throw DovsError(e);
   return searchEscape(observation, limits, safety_factor, config);
 }
 
 namespace {
 
-Twist2 searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
+// The braking trajectory of u (static_safety.h) against the moving obstacles of `scene`: where the robot first
+// touches one (true radii) while still moving faster than rest_speed_mps, and at what speed.
+struct BrakingContact {
+  bool contact = false;      ///< a true contact while moving
+  double speed_mps = 0.0;    ///< the robot's speed there
+  double time_s = 0.0;       ///< when
+  double clearance_m = std::numeric_limits<double>::infinity();  ///< least clearance while moving (to contact)
+};
+
+BrakingContact brakingContact(const LocalScene& scene, const Twist2& current, const Twist2& u,
+                              const RobotLimits& limits, const ActionShieldConfig& config) {
+  BrakingContact out;
+  bool unused = false;
+  const double start = scene.clearance(Vec2::Zero(), 0.0, unused);
+  // Starting in contact, only a contact that gets worse counts (moving away is never a collision).
+  const double floor = std::min(0.0, start - 1e-3);
+  StaticSafetyConfig sampling = config.statics;
+  sampling.step_s = std::max(sampling.step_s, 0.05);  // the contact check of the escape: 3.5 cm at v_max
+  for (const BrakingSample& s : brakingSamples(current, u, limits, sampling)) {
+    if (s.speed_mps <= config.rest_speed_mps) break;
+    bool inflated = false;
+    const double c = scene.clearance(s.position, s.t_s, inflated);
+    out.clearance_m = std::min(out.clearance_m, c);
+    if (c < floor) {
+      out.contact = true;
+      out.speed_mps = s.speed_mps;
+      out.time_s = s.t_s;
+      break;
+    }
+  }
+  return out;
+}
+
+bool restsBeforeContact(const LocalScene& scene, const Twist2& current, const Twist2& u, const RobotLimits& limits,
+                        const ActionShieldConfig& config) {
+  return !brakingContact(scene, current, u, limits, config).contact;
+}
+
+Escape searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
                     const ActionShieldConfig& config) {
   const LocalScene scene(observation, limits.radius, safety_factor);
   const Twist2 current = limits.clipToFeasible(observation.robot_twist);
   const Vec2 goal = observation.robot_pose.toLocal(observation.goal);
   const double horizon = config.last_resort_horizon_s, step = config.last_resort_step_s;
-  double best_ttc = -1.0, best_clearance = -std::numeric_limits<double>::infinity(),
-         best_goal = std::numeric_limits<double>::infinity();
-  Twist2 chosen = current;
   const SampledScene sampled(scene, horizon, step);  // up to 9 x 61 roll-outs over the same times
+  const StaticScene statics(observation, limits, config.statics);
   constexpr double kNone = -std::numeric_limits<double>::infinity();
-  for (const Twist2& u1 : makeDynamicWindow(current, limits).samples(config.escape_window_samples, limits)) {
+
+  // The candidates: the window lattice and the strongest braking.
+  std::vector<Twist2> candidates = makeDynamicWindow(current, limits).samples(config.escape_window_samples, limits);
+  candidates.push_back(decelerationCommand(current, limits));
+
+  // Static safety first: when any candidate passes, only those remain; otherwise the most static clearance.
+  std::vector<char> keep(candidates.size(), 1);
+  std::vector<double> static_clearance(candidates.size(), 0.0);
+  bool any_static_safe = !config.statics.enabled;
+  if (config.statics.enabled) {
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      const BrakingPath p = brakingPath(statics, current, candidates[k], limits, config.statics);
+      keep[k] = p.safe ? 1 : 0;
+      static_clearance[k] = p.min_clearance_m;
+      any_static_safe = any_static_safe || p.safe;
+    }
+  }
+  if (!any_static_safe) {
+    Escape e;
+    e.tier = EscapeTier::kUnsafe;
+    double widest = kNone, slowest = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      if (static_clearance[k] > widest + 1e-6 || (static_clearance[k] > widest - 1e-6 && candidates[k].v < slowest)) {
+        widest = static_clearance[k];
+        slowest = candidates[k].v;
+        e.velocity = candidates[k];
+      }
+    }
+    return e;
+  }
+
+  // Tier kFree: a follow-up after one period keeps every true contact away over the horizon.
+  double best_ttc = -1.0, best_clearance = kNone, best_goal = std::numeric_limits<double>::infinity();
+  Twist2 chosen = current;
+  bool chosen_set = false;
+  std::vector<double> follow_ttc(candidates.size(), -1.0);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    if (!keep[k]) continue;
+    const Twist2& u1 = candidates[k];
     // The best follow-up one period on: a corner or the centre of u1's own window (its 3 x 3 box).
     double ttc = -1.0, clearance = kNone;
     for (int i = -1; i <= 1; ++i) {
@@ -165,6 +329,7 @@ Twist2 searchEscape(const Observation& observation, const RobotLimits& limits, d
         }
       }
     }
+    follow_ttc[k] = ttc;
     if (ttc < 0.0) continue;  // every follow-up abandoned: u1 cannot beat the best
     const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
     const bool better = ttc > best_ttc + 1e-9 ||
@@ -175,9 +340,64 @@ Twist2 searchEscape(const Observation& observation, const RobotLimits& limits, d
       best_clearance = clearance;
       best_goal = g;
       chosen = u1;
+      chosen_set = true;
     }
   }
-  return chosen;
+  Escape e;
+  if (chosen_set && best_ttc >= horizon - 1e-9) {
+    e.velocity = chosen;
+    e.tier = EscapeTier::kFree;
+    return e;
+  }
+  if (!config.passive_escape) {
+    e.velocity = chosen_set ? chosen : decelerationCommand(current, limits);
+    e.tier = EscapeTier::kSlowest;
+    return e;
+  }
+
+  // Tier kRest: braking comes to rest before any contact; the latest contact of its best follow-up (the most
+  // room to get away), then the widest clearance while moving. Tier kSlowest: the lowest speed at contact.
+  double rest_ttc = kNone, rest_clearance = kNone, rest_goal = std::numeric_limits<double>::infinity();
+  double slow_speed = std::numeric_limits<double>::infinity(), slow_time = kNone;
+  bool rest_found = false, slow_found = false;
+  Twist2 rest_choice = current, slow_choice = current;
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    if (!keep[k]) continue;
+    const Twist2& u1 = candidates[k];
+    const BrakingContact bc = brakingContact(scene, current, u1, limits, config);
+    if (!bc.contact) {
+      // Exact here: roll-outs are abandoned only once some follow-up reached the horizon (tier kFree).
+      const double ttc = follow_ttc[k];
+      const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
+      const bool better = ttc > rest_ttc + 1e-9 ||
+                          (ttc > rest_ttc - 1e-9 && (bc.clearance_m > rest_clearance + 1e-3 ||
+                                                     (bc.clearance_m > rest_clearance - 1e-3 && g < rest_goal)));
+      if (!rest_found || better) {
+        rest_found = true;
+        rest_ttc = ttc;
+        rest_clearance = bc.clearance_m;
+        rest_goal = g;
+        rest_choice = u1;
+      }
+    } else if (!rest_found) {
+      const bool better = bc.speed_mps < slow_speed - 1e-3 || (bc.speed_mps < slow_speed + 1e-3 && bc.time_s > slow_time);
+      if (!slow_found || better) {
+        slow_found = true;
+        slow_speed = bc.speed_mps;
+        slow_time = bc.time_s;
+        slow_choice = u1;
+      }
+    }
+  }
+  if (rest_found) {
+    e.velocity = rest_choice;
+    e.tier = EscapeTier::kRest;
+  } else {
+    e.velocity = slow_choice;
+    e.tier = EscapeTier::kSlowest;
+    e.contact_speed_mps = slow_speed;
+  }
+  return e;
 }
 
 }  // namespace

@@ -142,6 +142,10 @@ EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, 
   r.min_clearance_m = ep.minClearance_m();
   r.danger_steps = ep.dangerSteps();
   r.steps = ep.steps();
+  if (r.outcome == Outcome::Collision && ep.world().collided()) {
+    r.collision_kind = classifyCollision(ep.world().collision());
+    r.contact_speed_mps = ep.world().collision().robot_speed_mps;
+  }
   if (keep_paths) r.robot_path = ep.trajectory();
   return r;
 }
@@ -208,6 +212,26 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
   return records;
 }
 
+const char* collisionKindName(CollisionKind kind) {
+  switch (kind) {
+    case CollisionKind::kNone:
+      return "";
+    case CollisionKind::kStatic:
+      return "static";
+    case CollisionKind::kRest:
+      return "rest";
+    case CollisionKind::kMoving:
+      return "moving";
+  }
+  return "";
+}
+
+CollisionKind classifyCollision(const sim::CollisionInfo& collision) {
+  if (collision.kind == sim::CollisionInfo::Kind::None) return CollisionKind::kNone;
+  if (collision.static_contact) return CollisionKind::kStatic;
+  return collision.robot_speed_mps < kRestSpeedMps ? CollisionKind::kRest : CollisionKind::kMoving;
+}
+
 const EvalCell& EvalSummary::cell(const std::string& method, int obstacles) const {
   const auto m = std::find(methods.begin(), methods.end(), method);
   const auto c = std::find(obstacle_counts.begin(), obstacle_counts.end(), obstacles);
@@ -220,6 +244,8 @@ namespace {
 
 struct Accumulator {
   int episodes = 0, successes = 0, collisions = 0, timeouts = 0, both = 0;
+  int static_collisions = 0, rest_collisions = 0, moving_collisions = 0;
+  std::vector<double> contact_speeds;
   double time_success = 0.0, time_mine = 0.0, time_ref = 0.0, clearance = 0.0;
   long danger = 0, steps = 0;
 
@@ -235,6 +261,10 @@ struct Accumulator {
       }
     } else if (r.outcome == Outcome::Collision) {
       ++collisions;
+      static_collisions += r.collision_kind == CollisionKind::kStatic ? 1 : 0;
+      rest_collisions += r.collision_kind == CollisionKind::kRest ? 1 : 0;
+      moving_collisions += r.collision_kind == CollisionKind::kMoving ? 1 : 0;
+      if (std::isfinite(r.contact_speed_mps)) contact_speeds.push_back(r.contact_speed_mps);
     } else if (r.outcome == Outcome::Timeout) {
       ++timeouts;
     }
@@ -259,6 +289,20 @@ struct Accumulator {
     c.time_ratio = both > 0 && time_ref > 0.0 ? time_mine / time_ref : nan;
     c.danger_frequency = steps > 0 ? static_cast<double>(danger) / static_cast<double>(steps) : 0.0;
     c.mean_min_clearance_m = episodes > 0 ? clearance / episodes : nan;
+    c.static_collisions = static_collisions;
+    c.rest_collisions = rest_collisions;
+    c.moving_collisions = moving_collisions;
+    c.mean_contact_speed_mps = nan;
+    c.p95_contact_speed_mps = nan;
+    if (!contact_speeds.empty()) {
+      std::vector<double> sorted = contact_speeds;
+      std::sort(sorted.begin(), sorted.end());
+      double sum = 0.0;
+      for (double v : sorted) sum += v;
+      c.mean_contact_speed_mps = sum / static_cast<double>(sorted.size());
+      const size_t rank = static_cast<size_t>(std::ceil(0.95 * static_cast<double>(sorted.size())));
+      c.p95_contact_speed_mps = sorted[std::max<size_t>(rank, 1) - 1];
+    }
     return c;
   }
 };
@@ -346,11 +390,13 @@ std::string fixed(double x, int digits) {
 void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path) {
   std::ofstream out = openOut(path);
   out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
-         "planner_errors\n";
+         "planner_errors,collision_kind,contact_speed_mps\n";
   for (const EpisodeRecord& r : records) {
     out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
         << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
-        << r.steps << ',' << r.planner_errors << '\n';
+        << r.steps << ',' << r.planner_errors << ',' << collisionKindName(r.collision_kind) << ',';
+    if (std::isfinite(r.contact_speed_mps)) out << r.contact_speed_mps;
+    out << '\n';
   }
   closeOut(out, path);
 }
@@ -386,6 +432,17 @@ void writeSummaryMarkdown(const EvalSummary& summary, const std::string& path, c
         });
   table("Collision rate", "Episodes ending in contact with an obstacle or a wall.",
         [](const EvalCell& c, size_t) { return fixed(c.collision_rate, 2); });
+  table("Collisions by kind",
+        "Counts: static geometry (walls, static obstacles; must be 0) / robot at rest (below " +
+            fixed(kRestSpeedMps, 2) + " m/s: walked into) / robot moving.",
+        [](const EvalCell& c, size_t) {
+          return std::to_string(c.static_collisions) + " / " + std::to_string(c.rest_collisions) + " / " +
+                 std::to_string(c.moving_collisions);
+        });
+  table("Robot speed at contact (m/s)", "Mean over the collisions, 95th percentile in brackets.",
+        [](const EvalCell& c, size_t) {
+          return fixed(c.mean_contact_speed_mps, 3) + " (" + fixed(c.p95_contact_speed_mps, 3) + ")";
+        });
   table("Timeout rate", "Episodes still running after the step limit.",
         [](const EvalCell& c, size_t) { return fixed(c.timeout_rate, 2); });
   table("Mean time on success (s)", "Over each method's own successful episodes.",
@@ -408,6 +465,12 @@ std::vector<std::pair<std::string, double>> summaryFigures(const EvalSummary& su
     f.emplace_back(p + "mean_time_success_s", o.mean_time_success_s);
     f.emplace_back(p + "danger_frequency", o.danger_frequency);
     f.emplace_back(p + "episodes", o.episodes);
+    f.emplace_back(p + "collisions", o.collisions);
+    f.emplace_back(p + "collisions_static", o.static_collisions);
+    f.emplace_back(p + "collisions_rest", o.rest_collisions);
+    f.emplace_back(p + "collisions_moving", o.moving_collisions);
+    f.emplace_back(p + "contact_speed_mean", o.mean_contact_speed_mps);
+    f.emplace_back(p + "contact_speed_p95", o.p95_contact_speed_mps);
     for (size_t c = 0; c < summary.obstacle_counts.size(); ++c) {
       f.emplace_back(p + "success_" + std::to_string(summary.obstacle_counts[c]), summary.cells[m][c].success_rate);
     }

@@ -64,7 +64,8 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
       if (!std::isfinite(shielded.escape.v) || !std::isfinite(shielded.escape.w)) return decelerate("escape is not finite");
       decision.command = shielded.escape;
       decision.action = -1;
-      decision.note = "escape (shield: latest)";
+      decision.note = std::string("escape (shield: ") + shieldLevelName(shielded.level) + ", " +
+                      escapeTierName(shielded.escape_tier) + ")";
       return decision;
     }
   }

@@ -50,6 +50,9 @@ std::string SDovsConfig::validate() const {
   } else if (!non_negative(robust_dw_rps)) {
     os << "s_dovs.robust_dw_rps = " << robust_dw_rps << ": must be finite and >= 0";
   }
+  if (os.str().empty()) {
+    if (const std::string e = statics.validate(); !e.empty()) os << "s_dovs." << e;
+  }
   return os.str();
 }
 
@@ -180,6 +183,21 @@ std::vector<Twist2> SDovsPlanner::windowSamples(const Twist2& current, const Rob
 }
 
 PlannerDecision SDovsPlanner::decide(const PlannerInput& input) {
+  PlannerDecision d = plan(input);
+  if (config_.statics.enabled) {
+    const Observation& obs = *input.observation;
+    const StaticScene statics(obs, input.limits, config_.statics);
+    const Twist2 safe = staticSafeCommand(statics, input.limits.clipToFeasible(obs.robot_twist), d.command,
+                                          input.limits, config_.statics);
+    if (safe.v != d.command.v || safe.w != d.command.w) {
+      d.command = safe;
+      d.note += " (static safety)";
+    }
+  }
+  return d;
+}
+
+PlannerDecision SDovsPlanner::plan(const PlannerInput& input) const {
   if (input.observation == nullptr) throw PlannerError("S-DOVS: the planner input has no observation");
   if (input.dovs == nullptr) throw PlannerError("S-DOVS: the planner input has no DOVS");
   const Observation& obs = *input.observation;

@@ -222,20 +222,23 @@ bool World::checkCollision() {
   for (size_t i = 0; i < obstacles_.size(); ++i) {
     const MovingObstacle& b = obstacles_[i].body;
     if ((b.center - p).norm() < r + b.radius) {
-      if (!collided()) collision_ = {CollisionInfo::Kind::Obstacle, static_cast<int>(i), time_s_};
+      if (!collided()) {
+        const bool still = b.is_static || (b.speed == 0.0 && b.turn_rate == 0.0);
+        collision_ = {CollisionInfo::Kind::Obstacle, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), still};
+      }
       return true;
     }
   }
   for (size_t i = 0; i < walls_.size(); ++i) {
     if (pointSegmentDistance(p, walls_[i]) < r) {
-      if (!collided()) collision_ = {CollisionInfo::Kind::Wall, static_cast<int>(i), time_s_};
+      if (!collided()) collision_ = {CollisionInfo::Kind::Wall, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), true};
       return true;
     }
   }
   // A robot centre outside the room (possible only after tunnelling through a wall) is also a collision.
   const double h = scenario_.room_half_size_m;
   if (!(std::abs(p.x()) < h && std::abs(p.y()) < h)) {
-    if (!collided()) collision_ = {CollisionInfo::Kind::Wall, 0, time_s_};
+    if (!collided()) collision_ = {CollisionInfo::Kind::Wall, 0, time_s_, std::abs(robot_twist_.v), true};
     return true;
   }
   return false;

@@ -41,6 +41,10 @@ ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh) {
       param<double>(pnh, "action_shield/last_resort_clearance_tolerance", c.last_resort_clearance_tolerance_m);
   c.escape_enabled = param<bool>(pnh, "action_shield/escape", c.escape_enabled);
   c.escape_window_samples = param<int>(pnh, "action_shield/escape_window_samples", c.escape_window_samples);
+  c.passive_escape = param<bool>(pnh, "action_shield/passive_escape", c.passive_escape);
+  c.passive_actions = param<bool>(pnh, "action_shield/passive_actions", c.passive_actions);
+  c.rest_speed_mps = param<double>(pnh, "action_shield/rest_speed", c.rest_speed_mps);
+  c.statics = loadStaticSafetyConfig(pnh);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("action_shield") + ": " + error);
   return c;

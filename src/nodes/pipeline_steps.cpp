@@ -82,6 +82,19 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   m.escape = shielded.has_escape;
   m.escape_v = shielded.has_escape ? shielded.escape.v : 0.0;
   m.escape_w = shielded.has_escape ? shielded.escape.w : 0.0;
+  m.escape_tier = static_cast<uint8_t>(shielded.has_escape ? shielded.escape_tier : EscapeTier::kFree);
+  if (shield.statics.enabled) {
+    const StaticScene statics(obs, limits, shield.statics);
+    m.static_frame = obstacles.header.frame_id;
+    for (const Segment& s : statics.walls()) {
+      const Vec2 a = obs.robot_pose.toWorld(s.a), b = obs.robot_pose.toWorld(s.b);
+      for (double x : {a.x(), a.y(), b.x(), b.y()}) m.static_segments.push_back(static_cast<float>(x));
+    }
+    for (const Circle& c : statics.discs()) {
+      const Vec2 p = obs.robot_pose.toWorld(c.center);
+      for (double x : {p.x(), p.y(), c.radius}) m.static_discs.push_back(static_cast<float>(x));
+    }
+  }
   const int n = dovs.numTrajectories();
   m.trajectory_curvature.reserve(static_cast<size_t>(n));
   m.interval_begin.reserve(static_cast<size_t>(n) + 1);
@@ -101,6 +114,39 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   m.grid_rows = m.grid_cols = static_cast<uint16_t>(dovs.gridSize());
   const StateVector state = buildState(dovs, obs, normalization);
   m.state.assign(state.data(), state.data() + state.size());
+  return {};
+}
+
+std::string staticObservationFromDovs(const Dovs& dovs, const std::string& fixed_frame, const Pose2& robot_pose,
+                                      const Twist2& twist, Observation& out) {
+  out = Observation();
+  out.robot_pose = robot_pose;
+  out.robot_twist = twist;
+  out.goal = robot_pose.position();
+  if (dovs.static_segments.empty() && dovs.static_discs.empty()) return {};
+  if (dovs.static_frame != fixed_frame) {
+    return "dovs static geometry is in frame '" + dovs.static_frame + "', the planner's fixed_frame is '" +
+           fixed_frame + "'";
+  }
+  if (dovs.static_segments.size() % 4 != 0) return "dovs static_segments length is not a multiple of 4";
+  if (dovs.static_discs.size() % 3 != 0) return "dovs static_discs length is not a multiple of 3";
+  for (float x : dovs.static_segments) {
+    if (!std::isfinite(x)) return "dovs static_segments has NaN/inf";
+  }
+  for (float x : dovs.static_discs) {
+    if (!std::isfinite(x)) return "dovs static_discs has NaN/inf";
+  }
+  const auto& s = dovs.static_segments;
+  for (size_t i = 0; i + 3 < s.size(); i += 4) out.segments.push_back(Segment{Vec2(s[i], s[i + 1]), Vec2(s[i + 2], s[i + 3])});
+  const auto& d = dovs.static_discs;
+  for (size_t i = 0; i + 2 < d.size(); i += 3) {
+    MovingObstacle m;
+    m.center = Vec2(d[i], d[i + 1]);
+    m.radius = d[i + 2];
+    m.speed = 0.0;
+    m.is_static = true;
+    out.obstacles.push_back(m);
+  }
   return {};
 }
 

@@ -59,4 +59,10 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why);
 /// The velocity a choice of chooseAction commands. Throws std::out_of_range for -1 or other non-choices.
 Twist2 choiceVelocity(const Dovs& dovs, int choice);
 
+/// The static geometry a Dovs message carries (static_frame), as an observation seen from `robot_pose` (the
+/// robot now, in the same frame) moving at `twist`. Returns why it cannot be used ("" when fine): a frame other
+/// than `fixed_frame`, a length that is not a multiple of 4 / 3, NaN/inf values.
+std::string staticObservationFromDovs(const Dovs& dovs, const std::string& fixed_frame, const Pose2& robot_pose,
+                                      const Twist2& twist, Observation& out);
+
 }  // namespace dqn_dovs

@@ -65,6 +65,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     if (!std::filesystem::is_regular_file(status)) throw ParameterError(culprit + " is not a regular file");
     if (access(model_path.c_str(), R_OK) != 0) throw ParameterError(culprit + " is not readable");
   }
+  statics_ = loadStaticSafetyConfig(pnh_);
   network_ = std::make_unique<QNetwork>(QNetwork::load(model_path));  // throws WeightFileError naming the field
   StateNormalization expected;
   expected.v_scale_mps = static_cast<float>(limits_.v_max);
@@ -289,6 +290,25 @@ std::string PlannerNode::decide(const ros::Time& now, std::optional<double>& goa
   if (a < 0) return why;
   action_ = a;
   target_ = limits_.clipToFeasible(choiceVelocity(d, a));
+  if (statics_.enabled) {
+    // The last line: the target's braking trajectory, from where the robot is now at the speed last sent, must
+    // keep clear of the static geometry the Dovs carries; otherwise the nearest velocity whose does.
+    Observation now_seen;
+    const std::string bad = staticObservationFromDovs(d, fixed_frame_, pose, command_, now_seen);
+    if (!bad.empty()) return bad;
+    const StaticScene scene(now_seen, limits_, statics_);
+    const Twist2 safe = staticSafeCommand(scene, command_, target_, limits_, statics_);
+    if (safe.v != target_.v || safe.w != target_.w) {
+      ++static_corrections_;
+      std::ostringstream os;
+      os.precision(3);
+      os << "choice " << a << " (" << target_.v << " m/s, " << target_.w << " rad/s) would brake into static geometry; sent ("
+         << safe.v << ", " << safe.w << ")";
+      static_last_ = os.str();
+      ROS_WARN_THROTTLE(1.0, "planner: static safety: %s (%u so far)", static_last_.c_str(), static_corrections_);
+      target_ = safe;
+    }
+  }
   return {};
 }
 
@@ -385,6 +405,8 @@ void PlannerNode::publishStatus(const ros::Time& now, double goal_distance) {
   s.envelope_checks = static_cast<uint32_t>(envelope_.checked());
   s.envelope_corrections = static_cast<uint32_t>(envelope_.corrected());
   s.envelope_last = envelope_.lastCorrection();
+  s.static_corrections = static_corrections_;
+  s.static_last = static_last_;
   s.control_periods = control_periods_;
   s.deadline_misses = deadline_misses_;
   s.max_period_lateness = max_lateness_s_;

@@ -20,6 +20,7 @@
 #include "dqn_dovs/qnetwork.h"
 #include "dqn_dovs/robot_model.h"
 #include "dqn_dovs/safety_envelope.h"
+#include "dqn_dovs/static_safety.h"
 
 namespace dqn_dovs {
 
@@ -58,6 +59,9 @@ class PlannerNode {
   ros::NodeHandle nh_, pnh_;
   std::string fixed_frame_, base_frame_;
   RobotLimits limits_;
+  StaticSafetyConfig statics_;
+  uint32_t static_corrections_ = 0;
+  std::string static_last_;
   double max_input_age_s_ = 0.5, goal_tolerance_m_ = 0.15, goal_speed_mps_ = 0.2, ramp_rate_hz_ = 50.0;
   double tf_timeout_s_ = 0.05, scan_max_nan_fraction_ = 0.5, deadline_fraction_ = 0.5;
   std::unique_ptr<QNetwork> network_;

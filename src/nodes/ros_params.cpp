@@ -52,4 +52,17 @@ bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
   return true;
 }
 
+StaticSafetyConfig loadStaticSafetyConfig(const ros::NodeHandle& pnh) {
+  StaticSafetyConfig c;
+  c.enabled = param<bool>(pnh, "static_safety/enabled", c.enabled);
+  c.latency_s = param<double>(pnh, "static_safety/latency", c.latency_s);
+  c.braking_fraction = param<double>(pnh, "static_safety/braking_fraction", c.braking_fraction);
+  c.margin_m = param<double>(pnh, "static_safety/margin", c.margin_m);
+  c.step_s = param<double>(pnh, "static_safety/step", c.step_s);
+  c.static_speed_mps = param<double>(pnh, "static_safety/static_speed", c.static_speed_mps);
+  const std::string error = c.validate();
+  if (!error.empty()) throw ParameterError(pnh.resolveName("static_safety") + ": " + error);
+  return c;
+}
+
 }  // namespace dqn_dovs

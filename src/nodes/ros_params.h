@@ -8,6 +8,7 @@
 #include <string>
 
 #include "dqn_dovs/robot_model.h"
+#include "dqn_dovs/static_safety.h"
 
 namespace dqn_dovs {
 
@@ -35,6 +36,10 @@ double paramInRange(const ros::NodeHandle& pnh, const std::string& name, double 
 
 /// Reads the robot limits from `robot/*` (config/robot.yaml) and validates them.
 RobotLimits loadRobotLimits(const ros::NodeHandle& pnh);
+
+/// Reads the static braking rule from `static_safety/*` (config/static_safety.yaml, loaded by dovs_node and
+/// planner_node) and validates it.
+StaticSafetyConfig loadStaticSafetyConfig(const ros::NodeHandle& pnh);
 
 }  // namespace dqn_dovs
 

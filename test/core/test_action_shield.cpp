@@ -10,6 +10,7 @@
 #include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
+#include "dqn_dovs/planner.h"
 #include "dqn_dovs/rollout.h"
 #include "obstacle_test_helpers.h"
 
@@ -106,11 +107,16 @@ TEST(ActionShield, RandomScenesKeepOnlySafeActionsAndNeverEmptyTheMask) {
     for (size_t i = 0; i < m.mask.size(); ++i) {
       if (m.mask[i]) {
         ASSERT_TRUE(s.actions.valid[i]) << "scene " << k << ": shield allowed the invalid action " << i;
-        if (m.level != ShieldLevel::kLatest) {
+        if (m.level != ShieldLevel::kLatest && m.level != ShieldLevel::kStatic) {
           ASSERT_TRUE(s.dovs.isFree(s.actions.velocities[i])) << "scene " << k;
         }
+        // The static braking rule binds whenever any valid action passes it.
+        if (m.level != ShieldLevel::kStatic) {
+          ASSERT_TRUE(m.static_safe[i]) << "scene " << k << ", action " << i;
+        }
       } else if (s.actions.valid[i] && m.level == ShieldLevel::kFree) {
-        EXPECT_FALSE(s.dovs.isFree(s.actions.velocities[i])) << "scene " << k << ": a free action was masked";
+        EXPECT_FALSE(s.dovs.isFree(s.actions.velocities[i]) && m.static_safe[i])
+            << "scene " << k << ": a free, statically safe action was masked";
       }
     }
     narrowed += m.mask != s.actions.valid ? 1 : 0;
@@ -125,7 +131,8 @@ TEST(ActionShield, RandomScenesKeepOnlySafeActionsAndNeverEmptyTheMask) {
 
 TEST(ActionShield, BoxedInEscapePutsTheTrueContactOffAtLeastAsLongAsAnyAction) {
   const Scene s = scene({0.3, 0.0}, {4.0, 0.0}, {movingDisc(0.9, 0.0, kPi, 1.0), movingDisc(0.7, 0.6, -kPi / 2, 0.6)});
-  const ActionShieldConfig config;
+  ActionShieldConfig config;
+  config.passive_escape = false;  // the latest-contact order (the passive order: test_static_safety.cpp)
   const ShieldedMask m = shieldActions(s.actions, s.dovs, s.obs, config);
   ASSERT_EQ(m.level, ShieldLevel::kLatest);
   ASSERT_TRUE(m.has_escape);
@@ -182,7 +189,9 @@ Twist2 escapeByFullSearch(const Observation& obs, const ActionShieldConfig& conf
   const double h = config.last_resort_horizon_s;
   double best_ttc = -1.0, best_clearance = -1e300, best_goal = 1e300;
   Twist2 chosen = current;
-  for (const Twist2& u1 : makeDynamicWindow(current, limits).samples(config.escape_window_samples, limits)) {
+  std::vector<Twist2> candidates = makeDynamicWindow(current, limits).samples(config.escape_window_samples, limits);
+  candidates.push_back(decelerationCommand(current, limits));
+  for (const Twist2& u1 : candidates) {
     double ttc = -1.0, clearance = -1e300;
     for (int i = -1; i <= 1; ++i) {
       for (int j = -1; j <= 1; ++j) {
@@ -271,6 +280,8 @@ TEST(ActionShield, EscapeSearchAbandonsNothingThatCouldWin) {
     for (int n : {2, 5}) {
       ActionShieldConfig config;
       config.escape_window_samples = n;
+      config.passive_escape = false;    // the full search below is the latest-contact order ...
+      config.statics.enabled = false;  // ... over the whole window
       const Twist2 fast = escapeVelocity(obs, RobotLimits{}, DovsConfig{}.safety_factor, config);
       const Twist2 full = escapeByFullSearch(obs, config);
       ASSERT_EQ(fast.v, full.v) << "scene " << k << ", lattice " << n;

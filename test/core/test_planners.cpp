@@ -232,9 +232,10 @@ TEST(DqnDovsPlanner, ChoosesOnlyAmongShieldedActionsAndTheAblationDoesNot) {
       const PlannerDecision d = shielded.decide(in);
       if (m.has_escape) {
         // Boxed in: the shield's escape velocity, not an action.
-        ASSERT_EQ(m.level, ShieldLevel::kLatest);
+        ASSERT_TRUE(m.level == ShieldLevel::kLatest || m.level == ShieldLevel::kStatic) << shieldLevelName(m.level);
         EXPECT_EQ(d.action, -1);
-        EXPECT_EQ(d.note, "escape (shield: latest)");
+        EXPECT_EQ(d.note, std::string("escape (shield: ") + shieldLevelName(m.level) + ", " +
+                              escapeTierName(m.escape_tier) + ")");
         EXPECT_EQ(d.command.v, m.escape.v);
         EXPECT_EQ(d.command.w, m.escape.w);
         ++escapes;

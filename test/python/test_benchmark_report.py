@@ -1,5 +1,6 @@
 """docs/benchmark.md generator: time ratios on both-solved episodes only, danger frequency, mean rows, the
-beats-every-baseline verdict, the paper table reader and the report end to end on a synthetic results.csv."""
+beats-every-baseline verdict, the paper table reader, collisions by kind and contact speed (and older files
+without those columns) and the report end to end on a synthetic results.csv."""
 
 import csv
 import math
@@ -11,15 +12,17 @@ from dqn_dovs import benchmark_report as br
 
 HEADER = ["method", "obstacles", "episode", "scenario", "outcome", "time_s", "path_length_m", "min_clearance_m",
           "danger_steps", "steps", "planner_errors"]
+# dqn_dovs_eval's header since the collision kinds.
+HEADER_KINDS = HEADER + ["collision_kind", "contact_speed_mps"]
 
 
-def write_results(path, rows):
-    """rows: (method, obstacles, episode, outcome, time_s, danger_steps, steps)."""
+def write_results(path, rows, header=HEADER):
+    """rows: (method, obstacles, episode, outcome, time_s, danger_steps, steps[, collision_kind, contact_speed])."""
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(HEADER)
-        for m, n, k, outcome, t, danger, steps in rows:
-            w.writerow([m, n, k, f"1-{n}/{k}", outcome, t, 5.0, 0.5, danger, steps, 0])
+        w.writerow(header)
+        for m, n, k, outcome, t, danger, steps, *kind_speed in rows:
+            w.writerow([m, n, k, f"1-{n}/{k}", outcome, t, 5.0, 0.5, danger, steps, 0] + kind_speed)
     return path
 
 
@@ -213,3 +216,98 @@ def test_report_has_the_paired_table(tmp_path):
     assert "| 5 | +1 / -0 (1) | +2 / -0 (0.5) |" in text
     assert "| all | +1 / -1 (1) | +2 / -1 (1) |" in text
     assert "- vs s_dovs: pooled +1 / -1 of 4 paired episodes, p = 1 (no significant difference)" in text
+
+
+# The same two counts with the collision kinds and contact speeds recorded.
+KIND_ROWS = [
+    ("dqn_dovs", 5, 1, "collision", 3.0, 5, 15, "rest", 0.01),
+    ("dqn_dovs", 5, 2, "success", 10.0, 0, 50, "", ""),
+    ("dqn_dovs", 6, 1, "collision", 3.0, 5, 15, "moving", 0.4),
+    ("dqn_dovs", 6, 2, "collision", 3.0, 5, 15, "moving", 0.8),
+    ("s_dovs", 5, 1, "collision", 3.0, 5, 15, "static", 0.3),
+    ("s_dovs", 5, 2, "timeout", 100.0, 0, 500, "", ""),
+    ("s_dovs", 6, 1, "success", 10.0, 0, 50, "", ""),
+    ("s_dovs", 6, 2, "success", 10.0, 0, 50, "", ""),
+]
+
+
+def test_nearest_rank_percentile():
+    assert math.isnan(br.nearest_rank([], 0.95))
+    assert br.nearest_rank([0.7], 0.95) == 0.7
+    assert br.nearest_rank([0.8, 0.4], 0.95) == 0.8  # rank ceil(1.9) = 2, not interpolated (0.78)
+    assert br.nearest_rank(list(range(1, 21)), 0.95) == 19  # ceil(19) = 19
+    assert br.nearest_rank(list(range(21, 0, -1)), 0.95) == 20  # ceil(19.95) = 20, order does not matter
+
+
+def test_collisions_by_kind_and_contact_speed(tmp_path):
+    recs = br.read_results(write_results(tmp_path / "results.csv", KIND_ROWS, HEADER_KINDS))
+    assert recs[0].collision_kind == "rest" and recs[0].contact_speed_mps == 0.01
+    assert recs[1].collision_kind == "" and math.isnan(recs[1].contact_speed_mps)
+    s = br.summarize(recs)
+    assert s.cell("dqn_dovs", 5).collisions_by_kind == {"static": 0, "rest": 1, "moving": 0}
+    assert s.cell("dqn_dovs", 6).collisions_by_kind == {"static": 0, "rest": 0, "moving": 2}
+    assert s.cell("dqn_dovs", 6).mean_contact_speed_mps == pytest.approx(0.6)
+    assert s.cell("dqn_dovs", 6).p95_contact_speed_mps == 0.8
+    # Pooled over every count: summed counts, speeds over all three collisions.
+    o = s.overall["dqn_dovs"]
+    assert o.collisions_by_kind == {"static": 0, "rest": 1, "moving": 2}
+    assert o.mean_contact_speed_mps == pytest.approx(1.21 / 3)
+    assert o.p95_contact_speed_mps == 0.8
+    assert s.cell("s_dovs", 6).collisions_by_kind == {"static": 0, "rest": 0, "moving": 0}
+    assert math.isnan(s.cell("s_dovs", 6).mean_contact_speed_mps)
+    assert math.isnan(s.cell("s_dovs", 6).p95_contact_speed_mps)
+
+    kinds = br.collision_kind_table(s).splitlines()
+    assert kinds[0] == "| N | dqn_dovs | s_dovs |"
+    assert kinds[2:] == ["| 5 | 0 / 1 / 0 | 1 / 0 / 0 |", "| 6 | 0 / 0 / 2 | 0 / 0 / 0 |",
+                         "| all | 0 / 1 / 2 | 1 / 0 / 0 |"]
+    speeds = br.contact_speed_table(s).splitlines()
+    assert speeds[2:] == ["| 5 | 0.010 (0.010) | 0.300 (0.300) |", "| 6 | 0.600 (0.800) | - |",
+                          "| all | 0.403 (0.800) | 0.300 (0.300) |"]
+
+
+def test_unclassified_collision_counts_in_no_kind(tmp_path):
+    # A collision dqn_dovs_eval could not classify (empty kind, no speed) is a collision of no kind, as in eval.cpp.
+    rows = [("dqn_dovs", 5, 1, "collision", 3.0, 5, 15, "", ""), ("dqn_dovs", 5, 2, "collision", 3.0, 5, 15,
+                                                                   "moving", 0.5)]
+    c = br.summarize(br.read_results(write_results(tmp_path / "r.csv", rows, HEADER_KINDS))).cell("dqn_dovs", 5)
+    assert c.collisions == 2 and c.collisions_by_kind == {"static": 0, "rest": 0, "moving": 1}
+    assert c.mean_contact_speed_mps == 0.5 and c.p95_contact_speed_mps == 0.5
+
+
+def test_unknown_collision_kind_names_file_and_line(tmp_path):
+    rows = KIND_ROWS[:1] + [("dqn_dovs", 5, 2, "collision", 3.0, 5, 15, "sideways", 0.2)]
+    with pytest.raises(ValueError, match=r"kinds\.csv:3: unknown collision_kind 'sideways'"):
+        br.read_results(write_results(tmp_path / "kinds.csv", rows, HEADER_KINDS))
+
+
+def test_older_results_without_kinds_read_as_not_recorded(records):
+    assert all(r.collision_kind is None and math.isnan(r.contact_speed_mps) for r in records)
+    s = br.summarize(records)
+    # Cells with collisions: kinds unknown; cells without: nothing to classify.
+    assert s.cell("dqn_dovs", 6).collisions_by_kind is None
+    assert s.cell("dqn_dovs", 5).collisions_by_kind == {"static": 0, "rest": 0, "moving": 0}
+    assert s.overall["dqn_dovs"].collisions_by_kind is None
+    assert math.isnan(s.overall["dqn_dovs"].mean_contact_speed_mps)
+    kinds = br.collision_kind_table(s)
+    assert "| 5 | 0 / 0 / 0 | 0 / 0 / 0 | - | 0 / 0 / 0 |" in kinds
+    assert "| all | - | 0 / 0 / 0 | - | 0 / 0 / 0 |" in kinds
+    assert "| all | - | - | - | - |" in br.contact_speed_table(s)
+
+
+def test_report_has_the_collision_kind_tables(tmp_path):
+    tracker = write_results(tmp_path / "tracker.csv", KIND_ROWS, HEADER_KINDS)
+    perfect = write_results(tmp_path / "perfect.csv", ROWS)  # an older file: kinds not recorded
+    out = tmp_path / "benchmark.md"
+    assert br.main(["--tracker", str(tracker), "--perfect", str(perfect), "--paper", "", "--discussion", "",
+                    "--run-info", "", "--plots", str(tmp_path), "--out", str(out)]) == 0
+    text = out.read_text()
+    tracker_part, perfect_part = text.split("## Tracker in the loop")[1].split("## Perfect information")
+    for part in (tracker_part, perfect_part):
+        assert "### Collisions by kind\n\nCounts, static / rest / moving:" in part
+        assert "### Robot speed at contact (m/s)\n\nThe robot's linear speed" in part
+    assert "| all | 0 / 1 / 2 | 1 / 0 / 0 |" in tracker_part
+    assert "| all | 0.403 (0.800) | 0.300 (0.300) |" in tracker_part
+    assert "| all | - | 0 / 0 / 0 | - | 0 / 0 / 0 |" in perfect_part
+    # The rate tables keep their mean row (collision rate: mean of 0.5 and 1.0, of 0.5 and 0.0).
+    assert "| mean | 0.75 | 0.25 |" in tracker_part

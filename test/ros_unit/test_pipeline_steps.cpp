@@ -40,6 +40,44 @@ Step build(const Twist2& current, const std::vector<MovingObstacle>& obstacles) 
   return s;
 }
 
+TEST(PipelineSteps, TheMessageCarriesTheStaticGeometryForThePlannersLastCheck) {
+  const RobotLimits limits;
+  const DovsConfig config;
+  DovsBuilder builder(limits, config);
+  TrackedObstacleArray msg = movingObstaclesToMsg({movingDisc(0.9, 0.3), movingDisc(1.0, -0.5, kPi, 0.8)},
+                                                  {Segment{{0.0, 0.8}, {2.0, 0.8}}});
+  msg.header.stamp = ros::Time(10.0);
+  msg.header.frame_id = "odom";
+  Step s;
+  const Pose2 robot{0.2, 0.0, 0.5};
+  ASSERT_EQ(buildDovsStep(msg, robot, {0.3, 0.0}, Vec2(4.0, 0.0), limits, dovsStateNormalization(limits, config),
+                          ActionShieldConfig{}, "base_footprint", builder, s.space, s.step),
+            "");
+  const Dovs& d = s.step.msg;
+  EXPECT_EQ(d.static_frame, "odom");
+  ASSERT_EQ(d.static_segments.size(), 4u);  // the wall
+  ASSERT_EQ(d.static_discs.size(), 3u);     // the static disc only
+  EXPECT_NEAR(d.static_discs[0], 0.9, 1e-6);  // in the fixed frame, as tracked
+  EXPECT_NEAR(d.static_discs[1], 0.3, 1e-6);
+  // The planner sees the same geometry from where the robot is now.
+  Observation seen;
+  ASSERT_EQ(staticObservationFromDovs(d, "odom", robot, {0.3, 0.0}, seen), "");
+  ASSERT_EQ(seen.segments.size(), 1u);
+  ASSERT_EQ(seen.obstacles.size(), 1u);
+  EXPECT_TRUE(seen.obstacles[0].is_static);
+  const StaticScene from_msg(seen, limits, StaticSafetyConfig{});
+  const StaticScene from_step(s.step.observation, limits, StaticSafetyConfig{});
+  EXPECT_NEAR(from_msg.clearance(Vec2(0.3, 0.1)), from_step.clearance(Vec2(0.3, 0.1)), 1e-5);
+  // Bad geometry is refused with a reason.
+  EXPECT_NE(staticObservationFromDovs(d, "map", robot, {}, seen).find("'map'"), std::string::npos);
+  Dovs odd = d;
+  odd.static_segments.pop_back();
+  EXPECT_NE(staticObservationFromDovs(odd, "odom", robot, {}, seen).find("multiple of 4"), std::string::npos);
+  Dovs nan = d;
+  nan.static_discs[2] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_NE(staticObservationFromDovs(nan, "odom", robot, {}, seen).find("NaN"), std::string::npos);
+}
+
 QNetwork shippedNetwork() { return QNetwork::load(std::string(DQN_DOVS_SOURCE_DIR) + "/models/dqn_dovs.dqnw"); }
 
 TEST(PipelineSteps, BoxedInTheMessageCarriesTheEscapeAndThePlannerHoldsIt) {

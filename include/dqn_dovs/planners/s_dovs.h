@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "dqn_dovs/planner.h"
+#include "dqn_dovs/static_safety.h"
 
 namespace dqn_dovs {
 
@@ -54,6 +55,9 @@ struct SDovsConfig {
   double robust_dv_mps = 0.03;
   /// ... and in w (rad/s). Robustly free samples are preferred: tracker noise then rarely makes them unsafe.
   double robust_dw_rps = 0.15;
+  /// The static braking rule (static_safety.h) every command passes last: a command whose braking trajectory
+  /// reaches static geometry is replaced by the nearest statically safe velocity of the window.
+  StaticSafetyConfig statics;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -85,6 +89,7 @@ class SDovsPlanner : public Planner {
   std::vector<Twist2> windowSamples(const Twist2& current, const RobotLimits& limits) const;
 
  private:
+  PlannerDecision plan(const PlannerInput& input) const;  // the strategies, before the static rule
   SDovsConfig config_;
 };
 

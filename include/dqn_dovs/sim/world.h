@@ -74,6 +74,10 @@ struct CollisionInfo {
   int index = -1;
   /// Simulation time of the sub-step at which the contact was found (s).
   double time_s = 0.0;
+  /// The robot's linear speed at the contact, before the collision stopped it (m/s).
+  double robot_speed_mps = 0.0;
+  /// True when the robot hit something that stands still: a wall, a scenario segment or a static obstacle.
+  bool static_contact = false;
 };
 
 class World {
