@@ -52,6 +52,11 @@ struct ActionShieldConfig {
   /// Also narrow the free actions to those whose braking trajectory comes to rest before any contact with a
   /// moving obstacle, whenever any of them does (passive safety beyond the escape).
   bool passive_actions = false;
+  /// Passive checks (the escape's order and passive_actions): a braking trajectory "comes to rest before
+  /// contact" only when, while moving, it keeps this clearance to the moving obstacles' predicted discs ... (m)
+  double passive_margin_m = 0.0;
+  /// ... plus this much per second of look-ahead, for the predictions' growing uncertainty (m/s).
+  double passive_margin_growth_mps = 0.0;
   /// The static braking rule (static_safety.h): no action, escape or fallback whose braking trajectory reaches
   /// static geometry is ever allowed while a statically safe one exists. Applies while `enabled`.
   StaticSafetyConfig statics;

@@ -30,6 +30,11 @@ std::string ActionShieldConfig::validate() const {
        << ": must be finite and >= 0";
   } else if (!(std::isfinite(rest_speed_mps) && rest_speed_mps >= 0.0 && rest_speed_mps <= 0.3)) {
     os << "action_shield.rest_speed_mps = " << rest_speed_mps << ": must be in [0, 0.3] m/s";
+  } else if (!(std::isfinite(passive_margin_m) && passive_margin_m >= 0.0 && passive_margin_m <= 1.0)) {
+    os << "action_shield.passive_margin_m = " << passive_margin_m << ": must be in [0, 1] m";
+  } else if (!(std::isfinite(passive_margin_growth_mps) && passive_margin_growth_mps >= 0.0 &&
+               passive_margin_growth_mps <= 1.0)) {
+    os << "action_shield.passive_margin_growth_mps = " << passive_margin_growth_mps << ": must be in [0, 1] m/s";
   } else if (const std::string e = statics.validate(); !e.empty()) {
     os << "action_shield." << e;
   }
@@ -235,8 +240,6 @@ BrakingContact brakingContact(const LocalScene& scene, const Twist2& current, co
   BrakingContact out;
   bool unused = false;
   const double start = scene.clearance(Vec2::Zero(), 0.0, unused);
-  // Starting in contact, only a contact that gets worse counts (moving away is never a collision).
-  const double floor = std::min(0.0, start - 1e-3);
   StaticSafetyConfig sampling = config.statics;
   sampling.step_s = std::max(sampling.step_s, 0.05);  // the contact check of the escape: 3.5 cm at v_max
   for (const BrakingSample& s : brakingSamples(current, u, limits, sampling)) {
@@ -244,6 +247,8 @@ BrakingContact brakingContact(const LocalScene& scene, const Twist2& current, co
     bool inflated = false;
     const double c = scene.clearance(s.position, s.t_s, inflated);
     out.clearance_m = std::min(out.clearance_m, c);
+    // Starting closer than the margin (or in contact), only getting closer counts: moving away never does.
+    const double floor = std::min(config.passive_margin_m + config.passive_margin_growth_mps * s.t_s, start - 1e-3);
     if (c < floor) {
       out.contact = true;
       out.speed_mps = s.speed_mps;
@@ -299,104 +304,117 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
     return e;
   }
 
-  // Tier kFree: a follow-up after one period keeps every true contact away over the horizon.
-  double best_ttc = -1.0, best_clearance = kNone, best_goal = std::numeric_limits<double>::infinity();
-  Twist2 chosen = current;
-  bool chosen_set = false;
-  std::vector<double> follow_ttc(candidates.size(), -1.0);
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    if (!keep[k]) continue;
-    const Twist2& u1 = candidates[k];
-    // The best follow-up one period on: a corner or the centre of u1's own window (its 3 x 3 box).
-    double ttc = -1.0, clearance = kNone;
-    for (int i = -1; i <= 1; ++i) {
-      for (int j = -1; j <= 1; ++j) {
-        const Twist2 u2{u1.v + i * limits.dv(), u1.w + j * limits.dw()};
-        if (!limits.feasible(u2, 1e-9)) continue;
-        // Once a roll-out has reached the horizon untouched, one whose clearance falls below its clearance can
-        // no longer be u1's best follow-up, nor (1 mm below the best so far) tie the best velocity: abandoned,
-        // which leaves the choice exactly what the full search makes.
-        const double below_best = best_ttc >= horizon - 1e-9 ? best_clearance - 1e-3 - 1e-9 : kNone;
-        const double below_own = ttc >= horizon - 1e-9 ? clearance : kNone;
-        bool abandoned = false;
-        const Rollout r = sampled.rollOutSwitching(u1, limits.dt, u2, Contact::kTrue, std::max(below_best, below_own),
-                                                   abandoned);
-        if (abandoned) continue;
-        const double t = std::min(r.collision_time_s, horizon);
-        if (t > ttc + 1e-9 || (t > ttc - 1e-9 && r.min_clearance_m > clearance)) {
-          ttc = t;
-          clearance = r.min_clearance_m;
-        }
-      }
-    }
-    follow_ttc[k] = ttc;
-    if (ttc < 0.0) continue;  // every follow-up abandoned: u1 cannot beat the best
-    const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
-    const bool better = ttc > best_ttc + 1e-9 ||
-                        (ttc > best_ttc - 1e-9 && (clearance > best_clearance + 1e-3 ||
-                                                   (clearance > best_clearance - 1e-3 && g < best_goal)));
-    if (better) {
-      best_ttc = ttc;
-      best_clearance = clearance;
-      best_goal = g;
-      chosen = u1;
-      chosen_set = true;
+  // Passive safety of each candidate: does its braking trajectory come to rest before any contact?
+  std::vector<BrakingContact> braking(candidates.size());
+  if (config.passive_escape) {
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      if (keep[k]) braking[k] = brakingContact(scene, current, candidates[k], limits, config);
     }
   }
+
+  // The search of the follow-ups: among the candidates `eligible` admits, the one whose best follow-up after one
+  // period puts the first true contact off longest (reaching the horizon: no contact), then the widest clearance,
+  // then the closest to the goal.
+  struct Best {
+    bool found = false;
+    double ttc = -1.0, clearance = -std::numeric_limits<double>::infinity(),
+           goal = std::numeric_limits<double>::infinity();
+    Twist2 u;
+  };
+  std::vector<double> follow_ttc(candidates.size(), -1.0);  // each searched candidate's best follow-up
+  auto search = [&](auto&& eligible) {
+    Best best;
+    for (size_t k = 0; k < candidates.size(); ++k) {
+      if (!keep[k] || !eligible(k)) continue;
+      const Twist2& u1 = candidates[k];
+      // The best follow-up one period on: a corner or the centre of u1's own window (its 3 x 3 box).
+      double ttc = -1.0, clearance = kNone;
+      for (int i = -1; i <= 1; ++i) {
+        for (int j = -1; j <= 1; ++j) {
+          const Twist2 u2{u1.v + i * limits.dv(), u1.w + j * limits.dw()};
+          if (!limits.feasible(u2, 1e-9)) continue;
+          // Once a roll-out has reached the horizon untouched, one whose clearance falls below its clearance can
+          // no longer be u1's best follow-up, nor (1 mm below the best so far) tie the best velocity: abandoned,
+          // which leaves the choice exactly what the full search makes.
+          const double below_best = best.ttc >= horizon - 1e-9 ? best.clearance - 1e-3 - 1e-9 : kNone;
+          const double below_own = ttc >= horizon - 1e-9 ? clearance : kNone;
+          bool abandoned = false;
+          const Rollout r = sampled.rollOutSwitching(u1, limits.dt, u2, Contact::kTrue,
+                                                     std::max(below_best, below_own), abandoned);
+          if (abandoned) continue;
+          const double t = std::min(r.collision_time_s, horizon);
+          if (t > ttc + 1e-9 || (t > ttc - 1e-9 && r.min_clearance_m > clearance)) {
+            ttc = t;
+            clearance = r.min_clearance_m;
+          }
+        }
+      }
+      follow_ttc[k] = ttc;
+      if (ttc < 0.0) continue;  // every follow-up abandoned: u1 cannot beat the best
+      const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
+      const bool better = ttc > best.ttc + 1e-9 ||
+                          (ttc > best.ttc - 1e-9 && (clearance > best.clearance + 1e-3 ||
+                                                     (clearance > best.clearance - 1e-3 && g < best.goal)));
+      if (better) best = Best{true, ttc, clearance, g, u1};
+    }
+    return best;
+  };
+  auto clear = [&](const Best& b) { return b.found && b.ttc >= horizon - 1e-9; };
+
   Escape e;
-  if (chosen_set && best_ttc >= horizon - 1e-9) {
-    e.velocity = chosen;
+  if (!config.passive_escape) {
+    const Best b = search([](size_t) { return true; });
+    e.velocity = b.found ? b.u : decelerationCommand(current, limits);
+    e.tier = clear(b) ? EscapeTier::kFree : EscapeTier::kSlowest;
+    return e;
+  }
+  // Tier kFree: no contact over the horizon with the best follow-up. A dodge that must keep moving counts: the
+  // robot re-plans every period, and forcing a stop where a way out exists costs more contacts than it saves
+  // (docs/planners.md, "Passive safety").
+  const Best any = search([](size_t) { return true; });
+  if (clear(any)) {
+    e.velocity = any.u;
     e.tier = EscapeTier::kFree;
     return e;
   }
-  if (!config.passive_escape) {
-    e.velocity = chosen_set ? chosen : decelerationCommand(current, limits);
-    e.tier = EscapeTier::kSlowest;
-    return e;
-  }
-
-  // Tier kRest: braking comes to rest before any contact; the latest contact of its best follow-up (the most
-  // room to get away), then the widest clearance while moving. Tier kSlowest: the lowest speed at contact.
+  // Tier kRest: braking comes to rest before any contact; the latest contact of the best follow-up (the most
+  // room to get away), then the widest clearance while braking, then the closest to the goal. The search above
+  // abandoned nothing (no follow-up reached the horizon), so every follow-up time is exact.
+  bool rest_found = false;
   double rest_ttc = kNone, rest_clearance = kNone, rest_goal = std::numeric_limits<double>::infinity();
-  double slow_speed = std::numeric_limits<double>::infinity(), slow_time = kNone;
-  bool rest_found = false, slow_found = false;
-  Twist2 rest_choice = current, slow_choice = current;
   for (size_t k = 0; k < candidates.size(); ++k) {
-    if (!keep[k]) continue;
+    if (!keep[k] || braking[k].contact) continue;
     const Twist2& u1 = candidates[k];
-    const BrakingContact bc = brakingContact(scene, current, u1, limits, config);
-    if (!bc.contact) {
-      // Exact here: roll-outs are abandoned only once some follow-up reached the horizon (tier kFree).
-      const double ttc = follow_ttc[k];
-      const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
-      const bool better = ttc > rest_ttc + 1e-9 ||
-                          (ttc > rest_ttc - 1e-9 && (bc.clearance_m > rest_clearance + 1e-3 ||
-                                                     (bc.clearance_m > rest_clearance - 1e-3 && g < rest_goal)));
-      if (!rest_found || better) {
-        rest_found = true;
-        rest_ttc = ttc;
-        rest_clearance = bc.clearance_m;
-        rest_goal = g;
-        rest_choice = u1;
-      }
-    } else if (!rest_found) {
-      const bool better = bc.speed_mps < slow_speed - 1e-3 || (bc.speed_mps < slow_speed + 1e-3 && bc.time_s > slow_time);
-      if (!slow_found || better) {
-        slow_found = true;
-        slow_speed = bc.speed_mps;
-        slow_time = bc.time_s;
-        slow_choice = u1;
-      }
+    const double ttc = follow_ttc[k], c = braking[k].clearance_m;
+    const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
+    const bool better = ttc > rest_ttc + 1e-9 ||
+                        (ttc > rest_ttc - 1e-9 && (c > rest_clearance + 1e-3 || (c > rest_clearance - 1e-3 && g < rest_goal)));
+    if (!rest_found || better) {
+      rest_found = true;
+      rest_ttc = ttc;
+      rest_clearance = c;
+      rest_goal = g;
+      e.velocity = u1;
     }
   }
   if (rest_found) {
-    e.velocity = rest_choice;
     e.tier = EscapeTier::kRest;
-  } else {
-    e.velocity = slow_choice;
-    e.tier = EscapeTier::kSlowest;
-    e.contact_speed_mps = slow_speed;
+    return e;
   }
+  // Tier kSlowest: the lowest speed at the contact, then the latest contact.
+  double slow_speed = std::numeric_limits<double>::infinity(), slow_time = kNone;
+  e.velocity = decelerationCommand(current, limits);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    if (!keep[k]) continue;
+    const BrakingContact& bc = braking[k];
+    if (bc.speed_mps < slow_speed - 1e-3 || (bc.speed_mps < slow_speed + 1e-3 && bc.time_s > slow_time)) {
+      slow_speed = bc.speed_mps;
+      slow_time = bc.time_s;
+      e.velocity = candidates[k];
+    }
+  }
+  e.tier = EscapeTier::kSlowest;
+  e.contact_speed_mps = slow_speed;
   return e;
 }
 

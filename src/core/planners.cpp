@@ -40,7 +40,22 @@ const std::vector<std::pair<std::string, PlannerFactory>>& registry() {
          config.shield.escape_enabled = false;
          return std::make_unique<DqnDovsPlanner>(config);
        }},
+      {"dqn_dovs_latest_escape",
+       [](const std::string& model_path) -> std::unique_ptr<Planner> {
+         // The previous release: no static braking rule, the escape puts the first contact off longest.
+         DqnDovsConfig config;
+         if (!model_path.empty()) config.model_path = model_path;
+         config.shield.statics.enabled = false;
+         config.shield.passive_escape = false;
+         return std::make_unique<DqnDovsPlanner>(config);
+       }},
       {"s_dovs", [](const std::string&) -> std::unique_ptr<Planner> { return std::make_unique<SDovsPlanner>(); }},
+      {"s_dovs_unguarded",
+       [](const std::string&) -> std::unique_ptr<Planner> {
+         SDovsConfig config;
+         config.statics.enabled = false;  // the previous release, without the static braking rule
+         return std::make_unique<SDovsPlanner>(config);
+       }},
       {"orca_holonomic", [](const std::string&) { return makeOrcaHolonomicPlanner(); }},
       {"orca_diffdrive", [](const std::string&) { return makeOrcaDiffDrivePlanner(); }},
       {"dwa", [](const std::string&) { return makeDwaPlanner(); }},

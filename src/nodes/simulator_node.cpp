@@ -11,6 +11,7 @@
 #include "conversions.h"
 #include "dqn_dovs/SimStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
+#include "dqn_dovs/eval.h"
 #include "ros_params.h"
 
 namespace dqn_dovs {
@@ -250,13 +251,18 @@ void SimulatorNode::publishState(bool with_scan) {
   status.header.frame_id = odom_frame_;
   status.scenario = scenario_.name;
   status.collided = world_->collided();
+  if (status.collided) {
+    status.collision_kind = collisionKindName(classifyCollision(world_->collision()));
+    status.contact_speed = world_->collision().robot_speed_mps;
+  }
   status.min_clearance = world_->minClearance();
   status.goal_distance = (pose.position() - scenario_.goal).norm();
   status.speed = twist.v;
   status.episode_time = world_->time_s();
   status_pub_.publish(status);
   if (status.collided && !collided_reported_) {
-    ROS_WARN("simulator: collision in scenario '%s' at t = %.2f s", scenario_.name.c_str(), status.episode_time);
+    ROS_WARN("simulator: collision (%s, robot at %.2f m/s) in scenario '%s' at t = %.2f s",
+             status.collision_kind.c_str(), status.contact_speed, scenario_.name.c_str(), status.episode_time);
     collided_reported_ = true;
   }
 }

@@ -6,8 +6,9 @@
 // safety envelope (planner/cmd_vel_stamped); the planner's deadline counters come from planner/status.
 // Figures: bench/results/soak.json and soak.md. Asserted: no crash, no failed scenario load, RSS growth (linear
 // fit after the warm-up) under rss_growth_limit MB/h for every node, the stream inside the envelope, at
-// least one goal reached, and (loosely) at most a quarter of the control periods late. Collisions and
-// timeouts are reported, not asserted.
+// least one goal reached, (loosely) at most a quarter of the control periods late, and no collision with static
+// geometry (walls, static obstacles: passive safety). Other collisions, split into robot at rest / moving
+// with the speed at contact, and timeouts are reported, not asserted.
 #include <dirent.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <gtest/gtest.h>
@@ -205,6 +206,8 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
   const double sim0 = ros::Time::now().toSec();
   double next_sample = wall0;
   int scenarios = 0, reached = 0, collisions = 0, timeouts = 0, unfinished = 0, load_failures = 0;
+  std::map<std::string, int> collision_kinds{{"static", 0}, {"rest", 0}, {"moving", 0}};
+  std::vector<double> contact_speeds;
   std::ostringstream outcomes;
   auto sample = [&] {
     const double now = wallNow();
@@ -240,7 +243,8 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
     ++scenarios;
     // The new world's clock at its start: every status stamped after it belongs to this scenario.
     const ros::Time load_stamp = srv.response.goal.header.stamp;
-    std::string outcome = "unfinished";
+    std::string outcome = "unfinished", kind;
+    double contact_speed = 0.0;
     ros::Time active_at;  // the planner's first ACTIVE status for this scenario's goal
     while (ros::ok()) {
       sample();
@@ -253,6 +257,8 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
         }
         if (this_scenario && w.sim.collided) {
           outcome = "collision";
+          kind = w.sim.collision_kind;
+          contact_speed = w.sim.contact_speed;
         } else if (!active_at.isZero() && w.reached_stamp > active_at) {
           outcome = "reached";
         } else if (this_scenario && w.sim.episode_time > scenario_limit_s) {
@@ -267,6 +273,11 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
     if (outcome == "timeout") ++timeouts;
     if (outcome == "unfinished") ++unfinished;
     outcomes << (k ? ", " : "") << srv.request.seed << ":" << srv.request.obstacle_count << ":" << outcome;
+    if (outcome == "collision") {
+      ++collision_kinds[kind];
+      contact_speeds.push_back(contact_speed);
+      outcomes << "/" << kind;
+    }
     std::cout << "[soak] t = " << std::fixed << std::setprecision(0) << wallNow() - wall0 << " s, scenario seed "
               << srv.request.seed << " (" << srv.request.obstacle_count << " obstacles): " << outcome << std::endl;
     bool any_crash = false;
@@ -303,10 +314,19 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
     rss_md << "| " << name << " | " << start << " | " << end << " | " << peak << " | " << growth[name] << " |\n";
   }
   const PlannerStatus& p = w.planner;
+  double speed_mean = 0.0, speed_p95 = 0.0;
+  if (!contact_speeds.empty()) {
+    std::sort(contact_speeds.begin(), contact_speeds.end());
+    for (double v : contact_speeds) speed_mean += v / contact_speeds.size();
+    speed_p95 = contact_speeds[static_cast<size_t>(std::ceil(0.95 * contact_speeds.size())) - 1];
+  }
   const double miss_fraction = p.control_periods > 0 ? double(p.deadline_misses) / p.control_periods : 0.0;
   std::ostringstream summary;
   summary << std::fixed << std::setprecision(2) << "soak " << wall_s << " s wall (" << sim_s << " s simulated): "
-          << scenarios << " scenarios, " << reached << " goals reached, " << collisions << " collisions, " << timeouts
+          << scenarios << " scenarios, " << reached << " goals reached, " << collisions << " collisions (static "
+          << collision_kinds["static"] << ", robot at rest " << collision_kinds["rest"] << ", robot moving "
+          << collision_kinds["moving"] << "; speed at contact mean " << speed_mean << " m/s, p95 " << speed_p95
+          << " m/s), " << timeouts
           << " timeouts, " << unfinished << " unfinished; " << crashes << " crashes; deadline misses "
           << p.deadline_misses << " of " << p.control_periods << " control periods (worst lateness "
           << p.max_period_lateness << " s simulated; on the wall clock " << w.late_status_intervals << " of "
@@ -322,7 +342,11 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
     json << std::setprecision(6) << "{\n  \"duration_s\": " << wall_s << ",\n  \"simulated_s\": " << sim_s
          << ",\n  \"realtime_factor_achieved\": " << (wall_s > 0 ? sim_s / wall_s : 0.0)
          << ",\n  \"scenarios\": " << scenarios << ",\n  \"goals_reached\": " << reached
-         << ",\n  \"collisions\": " << collisions << ",\n  \"timeouts\": " << timeouts
+         << ",\n  \"collisions\": " << collisions << ",\n  \"collisions_static\": " << collision_kinds["static"]
+         << ",\n  \"collisions_rest\": " << collision_kinds["rest"] << ",\n  \"collisions_moving\": "
+         << collision_kinds["moving"] << ",\n  \"contact_speed_mean\": " << speed_mean
+         << ",\n  \"contact_speed_p95\": " << speed_p95 << ",\n  \"static_corrections\": " << p.static_corrections
+         << ",\n  \"timeouts\": " << timeouts
          << ",\n  \"unfinished\": " << unfinished << ",\n  \"load_failures\": " << load_failures
          << ",\n  \"crashes\": " << crashes << ",\n  \"deadline\": {\"control_periods\": " << p.control_periods
          << ", \"misses\": " << p.deadline_misses << ", \"miss_fraction\": " << miss_fraction
@@ -341,6 +365,7 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
 
   EXPECT_EQ(crashes, 0) << "a node crashed";
   EXPECT_EQ(load_failures, 0);
+  EXPECT_EQ(collision_kinds["static"], 0) << "the robot hit static geometry: " << outcomes.str();
   EXPECT_GE(scenarios, 2) << "the soak ran too few scenarios to mean anything";
   EXPECT_GE(reached, 1) << "no goal reached in " << scenarios << " scenarios: the pipeline does not work";
   for (const auto& [name, g] : growth) {
