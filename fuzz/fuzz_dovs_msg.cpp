@@ -43,8 +43,10 @@ bool lengthsFit(const std::uint8_t* data, std::size_t size) {
   // header: seq, stamp, frame_id
   if (!skip(4 + 8) || !array(1)) return false;
   // has_goal, v_max w_max dv dw v w, goal_line_kind, goal_curvature goal_turn_sign, action_v/w/valid,
-  // escape, escape_v, escape_w
-  if (!skip(1 + 6 * 8 + 1 + 2 * 8 + 8 * 8 + 8 * 8 + 8 + 1 + 2 * 8)) return false;
+  // escape, escape_v, escape_w, escape_tier
+  if (!skip(1 + 6 * 8 + 1 + 2 * 8 + 8 * 8 + 8 * 8 + 8 + 1 + 2 * 8 + 1)) return false;
+  // static_frame, static_segments, static_discs
+  if (!array(1) || !array(4) || !array(4)) return false;
   // trajectory_curvature, trajectory_pure_rotation, v_top, w_top, interval_begin, interval_lo, interval_hi
   if (!array(4) || !array(1) || !array(4) || !array(4) || !array(4) || !array(4) || !array(4)) return false;
   if (!skip(2 + 2)) return false;  // grid_rows, grid_cols
@@ -87,6 +89,18 @@ void consume(const std::uint8_t* data, std::size_t size) {
   const dqn_dovs::Twist2 target = limits.clipToFeasible({v, w});
   require(std::isfinite(target.v) && std::isfinite(target.w) && limits.feasible(target, 1e-6),
           "the commanded target is feasible");
+
+  // planner_node's last line: the static geometry the message carries, seen from the robot, and the target
+  // replaced by a statically safe one when its braking trajectory reaches it.
+  dqn_dovs::Observation seen;
+  const dqn_dovs::Twist2 current = limits.clipToFeasible({msg.v, msg.w});
+  const std::string bad = dqn_dovs::staticObservationFromDovs(msg, msg.static_frame, dqn_dovs::Pose2{}, current, seen);
+  if (!bad.empty()) return;  // refused with a reason: the planner halts
+  const dqn_dovs::StaticSafetyConfig statics;
+  const dqn_dovs::StaticScene scene(seen, limits, statics);
+  const dqn_dovs::Twist2 sent = dqn_dovs::staticSafeCommand(scene, current, target, limits, statics);
+  require(std::isfinite(sent.v) && std::isfinite(sent.w) && limits.feasible(sent, 1e-6),
+          "the statically checked target is finite and feasible");
 }
 
 }  // namespace

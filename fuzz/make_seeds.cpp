@@ -106,6 +106,7 @@ std::vector<std::uint8_t> dovsMessage(const sim::Scenario& scenario, bool with_g
   obs.robot_twist = world.robotTwist();
   obs.goal = with_goal ? world.goal() : obs.robot_pose.position();
   obs.obstacles = world.groundTruthObstacles();
+  obs.segments = world.walls();
   const VelocitySpace dovs = builder.build(obs);
   const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
   StateNormalization norm;
@@ -134,6 +135,18 @@ std::vector<std::uint8_t> dovsMessage(const sim::Scenario& scenario, bool with_g
   m.escape = shielded.has_escape;
   m.escape_v = shielded.has_escape ? shielded.escape.v : 0.0;
   m.escape_w = shielded.has_escape ? shielded.escape.w : 0.0;
+  m.escape_tier = static_cast<std::uint8_t>(shielded.has_escape ? shielded.escape_tier : EscapeTier::kFree);
+  // The static geometry near the robot, for the planner's last check (the scenario's room walls).
+  const StaticScene statics(obs, limits, StaticSafetyConfig{});
+  m.static_frame = "odom";
+  for (const Segment& s : statics.walls()) {
+    const Vec2 a = obs.robot_pose.toWorld(s.a), b = obs.robot_pose.toWorld(s.b);
+    for (double x : {a.x(), a.y(), b.x(), b.y()}) m.static_segments.push_back(static_cast<float>(x));
+  }
+  for (const Circle& c : statics.discs()) {
+    const Vec2 p = obs.robot_pose.toWorld(c.center);
+    for (double x : {p.x(), p.y(), c.radius}) m.static_discs.push_back(static_cast<float>(x));
+  }
   for (int i = 0; i < dovs.numTrajectories(); ++i) {
     const Trajectory& t = dovs.trajectory(i);
     m.trajectory_curvature.push_back(static_cast<float>(t.curvature_1pm));
