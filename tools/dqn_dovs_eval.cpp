@@ -22,7 +22,7 @@ using dqn_dovs::EvalConfig;
 const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
-    "                     [--model PATH] [--reference METHOD] [--trajectories N]\n"
+    "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "  --methods           planners to evaluate, comma-separated (default s_dovs)\n"
     "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
     "  --generate SEED     seeded random scenarios instead of a folder\n"
@@ -33,6 +33,8 @@ const char* kUsage =
     "  --threads N         worker threads (default 1); results do not depend on it\n"
     "  --out DIR           output folder (default eval_results)\n"
     "  --model PATH        weight file of dqn_dovs (default models/dqn_dovs.dqnw)\n"
+    "  --shield N=V,...    action shield parameters of the dqn_dovs methods, named as in config/dovs.yaml\n"
+    "                      action_shield/* and config/static_safety.yaml (static_safety/margin=0.1, ...)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
     "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n";
 
@@ -143,6 +145,14 @@ Options parse(int argc, char** argv) {
       if (o.out_dir.empty()) throw UsageError("--out needs a non-empty folder");
     } else if (flag == "--model") {
       o.eval.model_path = value();
+    } else if (flag == "--shield") {
+      for (const std::string& kv : splitList(flag, value())) {
+        const size_t eq = kv.find('=');
+        if (eq == std::string::npos) throw UsageError("--shield: '" + kv + "' is not NAME=VALUE");
+        const std::string e = dqn_dovs::setShieldParameter(o.eval.shield, kv.substr(0, eq), kv.substr(eq + 1));
+        if (!e.empty()) throw UsageError("--shield: " + e);
+      }
+      if (const std::string e = o.eval.shield.validate(); !e.empty()) throw UsageError("--shield: " + e);
     } else if (flag == "--reference") {
       o.reference = value();
     } else if (flag == "--trajectories") {

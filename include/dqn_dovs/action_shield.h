@@ -65,6 +65,12 @@ struct ActionShieldConfig {
   std::string validate() const;
 };
 
+/// Sets one field of `config` by its parameter name (the names of config/dovs.yaml `action_shield/*` and
+/// config/static_safety.yaml, the latter prefixed `static_safety/`), e.g. "passive_escape=false",
+/// "static_safety/margin=0.1". Returns "" when set, else why not (unknown name, unreadable value). The result
+/// is not validated: call validate().
+std::string setShieldParameter(ActionShieldConfig& config, const std::string& name, const std::string& value);
+
 /// How the shield decided for one action set.
 enum class ShieldLevel : int {
   kDisabled = 0,  ///< shield off: the validity mask

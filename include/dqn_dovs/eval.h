@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/episode.h"
 #include "dqn_dovs/sim/scenario.h"
 
@@ -45,6 +46,8 @@ struct EvalConfig {
   int threads = 1;
   /// Weight file of the `dqn_dovs` method.
   std::string model_path = "models/dqn_dovs.dqnw";
+  /// The action shield of the DQN-DOVS methods (each variant still applies its own change to it).
+  ActionShieldConfig shield;
   /// Everything about one episode: simulator, tracker, DOVS, reward, perfect_info (false: tracker in the loop).
   EpisodeConfig episode;
   /// Jobs (obstacle count, episode) whose robot and obstacle paths are kept in the records, for plots.

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/robot_model.h"
@@ -52,9 +53,11 @@ class Planner {
   virtual PlannerDecision decide(const PlannerInput& input) = 0;
 };
 
-/// Builds a planner by name with its default configuration; `model_path` is used by `dqn_dovs`.
+/// Builds a planner by name with its default configuration; `model_path` is used by `dqn_dovs`; `shield`, when
+/// given, replaces the default action shield of the DQN-DOVS planners (a variant's own changes still apply).
 /// Throws PlannerError for an unknown name (the message lists the known ones).
-std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string& model_path = "");
+std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string& model_path = "",
+                                     const ActionShieldConfig* shield = nullptr);
 
 /// Names accepted by makePlanner.
 std::vector<std::string> plannerNames();

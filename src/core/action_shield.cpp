@@ -41,6 +41,54 @@ std::string ActionShieldConfig::validate() const {
   return os.str();
 }
 
+std::string setShieldParameter(ActionShieldConfig& config, const std::string& name, const std::string& value) {
+  auto number = [&](double& field) -> std::string {
+    size_t used = 0;
+    double x = 0.0;
+    try {
+      x = std::stod(value, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != value.size()) return "'" + name + "': '" + value + "' is not a number";
+    field = x;
+    return {};
+  };
+  auto flag = [&](bool& field) -> std::string {
+    if (value == "true" || value == "1") field = true;
+    else if (value == "false" || value == "0") field = false;
+    else return "'" + name + "': '" + value + "' is not true or false";
+    return {};
+  };
+  if (name == "enabled") return flag(config.enabled);
+  if (name == "robust_dv") return number(config.robust_dv_mps);
+  if (name == "robust_dw") return number(config.robust_dw_rps);
+  if (name == "last_resort_horizon") return number(config.last_resort_horizon_s);
+  if (name == "last_resort_step") return number(config.last_resort_step_s);
+  if (name == "last_resort_tolerance") return number(config.last_resort_tolerance_s);
+  if (name == "last_resort_clearance_tolerance") return number(config.last_resort_clearance_tolerance_m);
+  if (name == "escape") return flag(config.escape_enabled);
+  if (name == "escape_window_samples") {
+    double n = 0.0;
+    if (std::string e = number(n); !e.empty()) return e;
+    if (n != std::floor(n)) return "'" + name + "': '" + value + "' is not an integer";
+    config.escape_window_samples = static_cast<int>(std::clamp(n, -1e6, 1e6));
+    return {};
+  }
+  if (name == "passive_escape") return flag(config.passive_escape);
+  if (name == "passive_actions") return flag(config.passive_actions);
+  if (name == "passive_margin") return number(config.passive_margin_m);
+  if (name == "passive_margin_growth") return number(config.passive_margin_growth_mps);
+  if (name == "rest_speed") return number(config.rest_speed_mps);
+  if (name == "static_safety/enabled") return flag(config.statics.enabled);
+  if (name == "static_safety/latency") return number(config.statics.latency_s);
+  if (name == "static_safety/braking_fraction") return number(config.statics.braking_fraction);
+  if (name == "static_safety/margin") return number(config.statics.margin_m);
+  if (name == "static_safety/step") return number(config.statics.step_s);
+  if (name == "static_safety/static_speed") return number(config.statics.static_speed_mps);
+  return "unknown action shield parameter '" + name + "'";
+}
+
 const char* shieldLevelName(ShieldLevel level) {
   switch (level) {
     case ShieldLevel::kDisabled:

@@ -39,6 +39,8 @@ std::string EvalConfig::validate() const {
     os << "threads = " << threads << ": must be in [1, 256]";
   } else if (const std::string e = episode.validate(); !e.empty()) {
     os << "episode: " << e;
+  } else if (const std::string e = shield.validate(); !e.empty()) {
+    os << "shield: " << e;
   }
   return os.str();
 }
@@ -169,7 +171,7 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
   auto work = [&]() {
     Worker w;
     try {
-      for (const std::string& m : config.methods) w.planners.push_back(makePlanner(m, config.model_path));
+      for (const std::string& m : config.methods) w.planners.push_back(makePlanner(m, config.model_path, &config.shield));
       w.episode = std::make_unique<Episode>(config.episode);
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex);

@@ -14,60 +14,55 @@ namespace dqn_dovs {
 
 namespace {
 
-using PlannerFactory = std::function<std::unique_ptr<Planner>(const std::string& model_path)>;
+/// A planner's factory: the model path (ignored by planners without a model) and the DQN-DOVS planners' base
+/// configuration (its model path and shield already set).
+using PlannerFactory = std::function<std::unique_ptr<Planner>(DqnDovsConfig config)>;
 
 /// Every planner the project builds by name, in the order plannerNames() lists them. A new planner is added
-/// here with one line: its name and a factory taking the model path (ignored by planners without a model).
+/// here with one line: its name and its factory.
 const std::vector<std::pair<std::string, PlannerFactory>>& registry() {
   static const std::vector<std::pair<std::string, PlannerFactory>> planners = {
-      {"dqn_dovs",
-       [](const std::string& model_path) -> std::unique_ptr<Planner> {
-         DqnDovsConfig config;
-         if (!model_path.empty()) config.model_path = model_path;
-         return std::make_unique<DqnDovsPlanner>(config);
-       }},
+      {"dqn_dovs", [](DqnDovsConfig c) -> std::unique_ptr<Planner> { return std::make_unique<DqnDovsPlanner>(c); }},
       {"dqn_dovs_unshielded",
-       [](const std::string& model_path) -> std::unique_ptr<Planner> {
-         DqnDovsConfig config;
-         if (!model_path.empty()) config.model_path = model_path;
-         config.shield.enabled = false;
-         return std::make_unique<DqnDovsPlanner>(config);
+       [](DqnDovsConfig c) -> std::unique_ptr<Planner> {
+         c.shield.enabled = false;
+         return std::make_unique<DqnDovsPlanner>(c);
        }},
       {"dqn_dovs_no_escape",
-       [](const std::string& model_path) -> std::unique_ptr<Planner> {
-         DqnDovsConfig config;
-         if (!model_path.empty()) config.model_path = model_path;
-         config.shield.escape_enabled = false;
-         return std::make_unique<DqnDovsPlanner>(config);
+       [](DqnDovsConfig c) -> std::unique_ptr<Planner> {
+         c.shield.escape_enabled = false;
+         return std::make_unique<DqnDovsPlanner>(c);
        }},
       {"dqn_dovs_latest_escape",
-       [](const std::string& model_path) -> std::unique_ptr<Planner> {
+       [](DqnDovsConfig c) -> std::unique_ptr<Planner> {
          // The previous release: no static braking rule, the escape puts the first contact off longest.
-         DqnDovsConfig config;
-         if (!model_path.empty()) config.model_path = model_path;
-         config.shield.statics.enabled = false;
-         config.shield.passive_escape = false;
-         return std::make_unique<DqnDovsPlanner>(config);
+         c.shield.statics.enabled = false;
+         c.shield.passive_escape = false;
+         return std::make_unique<DqnDovsPlanner>(c);
        }},
-      {"s_dovs", [](const std::string&) -> std::unique_ptr<Planner> { return std::make_unique<SDovsPlanner>(); }},
+      {"s_dovs", [](const DqnDovsConfig&) -> std::unique_ptr<Planner> { return std::make_unique<SDovsPlanner>(); }},
       {"s_dovs_unguarded",
-       [](const std::string&) -> std::unique_ptr<Planner> {
+       [](const DqnDovsConfig&) -> std::unique_ptr<Planner> {
          SDovsConfig config;
          config.statics.enabled = false;  // the previous release, without the static braking rule
          return std::make_unique<SDovsPlanner>(config);
        }},
-      {"orca_holonomic", [](const std::string&) { return makeOrcaHolonomicPlanner(); }},
-      {"orca_diffdrive", [](const std::string&) { return makeOrcaDiffDrivePlanner(); }},
-      {"dwa", [](const std::string&) { return makeDwaPlanner(); }},
+      {"orca_holonomic", [](const DqnDovsConfig&) { return makeOrcaHolonomicPlanner(); }},
+      {"orca_diffdrive", [](const DqnDovsConfig&) { return makeOrcaDiffDrivePlanner(); }},
+      {"dwa", [](const DqnDovsConfig&) { return makeDwaPlanner(); }},
   };
   return planners;
 }
 
 }  // namespace
 
-std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string& model_path) {
+std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string& model_path,
+                                     const ActionShieldConfig* shield) {
+  DqnDovsConfig config;
+  if (!model_path.empty()) config.model_path = model_path;
+  if (shield != nullptr) config.shield = *shield;
   for (const auto& [known, factory] : registry()) {
-    if (known == name) return factory(model_path);
+    if (known == name) return factory(config);
   }
   std::string list;
   for (const std::string& n : plannerNames()) list += (list.empty() ? "" : ", ") + n;

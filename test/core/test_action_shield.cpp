@@ -320,5 +320,25 @@ TEST(ActionShield, BadMarginsAreNamed) {
   EXPECT_NE(c.validate().find("escape_window_samples"), std::string::npos);
 }
 
+TEST(ActionShield, ParametersAreSetByTheirConfigNames) {
+  ActionShieldConfig c;
+  EXPECT_EQ(setShieldParameter(c, "passive_escape", "false"), "");
+  EXPECT_FALSE(c.passive_escape);
+  EXPECT_EQ(setShieldParameter(c, "static_safety/margin", "0.12"), "");
+  EXPECT_DOUBLE_EQ(c.statics.margin_m, 0.12);
+  EXPECT_EQ(setShieldParameter(c, "escape_window_samples", "7"), "");
+  EXPECT_EQ(c.escape_window_samples, 7);
+  EXPECT_EQ(setShieldParameter(c, "passive_margin_growth", "0.1"), "");
+  EXPECT_DOUBLE_EQ(c.passive_margin_growth_mps, 0.1);
+  EXPECT_NE(setShieldParameter(c, "static_safety/nonsense", "1").find("unknown action shield parameter"),
+            std::string::npos);
+  EXPECT_NE(setShieldParameter(c, "rest_speed", "fast").find("not a number"), std::string::npos);
+  EXPECT_NE(setShieldParameter(c, "escape", "maybe").find("not true or false"), std::string::npos);
+  EXPECT_NE(setShieldParameter(c, "escape_window_samples", "2.5").find("not an integer"), std::string::npos);
+  // Set but invalid: validate() names it.
+  EXPECT_EQ(setShieldParameter(c, "static_safety/braking_fraction", "1.5"), "");
+  EXPECT_NE(c.validate().find("braking_fraction"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dqn_dovs

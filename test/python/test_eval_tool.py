@@ -1,0 +1,59 @@
+"""dqn_dovs_eval end to end on a few generated episodes: collision kinds and contact speeds in its outputs, the
+--shield overrides and their errors."""
+
+import csv
+import json
+import subprocess
+from pathlib import Path
+
+from built_tools import built_tool
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run_eval(tmp_path, *extra):
+    out = tmp_path / "out"
+    cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "dqn_dovs,dqn_dovs_latest_escape", "--generate", "77",
+           "--obstacles", "12", "--episodes", "6", "--trajectories", "0", "--out", str(out),
+           "--model", str(ROOT / "models" / "dqn_dovs.dqnw"), *extra]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT), out
+
+
+def test_results_carry_collision_kind_and_contact_speed(tmp_path):
+    proc, out = run_eval(tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(out / "results.csv")))
+    assert len(rows) == 12
+    for r in rows:
+        if r["outcome"] == "collision":
+            assert r["collision_kind"] in ("static", "rest", "moving"), r
+            speed = float(r["contact_speed_mps"])
+            assert 0.0 <= speed <= 0.7 + 1e-9
+            assert (r["collision_kind"] == "rest") == (speed < 0.05) or r["collision_kind"] == "static"
+        else:
+            assert r["collision_kind"] == "" and r["contact_speed_mps"] == "", r
+    figures = json.load(open(out / "summary.json"))
+    for m in ("dqn_dovs", "dqn_dovs_latest_escape"):
+        kinds = sum(figures[f"{m}.collisions_{k}"] for k in ("static", "rest", "moving"))
+        assert kinds == figures[f"{m}.collisions"] == sum(
+            1 for r in rows if r["method"] == m and r["outcome"] == "collision")
+    summary = (out / "summary.md").read_text()
+    assert "## Collisions by kind" in summary and "## Robot speed at contact (m/s)" in summary
+
+
+def test_shield_overrides_change_the_decisions_and_bad_ones_are_named(tmp_path):
+    # The previous release's shield given by parameters reproduces its variant episode for episode.
+    proc, out = run_eval(tmp_path, "--shield", "static_safety/enabled=false,passive_escape=false")
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(open(out / "results.csv")))
+    by_method = {}
+    for r in rows:
+        by_method.setdefault(r["method"], []).append((r["episode"], r["outcome"], r["steps"]))
+    assert by_method["dqn_dovs"] == by_method["dqn_dovs_latest_escape"]
+
+    proc, _ = run_eval(tmp_path, "--shield", "static_safety/margin=-1")
+    assert proc.returncode != 0 and "margin" in proc.stderr
+    proc, _ = run_eval(tmp_path, "--shield", "no_such_thing=1")
+    assert proc.returncode != 0 and "unknown action shield parameter 'no_such_thing'" in proc.stderr
+    proc, _ = run_eval(tmp_path, "--shield", "passive_escape")
+    assert proc.returncode != 0 and "NAME=VALUE" in proc.stderr
