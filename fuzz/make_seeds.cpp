@@ -139,14 +139,8 @@ std::vector<std::uint8_t> dovsMessage(const sim::Scenario& scenario, bool with_g
   // The static geometry near the robot, for the planner's last check (the scenario's room walls).
   const StaticScene statics(obs, limits, StaticSafetyConfig{});
   m.static_frame = "odom";
-  for (const Segment& s : statics.walls()) {
-    const Vec2 a = obs.robot_pose.toWorld(s.a), b = obs.robot_pose.toWorld(s.b);
-    for (double x : {a.x(), a.y(), b.x(), b.y()}) m.static_segments.push_back(static_cast<float>(x));
-  }
-  for (const Circle& c : statics.discs()) {
-    const Vec2 p = obs.robot_pose.toWorld(c.center);
-    for (double x : {p.x(), p.y(), c.radius}) m.static_discs.push_back(static_cast<float>(x));
-  }
+  m.static_segments = statics.flatSegments(obs.robot_pose);
+  m.static_discs = statics.flatDiscs(obs.robot_pose);
   for (int i = 0; i < dovs.numTrajectories(); ++i) {
     const Trajectory& t = dovs.trajectory(i);
     m.trajectory_curvature.push_back(static_cast<float>(t.curvature_1pm));

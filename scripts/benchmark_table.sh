@@ -6,7 +6,7 @@
 # 2-core machine: 1000 CPU-s measured from a 2-episode run (tracker 0.065, perfect information 0.042 CPU-s per
 # episode); proportionally longer when the cores are shared.
 # Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
-# METHODS (all seven), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md),
+# METHODS (all eight), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md),
 # OUT_DIR (docs/benchmark).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,7 +17,7 @@ episodes="${EPISODES:-100}"
 obstacles="${OBSTACLES:-1-15}"
 threads="${THREADS:-2}"
 model="${MODEL:-models/dqn_dovs.dqnw}"
-methods="${METHODS:-dqn_dovs,dqn_dovs_no_escape,dqn_dovs_unshielded,s_dovs,orca_holonomic,orca_diffdrive,dwa}"
+methods="${METHODS:-dqn_dovs,dqn_dovs_latest_escape,dqn_dovs_no_escape,dqn_dovs_unshielded,s_dovs,orca_holonomic,orca_diffdrive,dwa}"
 scenarios="../shared/scenarios/rumor"
 exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
 out_doc="${OUT_DOC:-docs/benchmark.md}"

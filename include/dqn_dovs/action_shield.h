@@ -45,6 +45,12 @@ struct ActionShieldConfig {
   /// false: the last-resort action.
   bool escape_enabled = true;
   int escape_window_samples = 5;
+  /// Tier kRest gives way to a dodge (a velocity that cannot rest before contact) whose best follow-up puts the
+  /// first contact off by more than this beyond the best way to rest, s; negative: never (passively safe).
+  double dodge_advantage_s = -1.0;
+  /// When no way to rest exists: true, the lowest speed at the contact (then the latest contact); false, the
+  /// latest contact of the best follow-up (the previous release's order).
+  bool slowest_contact = true;
   /// The robot counts as at rest below this speed (a contact then is the other party's), m/s.
   double rest_speed_mps = 0.05;
   /// false: the escape of the previous release below tier kFree (latest true contact, any speed).
@@ -86,6 +92,8 @@ enum class EscapeTier : int {
   kRest = 1,       ///< statically safe, and braking comes to rest before any contact
   kSlowest = 2,    ///< statically safe, moving at a contact: the lowest speed at contact
   kUnsafe = 3,     ///< nothing is statically safe: the most clearance to static geometry
+  kDodge = 4,      ///< statically safe, moving: a dodge that puts the contact off by dodge_advantage_s more than
+                   ///< any way to rest does (only with dodge_advantage_s >= 0)
 };
 const char* escapeTierName(EscapeTier tier);
 

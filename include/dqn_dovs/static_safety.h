@@ -57,6 +57,10 @@ class StaticScene {
   /// The kept geometry, in the robot frame.
   const std::vector<Segment>& walls() const { return walls_; }
   const std::vector<Circle>& discs() const { return discs_; }
+  /// The kept geometry in the frame the robot's pose `robot_pose` is given in, flat as the Dovs message carries
+  /// it: x1 y1 x2 y2 per segment, x y radius per disc.
+  std::vector<float> flatSegments(const Pose2& robot_pose) const;
+  std::vector<float> flatDiscs(const Pose2& robot_pose) const;
 
  private:
   double robot_radius_;

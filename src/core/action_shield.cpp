@@ -28,6 +28,8 @@ std::string ActionShieldConfig::validate() const {
   } else if (!(std::isfinite(last_resort_clearance_tolerance_m) && last_resort_clearance_tolerance_m >= 0.0)) {
     os << "action_shield.last_resort_clearance_tolerance_m = " << last_resort_clearance_tolerance_m
        << ": must be finite and >= 0";
+  } else if (!(std::isfinite(dodge_advantage_s) && dodge_advantage_s <= 10.0)) {
+    os << "action_shield.dodge_advantage_s = " << dodge_advantage_s << ": must be finite and <= 10 s (< 0: never)";
   } else if (!(std::isfinite(rest_speed_mps) && rest_speed_mps >= 0.0 && rest_speed_mps <= 0.3)) {
     os << "action_shield.rest_speed_mps = " << rest_speed_mps << ": must be in [0, 0.3] m/s";
   } else if (!(std::isfinite(passive_margin_m) && passive_margin_m >= 0.0 && passive_margin_m <= 1.0)) {
@@ -80,6 +82,8 @@ std::string setShieldParameter(ActionShieldConfig& config, const std::string& na
   if (name == "passive_margin") return number(config.passive_margin_m);
   if (name == "passive_margin_growth") return number(config.passive_margin_growth_mps);
   if (name == "rest_speed") return number(config.rest_speed_mps);
+  if (name == "dodge_advantage") return number(config.dodge_advantage_s);
+  if (name == "slowest_contact") return flag(config.slowest_contact);
   if (name == "static_safety/enabled") return flag(config.statics.enabled);
   if (name == "static_safety/latency") return number(config.statics.latency_s);
   if (name == "static_safety/braking_fraction") return number(config.statics.braking_fraction);
@@ -115,6 +119,8 @@ const char* escapeTierName(EscapeTier tier) {
       return "slowest";
     case EscapeTier::kUnsafe:
       return "unsafe";
+    case EscapeTier::kDodge:
+      return "dodge";
   }
   return "unknown";
 }
@@ -352,14 +358,6 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
     return e;
   }
 
-  // Passive safety of each candidate: does its braking trajectory come to rest before any contact?
-  std::vector<BrakingContact> braking(candidates.size());
-  if (config.passive_escape) {
-    for (size_t k = 0; k < candidates.size(); ++k) {
-      if (keep[k]) braking[k] = brakingContact(scene, current, candidates[k], limits, config);
-    }
-  }
-
   // The search of the follow-ups: among the candidates `eligible` admits, the one whose best follow-up after one
   // period puts the first true contact off longest (reaching the horizon: no contact), then the widest clearance,
   // then the closest to the goal.
@@ -425,6 +423,12 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
     e.tier = EscapeTier::kFree;
     return e;
   }
+  // Passive safety of each candidate (needed only now): does its braking trajectory come to rest before any
+  // contact?
+  std::vector<BrakingContact> braking(candidates.size());
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    if (keep[k]) braking[k] = brakingContact(scene, current, candidates[k], limits, config);
+  }
   // Tier kRest: braking comes to rest before any contact; the latest contact of the best follow-up (the most
   // room to get away), then the widest clearance while braking, then the closest to the goal. The search above
   // abandoned nothing (no follow-up reached the horizon), so every follow-up time is exact.
@@ -445,8 +449,18 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
       e.velocity = u1;
     }
   }
+  if (rest_found && config.dodge_advantage_s >= 0.0 && any.ttc > rest_ttc + config.dodge_advantage_s + 1e-9) {
+    e.velocity = any.u;
+    e.tier = EscapeTier::kDodge;
+    return e;
+  }
   if (rest_found) {
     e.tier = EscapeTier::kRest;
+    return e;
+  }
+  if (!config.slowest_contact) {
+    e.velocity = any.found ? any.u : decelerationCommand(current, limits);
+    e.tier = EscapeTier::kSlowest;
     return e;
   }
   // Tier kSlowest: the lowest speed at the contact, then the latest contact.

@@ -52,6 +52,26 @@ StaticScene::StaticScene(const Observation& obs, const RobotLimits& limits, cons
   }
 }
 
+std::vector<float> StaticScene::flatSegments(const Pose2& robot_pose) const {
+  std::vector<float> out;
+  out.reserve(4 * walls_.size());
+  for (const Segment& s : walls_) {
+    const Vec2 a = robot_pose.toWorld(s.a), b = robot_pose.toWorld(s.b);
+    for (double x : {a.x(), a.y(), b.x(), b.y()}) out.push_back(static_cast<float>(x));
+  }
+  return out;
+}
+
+std::vector<float> StaticScene::flatDiscs(const Pose2& robot_pose) const {
+  std::vector<float> out;
+  out.reserve(3 * discs_.size());
+  for (const Circle& c : discs_) {
+    const Vec2 p = robot_pose.toWorld(c.center);
+    for (double x : {p.x(), p.y(), c.radius}) out.push_back(static_cast<float>(x));
+  }
+  return out;
+}
+
 double StaticScene::clearance(const Vec2& q) const {
   double best = kInf;
   for (const Segment& s : walls_) best = std::min(best, pointSegmentDistance(q, s) - robot_radius_);

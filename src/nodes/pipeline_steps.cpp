@@ -86,14 +86,8 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   if (shield.statics.enabled) {
     const StaticScene statics(obs, limits, shield.statics);
     m.static_frame = obstacles.header.frame_id;
-    for (const Segment& s : statics.walls()) {
-      const Vec2 a = obs.robot_pose.toWorld(s.a), b = obs.robot_pose.toWorld(s.b);
-      for (double x : {a.x(), a.y(), b.x(), b.y()}) m.static_segments.push_back(static_cast<float>(x));
-    }
-    for (const Circle& c : statics.discs()) {
-      const Vec2 p = obs.robot_pose.toWorld(c.center);
-      for (double x : {p.x(), p.y(), c.radius}) m.static_discs.push_back(static_cast<float>(x));
-    }
+    m.static_segments = statics.flatSegments(obs.robot_pose);
+    m.static_discs = statics.flatDiscs(obs.robot_pose);
   }
   const int n = dovs.numTrajectories();
   m.trajectory_curvature.reserve(static_cast<size_t>(n));

@@ -136,6 +136,29 @@ double drive(Pose2& pose, Twist2& twist, const Twist2& command, const RobotLimit
   return least;
 }
 
+// The adversarial network: of what the shield allows, the action whose position after `ahead_s` scores lowest
+// by `score` (the escape when the shield holds one).
+template <typename Score>
+Twist2 adversarialCommand(const Observation& obs, DovsBuilder& builder, const ActionShieldConfig& shield,
+                          double ahead_s, Score&& score) {
+  const RobotLimits& limits = builder.limits();
+  const VelocitySpace dovs = builder.build(obs);
+  const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
+  const ShieldedMask m = shieldActions(actions, dovs, obs, shield);
+  if (m.has_escape) return m.escape;
+  Twist2 command = decelerationCommand(obs.robot_twist, limits);
+  double worst = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < actions.velocities.size(); ++i) {
+    if (!m.mask[i]) continue;
+    const double sc = score(integrateUnicycle(obs.robot_pose, actions.velocities[i].v, actions.velocities[i].w, ahead_s));
+    if (sc < worst) {
+      worst = sc;
+      command = actions.velocities[i];
+    }
+  }
+  return command;
+}
+
 // The logged wall collision, reconstructed: 0.5 m/s with 0.30 m to the wall, heading 1.21 rad with the wall
 // at pi/2 (the wall is the line y = y_wall), a person 0.57 m away moving off, the goal 6.5 m the other way.
 // Whatever the network picks among what the shield allows (here the worst: the allowed action that closes on
@@ -163,24 +186,9 @@ TEST(StaticSafety, LoggedWallCollisionIsAvoidedWhateverTheNetworkPicks) {
     obs.goal = goal;
     obs.segments = {wall};
     obs.obstacles = {person};
-    const VelocitySpace dovs = builder.build(obs);
-    const ActionSet actions = computeActions(twist, pose.toLocal(goal), limits);
-    const ShieldedMask m = shieldActions(actions, dovs, obs, shield);
-    Twist2 command = decelerationCommand(twist, limits);
-    if (m.has_escape) {
-      command = m.escape;
-    } else {
-      // The adversarial network: the allowed action that heads for the wall fastest.
-      double worst = -1e9;
-      for (size_t i = 0; i < actions.velocities.size(); ++i) {
-        if (!m.mask[i]) continue;
-        const Pose2 next = integrateUnicycle(pose, actions.velocities[i].v, actions.velocities[i].w, limits.dt);
-        if (next.y > worst) {
-          worst = next.y;
-          command = actions.velocities[i];
-        }
-      }
-    }
+    // The worst network: the allowed action that heads for the wall fastest.
+    const Twist2 command =
+        adversarialCommand(obs, builder, shield, limits.dt, [](const Pose2& next) { return -next.y; });
     least = std::min(least, drive(pose, twist, command, limits, truth));
     person.center += person.speed * limits.dt * Vec2(std::cos(person.heading), std::sin(person.heading));
   }
@@ -230,24 +238,9 @@ TEST(StaticSafety, AdversarialChoicesNeverTouchStaticGeometry) {
       obs.robot_pose = pose;
       obs.robot_twist = twist;
       obs.goal = goal;
-      const VelocitySpace dovs = builder.build(obs);
-      const ActionSet actions = computeActions(twist, pose.toLocal(goal), limits);
-      const ShieldedMask m = shieldActions(actions, dovs, obs, shield);
-      Twist2 command = decelerationCommand(twist, limits);
-      if (m.has_escape) {
-        command = m.escape;
-      } else {
-        double worst = std::numeric_limits<double>::infinity();
-        for (size_t i = 0; i < actions.velocities.size(); ++i) {
-          if (!m.mask[i]) continue;
-          const Pose2 next = integrateUnicycle(pose, actions.velocities[i].v, actions.velocities[i].w, 2 * limits.dt);
-          const double c = staticClearance(world, next.position());
-          if (c < worst) {
-            worst = c;
-            command = actions.velocities[i];
-          }
-        }
-      }
+      const Twist2 command = adversarialCommand(obs, builder, shield, 2 * limits.dt, [&](const Pose2& next) {
+        return staticClearance(world, next.position());
+      });
       least = std::min(least, drive(pose, twist, command, limits, world));
     }
     ASSERT_GT(least, 0.0) << "run " << k << " touched static geometry";
