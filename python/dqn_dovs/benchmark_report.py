@@ -42,7 +42,7 @@ from .performance_report import machine_info  # noqa: E402 - /proc/cpuinfo model
 
 REFERENCE = "dqn_dovs"
 # Ablations of our own method, not baselines.
-ABLATIONS = ("dqn_dovs_no_escape", "dqn_dovs_unshielded")
+ABLATIONS = ("dqn_dovs_latest_escape", "dqn_dovs_no_escape", "dqn_dovs_unshielded")
 # Baselines that drive the differential-drive robot within its acceleration limits (orca_holonomic does not).
 KINODYNAMIC_BASELINES = ("s_dovs", "orca_diffdrive", "dwa")
 # The paper's columns that have a time ratio beside them.

@@ -45,6 +45,7 @@ ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh) {
   c.passive_actions = param<bool>(pnh, "action_shield/passive_actions", c.passive_actions);
   c.rest_speed_mps = param<double>(pnh, "action_shield/rest_speed", c.rest_speed_mps);
   c.dodge_advantage_s = param<double>(pnh, "action_shield/dodge_advantage", c.dodge_advantage_s);
+  c.slowest_contact = param<bool>(pnh, "action_shield/slowest_contact", c.slowest_contact);
   c.passive_margin_m = param<double>(pnh, "action_shield/passive_margin", c.passive_margin_m);
   c.passive_margin_growth_mps = param<double>(pnh, "action_shield/passive_margin_growth", c.passive_margin_growth_mps);
   c.statics = loadStaticSafetyConfig(pnh);
