@@ -72,8 +72,6 @@ class StaticScene {
 struct BrakingPath {
   bool safe = true;                ///< never closer than the margin to static geometry (see clearance_m)
   double min_clearance_m = 0.0;    ///< least static clearance over the trajectory (+inf: nothing near), m
-  double stop_time_s = 0.0;        ///< when v reaches 0, from the observation instant, s
-  double stop_distance_m = 0.0;    ///< distance driven until then, m
 };
 
 /// The braking trajectory of command u from velocity `current` (robot frame at the observation instant).

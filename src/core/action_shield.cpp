@@ -149,9 +149,39 @@ namespace {
 // searchEscapeTiered without the configuration check (shieldActions has made it).
 Escape searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
                     const ActionShieldConfig& config);
-// True when the braking trajectory of u comes to rest before any true contact with a moving obstacle.
-bool restsBeforeContact(const LocalScene& scene, const Twist2& current, const Twist2& u, const RobotLimits& limits,
-                        const ActionShieldConfig& config);
+
+// The braking trajectory of u (static_safety.h) against the moving obstacles of `scene`: where the robot first
+// touches one (true radii) while still moving faster than rest_speed_mps, and at what speed.
+struct BrakingContact {
+  bool contact = false;      ///< a true contact while moving
+  double speed_mps = 0.0;    ///< the robot's speed there
+  double time_s = 0.0;       ///< when
+  double clearance_m = std::numeric_limits<double>::infinity();  ///< least clearance while moving (to contact)
+};
+
+BrakingContact brakingContact(const LocalScene& scene, const Twist2& current, const Twist2& u,
+                              const RobotLimits& limits, const ActionShieldConfig& config) {
+  BrakingContact out;
+  bool unused = false;
+  const double start = scene.clearance(Vec2::Zero(), 0.0, unused);
+  StaticSafetyConfig sampling = config.statics;
+  sampling.step_s = std::max(sampling.step_s, 0.05);  // the contact check of the escape: 3.5 cm at v_max
+  for (const BrakingSample& s : brakingSamples(current, u, limits, sampling)) {
+    if (s.speed_mps <= config.rest_speed_mps) break;
+    bool inflated = false;
+    const double c = scene.clearance(s.position, s.t_s, inflated);
+    out.clearance_m = std::min(out.clearance_m, c);
+    // Starting closer than the margin (or in contact), only getting closer counts: moving away never does.
+    const double floor = std::min(config.passive_margin_m + config.passive_margin_growth_mps * s.t_s, start - 1e-3);
+    if (c < floor) {
+      out.contact = true;
+      out.speed_mps = s.speed_mps;
+      out.time_s = s.t_s;
+      break;
+    }
+  }
+  return out;
+}
 }  // namespace
 
 ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
@@ -217,7 +247,7 @@ ShieldedMask shieldActions(const ActionSet& actions, const VelocitySpace& dovs, 
     bool any_passive = false, any_passive_robust = false;
     for (size_t i = 0; i < free.size(); ++i) {
       if (!free[i]) continue;
-      passive[i] = restsBeforeContact(scene, current, actions.velocities[i], limits, config);
+      passive[i] = !brakingContact(scene, current, actions.velocities[i], limits, config).contact;
       any_passive = any_passive || passive[i];
       any_passive_robust = any_passive_robust || (passive[i] && robust[i]);
     }
@@ -280,43 +310,6 @@ Escape searchEscapeTiered(const Observation& observation, const RobotLimits& lim
 
 namespace {
 
-// The braking trajectory of u (static_safety.h) against the moving obstacles of `scene`: where the robot first
-// touches one (true radii) while still moving faster than rest_speed_mps, and at what speed.
-struct BrakingContact {
-  bool contact = false;      ///< a true contact while moving
-  double speed_mps = 0.0;    ///< the robot's speed there
-  double time_s = 0.0;       ///< when
-  double clearance_m = std::numeric_limits<double>::infinity();  ///< least clearance while moving (to contact)
-};
-
-BrakingContact brakingContact(const LocalScene& scene, const Twist2& current, const Twist2& u,
-                              const RobotLimits& limits, const ActionShieldConfig& config) {
-  BrakingContact out;
-  bool unused = false;
-  const double start = scene.clearance(Vec2::Zero(), 0.0, unused);
-  StaticSafetyConfig sampling = config.statics;
-  sampling.step_s = std::max(sampling.step_s, 0.05);  // the contact check of the escape: 3.5 cm at v_max
-  for (const BrakingSample& s : brakingSamples(current, u, limits, sampling)) {
-    if (s.speed_mps <= config.rest_speed_mps) break;
-    bool inflated = false;
-    const double c = scene.clearance(s.position, s.t_s, inflated);
-    out.clearance_m = std::min(out.clearance_m, c);
-    // Starting closer than the margin (or in contact), only getting closer counts: moving away never does.
-    const double floor = std::min(config.passive_margin_m + config.passive_margin_growth_mps * s.t_s, start - 1e-3);
-    if (c < floor) {
-      out.contact = true;
-      out.speed_mps = s.speed_mps;
-      out.time_s = s.t_s;
-      break;
-    }
-  }
-  return out;
-}
-
-bool restsBeforeContact(const LocalScene& scene, const Twist2& current, const Twist2& u, const RobotLimits& limits,
-                        const ActionShieldConfig& config) {
-  return !brakingContact(scene, current, u, limits, config).contact;
-}
 
 Escape searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
                     const ActionShieldConfig& config) {

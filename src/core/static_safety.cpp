@@ -143,20 +143,15 @@ BrakingPath brakingPath(const StaticScene& scene, const Twist2& current, const T
     out.min_clearance_m = -kInf;
     return out;
   }
-  const double start = scene.clearance(Vec2::Zero());
-  out.min_clearance_m = start;
+  out.min_clearance_m = scene.clearance(Vec2::Zero());
+  if (!config.enabled || scene.empty()) return out;  // nothing static within reach: nothing to walk
   // Already within the margin: safe only when the robot never gets closer than it is.
-  const double floor = std::min(config.margin_m, start - 1e-4);
-  Vec2 last = Vec2::Zero();
-  walkBraking(current, u, limits, config, [&](double t, const Vec2& q, double speed) {
-    out.stop_distance_m += (q - last).norm();
-    last = q;
-    out.stop_time_s = t;
-    if (!scene.empty()) out.min_clearance_m = std::min(out.min_clearance_m, scene.clearance(q));
-    (void)speed;
+  const double floor = std::min(config.margin_m, out.min_clearance_m - 1e-4);
+  walkBraking(current, u, limits, config, [&](double, const Vec2& q, double) {
+    out.min_clearance_m = std::min(out.min_clearance_m, scene.clearance(q));
     return true;
   });
-  out.safe = !config.enabled || scene.empty() || out.min_clearance_m >= floor;
+  out.safe = out.min_clearance_m >= floor;
   return out;
 }
 
