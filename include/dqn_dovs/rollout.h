@@ -52,10 +52,18 @@ class LocalScene {
       }
       o.radius = std::max(m.radius, 0.0);
       obstacles_.push_back(o);
+      reach_.push_back(o.radius + robot_radius_);
+      const double inflated = (o.radius + robot_radius_) * safety_factor_;
+      inflated2_.push_back(inflated * inflated);
     }
     for (const Segment& s : obs.segments) {
       if (!s.a.allFinite() || !s.b.allFinite()) continue;
-      walls_.push_back(Segment{pose.toLocal(s.a), pose.toLocal(s.b)});
+      Wall w;
+      w.a = pose.toLocal(s.a);
+      w.e = pose.toLocal(s.b) - w.a;
+      const double l2 = w.e.squaredNorm();
+      w.inv_l2 = l2 < 1e-18 ? 0.0 : 1.0 / l2;  // a point: its end a
+      walls_.push_back(w);
     }
   }
 
@@ -66,21 +74,22 @@ class LocalScene {
   }
 
   /// clearance() with the obstacle centres given by at(j) (j indexes obstacles()), e.g. precomputed ones.
+  /// Distances are compared squared; a square root is taken only for an item that can lower the minimum.
   template <typename At>
   double clearanceWith(const Vec2& q, At&& at, bool& collides) const {
     double best = std::numeric_limits<double>::infinity();
     collides = false;
+    auto consider = [&](double d2, double reach, double inflated2) {
+      if (d2 < inflated2) collides = true;
+      // sqrt(d2) - reach < best needs best + reach > 0 and d2 < (best + reach)^2.
+      const double bound = best + reach;
+      if (bound > 0.0 && d2 < bound * bound) best = std::min(best, std::sqrt(d2) - reach);
+    };
     for (size_t j = 0; j < obstacles_.size(); ++j) {
-      const LocalObstacle& o = obstacles_[j];
-      const double dist = (q - at(j)).norm();
-      best = std::min(best, dist - o.radius - robot_radius_);
-      if (dist < (o.radius + robot_radius_) * safety_factor_) collides = true;
+      consider((q - at(j)).squaredNorm(), reach_[j], inflated2_[j]);
     }
-    for (const Segment& s : walls_) {
-      const double dist = pointSegmentDistance(q, s);
-      best = std::min(best, dist - robot_radius_);
-      if (dist < robot_radius_ * safety_factor_) collides = true;
-    }
+    const double wall_inflated = robot_radius_ * safety_factor_;
+    for (const Wall& w : walls_) consider(w.distance2(q), robot_radius_, wall_inflated * wall_inflated);
     return best;
   }
 
@@ -97,7 +106,20 @@ class LocalScene {
   double robot_radius_;
   double safety_factor_;
   std::vector<LocalObstacle> obstacles_;
-  std::vector<Segment> walls_;
+  std::vector<double> reach_;      // per obstacle: its radius + the robot's (contact distance)
+  std::vector<double> inflated2_;  // per obstacle: the squared inflated contact distance
+  friend class SampledScene;
+  struct Wall {
+    Vec2 a = Vec2::Zero(), e = Vec2::Zero();  // from end a, e = b - a
+    double inv_l2 = 0.0;                      // 1 / |e|^2 (0 for a point)
+    /// Squared distance from q (closestPointOnSegment with the direction and inverse length kept).
+    double distance2(const Vec2& q) const {
+      const Vec2 d = q - a;
+      const double t = std::clamp(d.dot(e) * inv_l2, 0.0, 1.0);
+      return (d - t * e).squaredNorm();
+    }
+  };
+  std::vector<Wall> walls_;
 };
 
 /// Result of holding one velocity from the robot's current pose.
@@ -130,12 +152,25 @@ class SampledScene {
                            double give_up_below_m, bool& abandoned) const;
 
  private:
+  // An obstacle at one sampled time, or a wall. key = (distance from the robot's start) - (inflated contact
+  // distance): from a point q the item is at least key - |q| beyond both its contact and its inflation, so a row
+  // sorted by key can stop at the first item whose bound cannot lower the clearance nor inflate.
+  struct Item {
+    double key = 0.0;
+    Vec2 centre = Vec2::Zero();  // obstacles: the centre at the row's time
+    double reach = 0.0, inflated2 = 0.0;
+    int wall = -1;  // >= 0: this wall of the scene instead of an obstacle
+  };
+  // LocalScene::clearance at the k-th sampled time (the same figures, fewer items looked at).
+  double clearanceAt(const Vec2& q, int k, bool& inflated) const;
+
   const LocalScene& scene_;
   double horizon_s_, step_s_;
   int steps_;
   double start_clearance_m_;   // the robot's clearance where it stands, once for every roll-out
   bool start_inflated_ = false;
-  std::vector<Vec2> centres_;  // steps x obstacles, row k - 1 at t_k
+  size_t row_size_ = 0;        // obstacles + walls
+  std::vector<Item> items_;    // steps x row_size_, row k - 1 at t_k, each row sorted by key
 };
 
 }  // namespace dqn_dovs

@@ -12,6 +12,66 @@ Rollout rollOut(const LocalScene& scene, const Twist2& u, double horizon_s, doub
 
 namespace {
 
+// The robot's poses at the roll-out times t_k = min(horizon, k step): u1 from the origin up to switch_s, then u2.
+// Consecutive samples of one velocity are a fixed chord apart in the frame of the earlier one, so each sample
+// composes that chord (two multiplications and additions) instead of integrating the arc from its start (four
+// sines and cosines): the search of the escape rolls out about a thousand paths per decision.
+class PathSampler {
+ public:
+  PathSampler(const Twist2& u1, double switch_s, const Twist2& u2, double step_s)
+      : u1_(u1), u2_(u2), switch_s_(switch_s), step_s_(step_s),
+        at_switch_(integrateUnicycle(Pose2{}, u1.v, u1.w, switch_s)) {}
+
+  /// The position at the next sample time t (called for k = 1, 2, ... in order); `regular` says that t is
+  /// exactly one step after the previous sample.
+  Vec2 next(double t, bool regular) {
+    const int phase = t <= switch_s_ ? 1 : 2;
+    if (regular && phase == phase_) {
+      x_ += c_ * chord_x_ - s_ * chord_y_;
+      y_ += s_ * chord_x_ + c_ * chord_y_;
+      const double c = c_ * turn_c_ - s_ * turn_s_;
+      s_ = s_ * turn_c_ + c_ * turn_s_;
+      c_ = c;
+    } else {
+      const Twist2& u = phase == 1 ? u1_ : u2_;
+      const Pose2 p = phase == 1 ? integrateUnicycle(Pose2{}, u.v, u.w, t)
+                                 : integrateUnicycle(at_switch_, u.v, u.w, t - switch_s_);
+      x_ = p.x;
+      y_ = p.y;
+      c_ = std::cos(p.theta);
+      s_ = std::sin(p.theta);
+      if (phase != phase_) setChord(u);
+      phase_ = phase;
+    }
+    return Vec2(x_, y_);
+  }
+
+ private:
+  // One step of u in the frame of the pose it starts from (integrateUnicycle's arc, with 1 - cos written as
+  // 2 sin^2 so that slow turns keep their precision).
+  void setChord(const Twist2& u) {
+    if (std::abs(u.w) < 1e-9) {
+      chord_x_ = u.v * step_s_;
+      chord_y_ = 0.0;
+      turn_c_ = 1.0;
+      turn_s_ = 0.0;
+      return;
+    }
+    const double a = u.w * step_s_, half = std::sin(0.5 * a);
+    turn_c_ = std::cos(a);
+    turn_s_ = std::sin(a);
+    chord_x_ = u.v / u.w * turn_s_;
+    chord_y_ = u.v / u.w * 2.0 * half * half;
+  }
+
+  Twist2 u1_, u2_;
+  double switch_s_, step_s_;
+  Pose2 at_switch_;
+  int phase_ = 0;
+  double x_ = 0.0, y_ = 0.0, c_ = 1.0, s_ = 0.0;
+  double chord_x_ = 0.0, chord_y_ = 0.0, turn_c_ = 1.0, turn_s_ = 0.0;
+};
+
 // The roll-out loop shared by LocalScene and SampledScene: clearance_at(q, k, t, inflated) is the scene's
 // clearance of the robot at q at the k-th sampled time t.
 // start_clearance / start_inflated: the scene's clearance of the robot where it stands (t = 0).
@@ -22,14 +82,14 @@ Rollout rollOutLoop(double start_clearance, bool start_inflated, const Twist2& u
   Rollout r;
   abandoned = false;
   const bool start_inside = contact == Contact::kInflated ? start_inflated : start_clearance < 0.0;
-  const Pose2 at_switch = integrateUnicycle(Pose2{}, u1.v, u1.w, switch_s);
+  PathSampler path(u1, switch_s, u2, step_s);
   const int n = static_cast<int>(std::ceil(horizon_s / step_s - 1e-9));
   for (int k = 1; k <= n; ++k) {
-    const double t = std::min(horizon_s, k * step_s);
-    const Pose2 p = t <= switch_s ? integrateUnicycle(Pose2{}, u1.v, u1.w, t)
-                                  : integrateUnicycle(at_switch, u2.v, u2.w, t - switch_s);
+    const bool regular = k * step_s <= horizon_s;
+    const double t = regular ? k * step_s : horizon_s;
+    const Vec2 q = path.next(t, regular);
     bool inflated = false;
-    const double c = clearance_at(p.position(), k, t, inflated);
+    const double c = clearance_at(q, k, t, inflated);
     r.min_clearance_m = std::min(r.min_clearance_m, c);
     const bool touches = contact == Contact::kInflated ? inflated : c < 0.0;
     if (touches && (!start_inside || c < start_clearance - 1e-3)) {
@@ -62,22 +122,57 @@ SampledScene::SampledScene(const LocalScene& scene, double horizon_s, double ste
       steps_(static_cast<int>(std::ceil(horizon_s / step_s - 1e-9))),
       start_clearance_m_(scene.clearance(Vec2::Zero(), 0.0, start_inflated_)) {
   const std::vector<LocalObstacle>& obstacles = scene.obstacles();
-  centres_.reserve(static_cast<size_t>(steps_) * obstacles.size());
+  const double inflation = std::max(scene.safety_factor_, 1.0);
+  const double wall_inflated = scene.robot_radius_ * scene.safety_factor_;
+  row_size_ = obstacles.size() + scene.walls_.size();
+  items_.reserve(static_cast<size_t>(steps_) * row_size_);
   for (int k = 1; k <= steps_; ++k) {
     const double t = std::min(horizon_s, k * step_s);
-    for (const LocalObstacle& o : obstacles) centres_.push_back(o.at(t));
+    const auto row = items_.end() - items_.begin();
+    for (size_t j = 0; j < obstacles.size(); ++j) {
+      Item item;
+      item.centre = obstacles[j].at(t);
+      item.reach = scene.reach_[j];
+      item.inflated2 = scene.inflated2_[j];
+      item.key = item.centre.norm() - item.reach * inflation;
+      items_.push_back(item);
+    }
+    for (size_t w = 0; w < scene.walls_.size(); ++w) {
+      Item item;
+      item.wall = static_cast<int>(w);
+      item.reach = scene.robot_radius_;
+      item.inflated2 = wall_inflated * wall_inflated;
+      item.key = std::sqrt(scene.walls_[w].distance2(Vec2::Zero())) - item.reach * inflation;
+      items_.push_back(item);
+    }
+    std::sort(items_.begin() + row, items_.end(), [](const Item& a, const Item& b) { return a.key < b.key; });
   }
+}
+
+double SampledScene::clearanceAt(const Vec2& q, int k, bool& inflated) const {
+  const Item* row = items_.data() + static_cast<size_t>(k - 1) * row_size_;
+  const double from_start = q.norm();
+  double best = std::numeric_limits<double>::infinity();
+  inflated = false;
+  for (size_t i = 0; i < row_size_; ++i) {
+    const Item& item = row[i];
+    // Every item from here on is at least `bound` from q beyond its inflated contact distance.
+    const double bound = item.key - from_start;
+    if (bound >= 0.0 && bound >= best) break;
+    const double d2 = item.wall < 0 ? (q - item.centre).squaredNorm() : scene_.walls_[item.wall].distance2(q);
+    if (d2 < item.inflated2) inflated = true;
+    // As LocalScene::clearanceWith: a square root only where it can lower the minimum.
+    const double lower = best + item.reach;
+    if (lower > 0.0 && d2 < lower * lower) best = std::min(best, std::sqrt(d2) - item.reach);
+  }
+  return best;
 }
 
 Rollout SampledScene::rollOutSwitching(const Twist2& u1, double switch_s, const Twist2& u2, Contact contact,
                                        double give_up_below_m, bool& abandoned) const {
-  const size_t m = scene_.obstacles().size();
   return rollOutLoop(start_clearance_m_, start_inflated_, u1, switch_s, u2, horizon_s_, step_s_, contact,
                      give_up_below_m, abandoned,
-                     [&](const Vec2& q, int k, double, bool& inflated) {
-                       const Vec2* row = centres_.data() + static_cast<size_t>(k - 1) * m;
-                       return scene_.clearanceWith(q, [row](size_t j) { return row[j]; }, inflated);
-                     });
+                     [&](const Vec2& q, int k, double, bool& inflated) { return clearanceAt(q, k, inflated); });
 }
 
 }  // namespace dqn_dovs
