@@ -93,6 +93,9 @@ struct EpisodeRecord {
   /// linear speed at the contact (m/s; NaN without a collision).
   CollisionKind collision_kind = CollisionKind::kNone;
   double contact_speed_mps = std::numeric_limits<double>::quiet_NaN();
+  /// The planner's note on its last decision (PlannerDecision::note, e.g. the shield level or the escape tier that
+  /// drove the robot into a collision); "planner error" when it threw.
+  std::string last_decision;
   /// Robot poses at every step (only for jobs listed in EvalConfig::keep_paths).
   std::vector<Pose2> robot_path;
   /// Per obstacle, its centre at every step (same jobs).

@@ -7,8 +7,8 @@
 
 Reads the per-episode results.csv files written by dqn_dovs_eval (method, obstacles, episode, scenario,
 outcome, time_s, path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind,
-contact_speed_mps; files from before the last two read as "not recorded") and computes, per method and obstacle
-count, what the evaluation's own summary computes (src/core/eval.cpp):
+contact_speed_mps, last_decision; files from before the last three read as "not recorded") and computes, per
+method and obstacle count, what the evaluation's own summary computes (src/core/eval.cpp):
 
 - success / collision / timeout rate; the mean row is the mean of the per-count rates (the paper's mean row);
 - time ratio to the reference method: the method's total time over the reference's total time on the
@@ -16,7 +16,9 @@ count, what the evaluation's own summary computes (src/core/eval.cpp):
 - danger frequency: sum of danger_steps (clearance < 0.2 m) over sum of steps;
 - mean time on success;
 - collisions by kind (static geometry / robot at rest / robot moving) and the robot's speed at contact (mean and
-  nearest-rank 95th percentile over the collisions); the pooled row sums every count.
+  nearest-rank 95th percentile over the collisions); the pooled row sums every count;
+- collisions by the planner's last decision before the contact (the network's action and the shield level that
+  allowed it, or the escape and its tier), pooled over every count.
 
 scripts/benchmark_table.sh (make benchmark-table) runs the evaluations and then this module. The discussion
 file is hand-written and included verbatim.
@@ -29,6 +31,7 @@ import csv
 import json
 import math
 import os
+import re
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -66,6 +69,7 @@ class Record:
     min_clearance_m: float = math.nan
     collision_kind: str | None = None  # one of COLLISION_KINDS, "" for none; None: not recorded (older files)
     contact_speed_mps: float = math.nan  # the robot's linear speed at contact; NaN without collision or record
+    last_decision: str | None = None  # the planner's note on its last decision; None: not recorded (older files)
 
 
 @dataclass
@@ -113,8 +117,8 @@ def _collision_kind(text: str | None) -> str | None:
 def read_results(path: str) -> list[Record]:
     """The episodes of one results.csv; raises ValueError naming the file and line on a malformed row.
 
-    collision_kind and contact_speed_mps are optional (files written before them): absent, they read as None
-    and NaN."""
+    collision_kind, contact_speed_mps and last_decision are optional (files written before them): absent, they
+    read as None, NaN and None."""
     records = []
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
@@ -129,7 +133,8 @@ def read_results(path: str) -> list[Record]:
                     outcome=row["outcome"], time_s=float(row["time_s"]), danger_steps=int(row["danger_steps"]),
                     steps=int(row["steps"]), min_clearance_m=_optional_float(row.get("min_clearance_m")),
                     collision_kind=_collision_kind(row.get("collision_kind")),
-                    contact_speed_mps=_optional_float(row.get("contact_speed_mps"))))
+                    contact_speed_mps=_optional_float(row.get("contact_speed_mps")),
+                    last_decision=row.get("last_decision")))
             except (TypeError, ValueError) as e:
                 raise ValueError(f"{path}:{line}: {e}") from None
     return records
@@ -486,6 +491,44 @@ def plot_collision(summaries: dict[str, Summary], path: str) -> None:
 # ----------------------------------------------------------------------------------------------- report
 
 
+def decision_category(note: str) -> str:
+    """A last_decision note as a category: the action's number dropped, the escape's shield level and tier kept
+    ("action (shield robust)", "escape: rest (shield latest)", "decelerate", "before the first decision")."""
+    if note == "":
+        return "before the first decision"
+    m = re.fullmatch(r"action \d+(?: \(shield: (\w+)\))?", note)
+    if m:
+        return f"action (shield {m.group(1)})" if m.group(1) else "action"
+    m = re.fullmatch(r"escape \(shield: (\w+)[;,] (\w+)\)", note)
+    if m:
+        return f"escape: {m.group(2)} (shield {m.group(1)})"
+    if note.startswith("decelerate"):
+        return "decelerate"
+    return note
+
+
+def last_decision_table(records: list[Record], methods: list[str]) -> str | None:
+    """Collisions per last-decision category (rows) and method (columns), each cell `rest / moving / static`
+    over every count; None when no collision carries its last decision (files from before the column)."""
+    tally: dict[str, dict[str, dict[str, int]]] = {}
+    for r in records:
+        if r.outcome != "collision" or r.last_decision is None or r.method not in methods:
+            continue
+        kinds = tally.setdefault(decision_category(r.last_decision), {}).setdefault(
+            r.method, dict.fromkeys(COLLISION_KINDS, 0))
+        if r.collision_kind in kinds:
+            kinds[r.collision_kind] += 1
+    if not tally:
+        return None
+    order = ("rest", "moving", "static")
+    rows = []
+    for category in sorted(tally, key=lambda c: -sum(sum(k.values()) for k in tally[c].values())):
+        cells = [" / ".join(str(tally[category][m][k]) for k in order) if m in tally[category] else "-"
+                 for m in methods]
+        rows.append([category] + cells)
+    return _table(["last decision"] + methods, rows)
+
+
 def _perception_section(title: str, s: Summary, paper, plot_rel: str,
                         records: list[Record] | None = None) -> list[str]:
     out = [f"## {title}", ""]
@@ -505,6 +548,13 @@ def _perception_section(title: str, s: Summary, paper, plot_rel: str,
             "The robot's linear speed when it collided: mean over the method's collisions, 95th percentile "
             "(nearest rank) in brackets. `all` pools every N; `-`: no collision (or speeds not recorded).", "",
             contact_speed_table(s), ""]
+    by_decision = last_decision_table(records, s.methods) if records is not None else None
+    if by_decision is not None:
+        out += ["### Collisions by the last decision", "",
+                "What the planner did at the last decision before each contact, pooled over every N; each cell: "
+                "robot at rest / moving / static. `action (shield L)`: the network's action among those the "
+                "shield allowed at level L; `escape: T (shield L)`: the shield's escape velocity of tier T (free, "
+                "rest, slowest, unsafe, dodge; docs/planners.md, \"Passive safety\").", "", by_decision, ""]
     out += ["### Timeout rate", "", "Episodes still running after 500 steps (100 s).", "",
             metric_table(s, "timeout_rate"), ""]
     out += ["### Danger frequency", "",

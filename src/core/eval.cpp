@@ -134,7 +134,9 @@ EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, 
       ++r.planner_errors;
       decision = PlannerDecision{};
       decision.command = decelerationCommand(ep.observation().robot_twist, limits);
+      decision.note = "planner error";
     }
+    r.last_decision = decision.note;
     ep.stepDecision(decision);  // holonomic baselines move the robot holonomically
     recordObstacles();
   }
@@ -392,13 +394,19 @@ std::string fixed(double x, int digits) {
 void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path) {
   std::ofstream out = openOut(path);
   out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
-         "planner_errors,collision_kind,contact_speed_mps\n";
+         "planner_errors,collision_kind,contact_speed_mps,last_decision\n";
   for (const EpisodeRecord& r : records) {
     out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
         << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
         << r.steps << ',' << r.planner_errors << ',' << collisionKindName(r.collision_kind) << ',';
     if (std::isfinite(r.contact_speed_mps)) out << r.contact_speed_mps;
-    out << '\n';
+    // The note is free text: commas become semicolons and quotes and line breaks spaces, so the row stays plain.
+    std::string note = r.last_decision;
+    for (char& ch : note) {
+      if (ch == ',') ch = ';';
+      else if (ch == '"' || ch == '\n' || ch == '\r') ch = ' ';
+    }
+    out << ',' << note << '\n';
   }
   closeOut(out, path);
 }

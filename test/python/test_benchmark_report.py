@@ -1,6 +1,6 @@
 """docs/benchmark.md generator: time ratios on both-solved episodes only, danger frequency, mean rows, the
-beats-every-baseline verdict, the paper table reader, collisions by kind and contact speed (and older files
-without those columns) and the report end to end on a synthetic results.csv."""
+beats-every-baseline verdict, the paper table reader, collisions by kind, contact speed and last decision (and
+older files without those columns) and the report end to end on a synthetic results.csv."""
 
 import csv
 import math
@@ -264,6 +264,34 @@ def test_collisions_by_kind_and_contact_speed(tmp_path):
     speeds = br.contact_speed_table(s).splitlines()
     assert speeds[2:] == ["| 5 | 0.010 (0.010) | 0.300 (0.300) |", "| 6 | 0.600 (0.800) | - |",
                           "| all | 0.403 (0.800) | 0.300 (0.300) |"]
+
+
+def test_collisions_by_last_decision(tmp_path):
+    header = HEADER_KINDS + ["last_decision"]
+    rows = [
+        ("dqn_dovs", 5, 1, "collision", 3.0, 5, 15, "rest", 0.01, "escape (shield: latest; rest)"),
+        ("dqn_dovs", 5, 2, "collision", 3.0, 5, 15, "moving", 0.3, "escape (shield: latest; slowest)"),
+        ("dqn_dovs", 6, 1, "collision", 3.0, 5, 15, "moving", 0.2, "action 3 (shield: robust)"),
+        ("dqn_dovs", 6, 2, "collision", 3.0, 5, 15, "rest", 0.0, "escape (shield: latest; rest)"),
+        ("dqn_dovs", 7, 1, "success", 3.0, 5, 15, "", "", "action 4 (shield: robust)"),  # not a collision
+        ("s_dovs", 5, 1, "collision", 3.0, 5, 15, "static", 0.4, "escape: corner"),  # another planner's note
+        ("s_dovs", 5, 2, "collision", 3.0, 5, 15, "rest", 0.0, ""),  # before the first decision
+    ]
+    recs = br.read_results(write_results(tmp_path / "r.csv", rows, header))
+    assert recs[0].last_decision == "escape (shield: latest; rest)"
+    assert br.decision_category("action 7") == "action"
+    assert br.decision_category("decelerate: every action is masked") == "decelerate"
+    table = br.last_decision_table(recs, ["dqn_dovs", "s_dovs"]).splitlines()
+    assert table[0] == "| last decision | dqn_dovs | s_dovs |"
+    # Rows by number of collisions (ties in first-seen order); cells rest / moving / static.
+    assert table[2:] == ["| escape: rest (shield latest) | 2 / 0 / 0 | - |",
+                         "| escape: slowest (shield latest) | 0 / 1 / 0 | - |",
+                         "| action (shield robust) | 0 / 1 / 0 | - |",
+                         "| escape: corner | - | 0 / 0 / 1 |",
+                         "| before the first decision | - | 1 / 0 / 0 |"]
+    # Files from before the column: no table.
+    assert br.last_decision_table(br.read_results(write_results(tmp_path / "o.csv", KIND_ROWS, HEADER_KINDS)),
+                                  ["dqn_dovs"]) is None
 
 
 def test_unclassified_collision_counts_in_no_kind(tmp_path):

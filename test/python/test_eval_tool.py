@@ -1,5 +1,5 @@
-"""dqn_dovs_eval end to end on a few generated episodes: collision kinds and contact speeds in its outputs, the
---shield overrides and their errors."""
+"""dqn_dovs_eval end to end on a few generated episodes: collision kinds, contact speeds and the last decision in
+its outputs, the --shield overrides and their errors."""
 
 import csv
 import json
@@ -32,6 +32,11 @@ def test_results_carry_collision_kind_and_contact_speed(tmp_path):
             assert (r["collision_kind"] == "rest") == (speed < 0.05) or r["collision_kind"] == "static"
         else:
             assert r["collision_kind"] == "" and r["contact_speed_mps"] == "", r
+        # The planner's note on its last decision: an action or the escape, with the shield level that allowed it.
+        # (none when the episode ended before the first decision).
+        assert r["last_decision"].startswith(("action ", "escape (shield: ", "decelerate: ")) or (
+            r["steps"] == "0" and r["last_decision"] == ""), r
+        assert "," not in r["last_decision"]
     figures = json.load(open(out / "summary.json"))
     for m in ("dqn_dovs", "dqn_dovs_latest_escape"):
         kinds = sum(figures[f"{m}.collisions_{k}"] for k in ("static", "rest", "moving"))
