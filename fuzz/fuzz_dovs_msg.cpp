@@ -50,7 +50,7 @@ bool lengthsFit(const std::uint8_t* data, std::size_t size) {
   // trajectory_curvature, trajectory_pure_rotation, v_top, w_top, interval_begin, interval_lo, interval_hi
   if (!array(4) || !array(1) || !array(4) || !array(4) || !array(4) || !array(4) || !array(4)) return false;
   if (!skip(2 + 2)) return false;  // grid_rows, grid_cols
-  return array(4);                 // state
+  return array(4) && array(4);     // state, state_normalization
 }
 
 void consume(const std::uint8_t* data, std::size_t size) {

@@ -109,10 +109,7 @@ std::vector<std::uint8_t> dovsMessage(const sim::Scenario& scenario, bool with_g
   obs.segments = world.walls();
   const VelocitySpace dovs = builder.build(obs);
   const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
-  StateNormalization norm;
-  norm.v_scale_mps = static_cast<float>(limits.v_max);
-  norm.w_scale_rps = static_cast<float>(limits.w_max);
-  norm.obstacle_clearance_scale_m = static_cast<float>(config.obstacle_range_m);
+  const StateNormalization norm = stateNormalization(limits, config);
   Dovs m;
   m.header.frame_id = "base_footprint";
   m.has_goal = with_goal;
@@ -157,6 +154,7 @@ std::vector<std::uint8_t> dovsMessage(const sim::Scenario& scenario, bool with_g
   m.grid_rows = m.grid_cols = static_cast<std::uint16_t>(dovs.gridSize());
   const StateVector state = buildState(dovs, obs, norm);
   m.state.assign(state.data(), state.data() + state.size());
+  for (const auto& field : norm.fields()) m.state_normalization.push_back(field.second);
   std::vector<std::uint8_t> bytes(ros::serialization::serializationLength(m));
   ros::serialization::OStream stream(bytes.data(), static_cast<std::uint32_t>(bytes.size()));
   ros::serialization::serialize(stream, m);

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "dqn_dovs/actions.h"
 #include "dqn_dovs/dovs.h"
@@ -76,6 +77,14 @@ struct ActionShieldConfig {
 /// "static_safety/margin=0.1". Returns "" when set, else why not (unknown name, unreadable value). The result
 /// is not validated: call validate().
 std::string setShieldParameter(ActionShieldConfig& config, const std::string& name, const std::string& value);
+
+/// Every name setShieldParameter accepts, in config-file order: what the nodes read from the parameter server
+/// and the trainer from the YAML files, so that no loader lists them again.
+const std::vector<std::string>& shieldParameterNames();
+
+/// The value of the named parameter as setShieldParameter reads it back ("true"/"false", integers, numbers to 17
+/// digits); throws std::invalid_argument for an unknown name.
+std::string shieldParameter(const ActionShieldConfig& config, const std::string& name);
 
 /// How the shield decided for one action set.
 enum class ShieldLevel : int {

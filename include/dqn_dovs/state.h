@@ -63,6 +63,12 @@ struct StateNormalization {
   std::string validate() const;
 };
 
+/// The normalisation the pipeline feeds the network with for this robot and DOVS configuration: the speed
+/// scales are the robot's limits, the clearance scale the DOVS's obstacle range, the rest the defaults above.
+/// The one place it is made: evaluation, training, the nodes and the planner's check of the weight file all
+/// call it, so a model's stored normalisation is compared with what its states will really be.
+StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfig& dovs);
+
 /// Thrown by the state functions for bad input (NaN/inf robot state or goal, wrong grid size, bad
 /// normalisation); the message names the item.
 class StateError : public std::runtime_error {

@@ -8,11 +8,17 @@ holds no simulation of its own.
 Contract of `dqn_dovs._core.VecEnv` (n = num_envs, all arrays numpy):
 
     core = dqn_dovs._core.VecEnv(num_envs: int, seed: int, perfect_info: bool = False,
-                                 threads: int = 0, action_shield: bool = False)
+                                 threads: int = 0, action_shield: bool = False,
+                                 shield_parameters: dict[str, str] = {})
         Deterministic given the seed. perfect_info=True feeds the DOVS with ground-truth
         obstacles instead of the tracker (for comparisons only). action_shield=True
         narrows every returned mask to the actions the DOVS finds safe whenever any
-        valid one is (the planner's action shield, docs/planners.md).
+        valid one is (the planner's action shield, docs/planners.md). shield_parameters:
+        the shield's named parameters (decision_config.load_shield_parameters reads them
+        from config/dovs.yaml and config/static_safety.yaml as the nodes do); a bad one
+        raises ValueError naming it.
+    core.shield_parameters() -> dict[str, str]
+        The shield's parameters as the environments run them.
     core.set_stage(goal_distance_min: float, goal_distance_max: float,
                    obstacles_min: int, obstacles_max: int, obstacle_type: str) -> None
         obstacle_type in {'none', 'static', 'dynamic', 'both'}. Applies to every episode
@@ -116,14 +122,15 @@ class VecEnv:
     """
 
     def __init__(self, num_envs: int, seed: int, perfect_info: bool = False, core: Any = None,
-                 action_shield: bool = False):
+                 action_shield: bool = False, shield_parameters: dict[str, str] | None = None):
         if num_envs < 1:
             raise ValueError(f"VecEnv: num_envs must be >= 1, got {num_envs}")
         self.num_envs = int(num_envs)
         self.seed = int(seed)
         if core is None:
             core = import_core().VecEnv(self.num_envs, self.seed, bool(perfect_info),
-                                        action_shield=bool(action_shield))
+                                        action_shield=bool(action_shield),
+                                        shield_parameters=dict(shield_parameters or {}))
         self._core = core
 
     def set_stage(self, settings: StageSettings) -> None:

@@ -27,6 +27,7 @@ import yaml
 
 from .agent import AgentConfig, DQNAgent
 from .curriculum import Curriculum, CurriculumError
+from .decision_config import DecisionConfigError, load_shield_parameters
 from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
 from .export import WeightFileError
 from .replay import NStepAccumulator, PrioritizedReplay
@@ -165,6 +166,9 @@ class TrainConfig:
     # safe whenever there are any; the narrowed mask is stored in replay and applied in the target,
     # exactly as the planner applies it on the robot. false = the paper's validity mask only.
     action_shield: bool = False
+    # Folder of the dovs.yaml and static_safety.yaml whose action shield the environments run ("": the
+    # repository's config/, what the robot's launch files load; python/dqn_dovs/decision_config.py).
+    decision_config: str = ""
     # Discount per control period.
     gamma: float = 0.97
     # Rewards summed before bootstrapping.
@@ -383,8 +387,12 @@ class Trainer:
         if threads > 0:
             torch.set_num_threads(threads)
         shield = config.action_shield
+        # The shield the robot runs, read from the same YAML files as the nodes (never the C++ defaults).
+        self.shield_parameters = load_shield_parameters(config.decision_config or None) if env_factory is None else {}
+        shield_parameters = self.shield_parameters
         self._env_factory = env_factory or (
-            lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield))
+            lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
+                                            shield_parameters=shield_parameters))
         self._model_factory = model_factory or default_model_factory
 
         os.makedirs(out_dir, exist_ok=True)
@@ -788,7 +796,8 @@ def main(argv: list[str] | None = None) -> int:
                           model_factory=model_factory, progress=not args.no_progress,
                           command="python -m dqn_dovs.train " + " ".join(shlex.quote(a) for a in argv_list))
         summary = trainer.run()
-    except (ConfigError, CurriculumError, FileExistsError, FileNotFoundError, ImportError, WeightFileError) as error:
+    except (ConfigError, CurriculumError, DecisionConfigError, FileExistsError, FileNotFoundError, ImportError,
+            WeightFileError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     final = summary["final_eval"]

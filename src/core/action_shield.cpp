@@ -3,7 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
+#include <stdexcept>
+#include <type_traits>
+#include <variant>
+#include <vector>
 
 #include "dqn_dovs/planner.h"
 #include "dqn_dovs/rollout.h"
@@ -43,8 +48,77 @@ std::string ActionShieldConfig::validate() const {
   return os.str();
 }
 
+namespace {
+
+// Every named parameter of the shield: its name (config/dovs.yaml action_shield/*, config/static_safety.yaml
+// static_safety/*) and the field it sets. The one list behind the setter, the getter and the nodes' loader.
+struct ShieldField {
+  const char* name;
+  std::variant<double ActionShieldConfig::*, bool ActionShieldConfig::*, int ActionShieldConfig::*,
+               double StaticSafetyConfig::*, bool StaticSafetyConfig::*>
+      member;
+};
+
+const std::vector<ShieldField>& shieldFields() {
+  static const std::vector<ShieldField> fields = {
+      {"enabled", &ActionShieldConfig::enabled},
+      {"robust_dv", &ActionShieldConfig::robust_dv_mps},
+      {"robust_dw", &ActionShieldConfig::robust_dw_rps},
+      {"last_resort_horizon", &ActionShieldConfig::last_resort_horizon_s},
+      {"last_resort_step", &ActionShieldConfig::last_resort_step_s},
+      {"last_resort_tolerance", &ActionShieldConfig::last_resort_tolerance_s},
+      {"last_resort_clearance_tolerance", &ActionShieldConfig::last_resort_clearance_tolerance_m},
+      {"escape", &ActionShieldConfig::escape_enabled},
+      {"escape_window_samples", &ActionShieldConfig::escape_window_samples},
+      {"passive_escape", &ActionShieldConfig::passive_escape},
+      {"slowest_contact", &ActionShieldConfig::slowest_contact},
+      {"dodge_advantage", &ActionShieldConfig::dodge_advantage_s},
+      {"passive_margin", &ActionShieldConfig::passive_margin_m},
+      {"passive_margin_growth", &ActionShieldConfig::passive_margin_growth_mps},
+      {"passive_actions", &ActionShieldConfig::passive_actions},
+      {"rest_speed", &ActionShieldConfig::rest_speed_mps},
+      {"static_safety/enabled", &StaticSafetyConfig::enabled},
+      {"static_safety/latency", &StaticSafetyConfig::latency_s},
+      {"static_safety/braking_fraction", &StaticSafetyConfig::braking_fraction},
+      {"static_safety/margin", &StaticSafetyConfig::margin_m},
+      {"static_safety/step", &StaticSafetyConfig::step_s},
+      {"static_safety/static_speed", &StaticSafetyConfig::static_speed_mps},
+  };
+  return fields;
+}
+
+const ShieldField* findShieldField(const std::string& name) {
+  for (const ShieldField& f : shieldFields()) {
+    if (name == f.name) return &f;
+  }
+  return nullptr;
+}
+
+// The field of `config` a member pointer names (ActionShieldConfig's own, or its static rule's).
+template <typename T>
+T& fieldOf(ActionShieldConfig& config, T ActionShieldConfig::*member) {
+  return config.*member;
+}
+template <typename T>
+T& fieldOf(ActionShieldConfig& config, T StaticSafetyConfig::*member) {
+  return config.statics.*member;
+}
+
+}  // namespace
+
+const std::vector<std::string>& shieldParameterNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const ShieldField& f : shieldFields()) out.emplace_back(f.name);
+    return out;
+  }();
+  return names;
+}
+
 std::string setShieldParameter(ActionShieldConfig& config, const std::string& name, const std::string& value) {
-  auto number = [&](double& field) -> std::string {
+  const ShieldField* field = findShieldField(name);
+  if (field == nullptr) return "unknown action shield parameter '" + name + "'";
+  auto number = [&]() -> std::optional<double> {
     size_t used = 0;
     double x = 0.0;
     try {
@@ -52,45 +126,52 @@ std::string setShieldParameter(ActionShieldConfig& config, const std::string& na
     } catch (const std::exception&) {
       used = 0;
     }
-    if (used == 0 || used != value.size()) return "'" + name + "': '" + value + "' is not a number";
-    field = x;
-    return {};
+    if (used == 0 || used != value.size()) return std::nullopt;
+    return x;
   };
-  auto flag = [&](bool& field) -> std::string {
-    if (value == "true" || value == "1") field = true;
-    else if (value == "false" || value == "0") field = false;
-    else return "'" + name + "': '" + value + "' is not true or false";
-    return {};
-  };
-  if (name == "enabled") return flag(config.enabled);
-  if (name == "robust_dv") return number(config.robust_dv_mps);
-  if (name == "robust_dw") return number(config.robust_dw_rps);
-  if (name == "last_resort_horizon") return number(config.last_resort_horizon_s);
-  if (name == "last_resort_step") return number(config.last_resort_step_s);
-  if (name == "last_resort_tolerance") return number(config.last_resort_tolerance_s);
-  if (name == "last_resort_clearance_tolerance") return number(config.last_resort_clearance_tolerance_m);
-  if (name == "escape") return flag(config.escape_enabled);
-  if (name == "escape_window_samples") {
-    double n = 0.0;
-    if (std::string e = number(n); !e.empty()) return e;
-    if (n != std::floor(n)) return "'" + name + "': '" + value + "' is not an integer";
-    config.escape_window_samples = static_cast<int>(std::clamp(n, -1e6, 1e6));
-    return {};
-  }
-  if (name == "passive_escape") return flag(config.passive_escape);
-  if (name == "passive_actions") return flag(config.passive_actions);
-  if (name == "passive_margin") return number(config.passive_margin_m);
-  if (name == "passive_margin_growth") return number(config.passive_margin_growth_mps);
-  if (name == "rest_speed") return number(config.rest_speed_mps);
-  if (name == "dodge_advantage") return number(config.dodge_advantage_s);
-  if (name == "slowest_contact") return flag(config.slowest_contact);
-  if (name == "static_safety/enabled") return flag(config.statics.enabled);
-  if (name == "static_safety/latency") return number(config.statics.latency_s);
-  if (name == "static_safety/braking_fraction") return number(config.statics.braking_fraction);
-  if (name == "static_safety/margin") return number(config.statics.margin_m);
-  if (name == "static_safety/step") return number(config.statics.step_s);
-  if (name == "static_safety/static_speed") return number(config.statics.static_speed_mps);
-  return "unknown action shield parameter '" + name + "'";
+  return std::visit(
+      [&](auto member) -> std::string {
+        auto& target = fieldOf(config, member);
+        using T = std::decay_t<decltype(target)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          if (value == "true" || value == "1") target = true;
+          else if (value == "false" || value == "0") target = false;
+          else return "'" + name + "': '" + value + "' is not true or false";
+        } else {
+          const std::optional<double> x = number();
+          if (!x) return "'" + name + "': '" + value + "' is not a number";
+          if constexpr (std::is_same_v<T, int>) {
+            if (*x != std::floor(*x)) return "'" + name + "': '" + value + "' is not an integer";
+            target = static_cast<int>(std::clamp(*x, -1e6, 1e6));
+          } else {
+            target = *x;
+          }
+        }
+        return {};
+      },
+      field->member);
+}
+
+std::string shieldParameter(const ActionShieldConfig& config, const std::string& name) {
+  const ShieldField* field = findShieldField(name);
+  if (field == nullptr) throw std::invalid_argument("unknown action shield parameter '" + name + "'");
+  ActionShieldConfig copy = config;
+  return std::visit(
+      [&](auto member) -> std::string {
+        const auto& v = fieldOf(copy, member);
+        using T = std::decay_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          return v ? "true" : "false";
+        } else if constexpr (std::is_same_v<T, int>) {
+          return std::to_string(v);
+        } else {
+          std::ostringstream os;
+          os.precision(17);
+          os << v;
+          return os.str();
+        }
+      },
+      field->member);
 }
 
 const char* shieldLevelName(ShieldLevel level) {

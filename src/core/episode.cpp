@@ -72,11 +72,8 @@ Episode::Episode(const EpisodeConfig& config)
       world_(sim::Scenario{}, config_.world, 0),
       tracker_(config_.tracker),
       dovs_builder_(config_.world.robot, config_.dovs),
-      state_(Eigen::VectorXf::Zero(kStateSize)) {
-  normalization_.v_scale_mps = static_cast<float>(config_.world.robot.v_max);
-  normalization_.w_scale_rps = static_cast<float>(config_.world.robot.w_max);
-  normalization_.obstacle_clearance_scale_m = static_cast<float>(config_.dovs.obstacle_range_m);
-}
+      normalization_(stateNormalization(config_.world.robot, config_.dovs)),
+      state_(Eigen::VectorXf::Zero(kStateSize)) {}
 
 void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   world_.reset(scenario, seed);

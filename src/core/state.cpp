@@ -132,4 +132,12 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
   return s;
 }
 
+StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfig& dovs) {
+  StateNormalization n;
+  n.v_scale_mps = static_cast<float>(limits.v_max);
+  n.w_scale_rps = static_cast<float>(limits.w_max);
+  n.obstacle_clearance_scale_m = static_cast<float>(dovs.obstacle_range_m);
+  return n;
+}
+
 }  // namespace dqn_dovs

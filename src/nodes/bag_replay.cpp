@@ -40,7 +40,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
   const QNetwork network = QNetwork::load(config.model_path);
   ObstacleTracker tracker(config.tracker);
   DovsBuilder builder(config.limits, config.dovs);
-  const StateNormalization normalization = dovsStateNormalization(config.limits, config.dovs);
+  const StateNormalization normalization = stateNormalization(config.limits, config.dovs);
   VelocitySpace dovs;
 
   rosbag::Bag bag;

@@ -16,44 +16,6 @@
 
 namespace dqn_dovs {
 
-DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
-  DovsConfig c;
-  c.obstacle_range_m = param<double>(pnh, "dovs/obstacle_range", c.obstacle_range_m);
-  c.safety_factor = param<double>(pnh, "dovs/safety_factor", c.safety_factor);
-  c.num_trajectories = param<int>(pnh, "dovs/num_trajectories", c.num_trajectories);
-  c.time_horizon_s = param<double>(pnh, "dovs/time_horizon", c.time_horizon_s);
-  c.static_reaction_time_s = param<double>(pnh, "dovs/static_reaction_time", c.static_reaction_time_s);
-  c.static_margin_m = param<double>(pnh, "dovs/static_margin", c.static_margin_m);
-  const std::string error = c.validate();
-  if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
-  return c;
-}
-
-ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh) {
-  ActionShieldConfig c;
-  c.enabled = param<bool>(pnh, "action_shield/enabled", c.enabled);
-  c.robust_dv_mps = param<double>(pnh, "action_shield/robust_dv", c.robust_dv_mps);
-  c.robust_dw_rps = param<double>(pnh, "action_shield/robust_dw", c.robust_dw_rps);
-  c.last_resort_horizon_s = param<double>(pnh, "action_shield/last_resort_horizon", c.last_resort_horizon_s);
-  c.last_resort_step_s = param<double>(pnh, "action_shield/last_resort_step", c.last_resort_step_s);
-  c.last_resort_tolerance_s = param<double>(pnh, "action_shield/last_resort_tolerance", c.last_resort_tolerance_s);
-  c.last_resort_clearance_tolerance_m =
-      param<double>(pnh, "action_shield/last_resort_clearance_tolerance", c.last_resort_clearance_tolerance_m);
-  c.escape_enabled = param<bool>(pnh, "action_shield/escape", c.escape_enabled);
-  c.escape_window_samples = param<int>(pnh, "action_shield/escape_window_samples", c.escape_window_samples);
-  c.passive_escape = param<bool>(pnh, "action_shield/passive_escape", c.passive_escape);
-  c.passive_actions = param<bool>(pnh, "action_shield/passive_actions", c.passive_actions);
-  c.rest_speed_mps = param<double>(pnh, "action_shield/rest_speed", c.rest_speed_mps);
-  c.dodge_advantage_s = param<double>(pnh, "action_shield/dodge_advantage", c.dodge_advantage_s);
-  c.slowest_contact = param<bool>(pnh, "action_shield/slowest_contact", c.slowest_contact);
-  c.passive_margin_m = param<double>(pnh, "action_shield/passive_margin", c.passive_margin_m);
-  c.passive_margin_growth_mps = param<double>(pnh, "action_shield/passive_margin_growth", c.passive_margin_growth_mps);
-  c.statics = loadStaticSafetyConfig(pnh);
-  const std::string error = c.validate();
-  if (!error.empty()) throw ParameterError(pnh.resolveName("action_shield") + ": " + error);
-  return c;
-}
-
 DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh),
       pnh_(pnh),
@@ -67,7 +29,7 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.05, 0.0, 1.0);
   image_size_px_ = static_cast<int>(paramInRange(pnh_, "image_size", 400, 100, 2000));
   checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
-  normalization_ = dovsStateNormalization(limits_, builder_.config());
+  normalization_ = stateNormalization(limits_, builder_.config());
   shield_ = loadActionShieldConfig(pnh_);
 
   dovs_pub_ = nh_.advertise<Dovs>("dovs", 5);

@@ -52,10 +52,4 @@ class DovsNode {
   ros::Publisher dovs_pub_, image_pub_;
 };
 
-/// Reads `dovs/*` parameters (config/dovs.yaml) over the defaults and validates them.
-DovsConfig loadDovsConfig(const ros::NodeHandle& pnh);
-
-/// Reads `action_shield/*` parameters (config/dovs.yaml) over the defaults and validates them.
-ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh);
-
 }  // namespace dqn_dovs

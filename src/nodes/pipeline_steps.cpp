@@ -19,14 +19,6 @@ std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Po
   return {};
 }
 
-StateNormalization dovsStateNormalization(const RobotLimits& limits, const DovsConfig& config) {
-  StateNormalization n;
-  n.v_scale_mps = static_cast<float>(limits.v_max);
-  n.w_scale_rps = static_cast<float>(limits.w_max);
-  n.obstacle_clearance_scale_m = static_cast<float>(config.obstacle_range_m);
-  return n;
-}
-
 std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
                           const StateNormalization& normalization, const ActionShieldConfig& shield,
@@ -108,6 +100,7 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   m.grid_rows = m.grid_cols = static_cast<uint16_t>(dovs.gridSize());
   const StateVector state = buildState(dovs, obs, normalization);
   m.state.assign(state.data(), state.data() + state.size());
+  for (const auto& field : normalization.fields()) m.state_normalization.push_back(field.second);
   return {};
 }
 
@@ -154,6 +147,21 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
   why.clear();
   if (dovs.state.size() != static_cast<size_t>(QNetwork::kStateSize)) {
     why = "dovs state has the wrong size";
+    return -1;
+  }
+  // The state must be normalised the way the network was trained (dovs_node builds it from its own robot/* and
+  // dovs/* parameters, which may differ from the planner's).
+  const std::vector<std::pair<std::string, float>> expected = StateNormalization{}.fields();
+  if (dovs.state_normalization.size() != expected.size()) {
+    why = "dovs state_normalization has " + std::to_string(dovs.state_normalization.size()) + " values, expected " +
+          std::to_string(expected.size());
+    return -1;
+  }
+  std::vector<std::pair<std::string, float>> used = expected;
+  for (size_t i = 0; i < used.size(); ++i) used[i].second = dovs.state_normalization[i];
+  if (const std::string mismatch = network.normalizationMismatch(used, 1e-4f); !mismatch.empty()) {
+    why = "planner error: the dovs states are normalised differently from the model's training (check robot/* and "
+          "dovs/obstacle_range of dovs_node): " + mismatch;
     return -1;
   }
   // An action whose velocity is NaN/inf cannot be commanded (clipping it into the feasible set would turn it

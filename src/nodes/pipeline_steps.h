@@ -26,9 +26,6 @@ namespace dqn_dovs {
 std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
                       const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note);
 
-/// The network-state normalisation dovs_node uses: speeds by the robot limits, clearance by the DOVS range.
-StateNormalization dovsStateNormalization(const RobotLimits& limits, const DovsConfig& config);
-
 /// Everything dovs_node derives from one obstacles message.
 struct DovsStep {
   Observation observation;  ///< robot pose, clipped velocity, goal and obstacles (fixed frame)

@@ -52,16 +52,77 @@ bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
   return true;
 }
 
+namespace {
+
+// A parameter's value as text, for the name-driven setters of the core (setShieldParameter); false when it is not
+// set. A list or map is a ParameterError naming it.
+bool paramText(const ros::NodeHandle& pnh, const std::string& name, std::string& out) {
+  XmlRpc::XmlRpcValue v;
+  if (!pnh.getParam(name, v)) return false;
+  std::ostringstream os;
+  os.precision(17);
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      os << (static_cast<bool>(v) ? "true" : "false");
+      break;
+    case XmlRpc::XmlRpcValue::TypeInt:
+      os << static_cast<int>(v);
+      break;
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      os << static_cast<double>(v);
+      break;
+    case XmlRpc::XmlRpcValue::TypeString:
+      os << static_cast<std::string>(v);
+      break;
+    default:
+      throw ParameterError("parameter '" + pnh.resolveName(name) + "' has the wrong type (not a scalar)");
+  }
+  out = os.str();
+  return true;
+}
+
+// Reads the shield parameters whose names pass `wanted` into `c`; errors name the parameter.
+template <typename Wanted>
+void readShieldParameters(const ros::NodeHandle& pnh, ActionShieldConfig& c, Wanted&& wanted) {
+  for (const std::string& name : shieldParameterNames()) {
+    if (!wanted(name)) continue;
+    const bool is_static = name.rfind("static_safety/", 0) == 0;
+    const std::string ros_name = is_static ? name : "action_shield/" + name;
+    std::string text;
+    if (!paramText(pnh, ros_name, text)) continue;
+    const std::string error = setShieldParameter(c, name, text);
+    if (!error.empty()) throw ParameterError("parameter '" + pnh.resolveName(ros_name) + "': " + error);
+  }
+}
+
+}  // namespace
+
 StaticSafetyConfig loadStaticSafetyConfig(const ros::NodeHandle& pnh) {
-  StaticSafetyConfig c;
-  c.enabled = param<bool>(pnh, "static_safety/enabled", c.enabled);
-  c.latency_s = param<double>(pnh, "static_safety/latency", c.latency_s);
-  c.braking_fraction = param<double>(pnh, "static_safety/braking_fraction", c.braking_fraction);
-  c.margin_m = param<double>(pnh, "static_safety/margin", c.margin_m);
-  c.step_s = param<double>(pnh, "static_safety/step", c.step_s);
-  c.static_speed_mps = param<double>(pnh, "static_safety/static_speed", c.static_speed_mps);
-  const std::string error = c.validate();
+  ActionShieldConfig c;
+  readShieldParameters(pnh, c, [](const std::string& name) { return name.rfind("static_safety/", 0) == 0; });
+  const std::string error = c.statics.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("static_safety") + ": " + error);
+  return c.statics;
+}
+
+DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
+  DovsConfig c;
+  c.obstacle_range_m = param<double>(pnh, "dovs/obstacle_range", c.obstacle_range_m);
+  c.safety_factor = param<double>(pnh, "dovs/safety_factor", c.safety_factor);
+  c.num_trajectories = param<int>(pnh, "dovs/num_trajectories", c.num_trajectories);
+  c.time_horizon_s = param<double>(pnh, "dovs/time_horizon", c.time_horizon_s);
+  c.static_reaction_time_s = param<double>(pnh, "dovs/static_reaction_time", c.static_reaction_time_s);
+  c.static_margin_m = param<double>(pnh, "dovs/static_margin", c.static_margin_m);
+  const std::string error = c.validate();
+  if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
+  return c;
+}
+
+ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh) {
+  ActionShieldConfig c;
+  readShieldParameters(pnh, c, [](const std::string&) { return true; });
+  const std::string error = c.validate();
+  if (!error.empty()) throw ParameterError(pnh.resolveName("action_shield") + ": " + error);
   return c;
 }
 

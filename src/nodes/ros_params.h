@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "dqn_dovs/action_shield.h"
+#include "dqn_dovs/dovs.h"
 #include "dqn_dovs/robot_model.h"
 #include "dqn_dovs/static_safety.h"
 
@@ -40,6 +42,14 @@ RobotLimits loadRobotLimits(const ros::NodeHandle& pnh);
 /// Reads the static braking rule from `static_safety/*` (config/static_safety.yaml, loaded by dovs_node and
 /// planner_node) and validates it.
 StaticSafetyConfig loadStaticSafetyConfig(const ros::NodeHandle& pnh);
+
+/// Reads `dovs/*` parameters (config/dovs.yaml, loaded by dovs_node and planner_node) over the defaults and
+/// validates them.
+DovsConfig loadDovsConfig(const ros::NodeHandle& pnh);
+
+/// Reads every action shield parameter (shieldParameterNames(): `action_shield/*` of config/dovs.yaml and
+/// `static_safety/*` of config/static_safety.yaml) over the defaults and validates them.
+ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh);
 
 }  // namespace dqn_dovs
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstring>
 #include <future>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -39,10 +40,26 @@ sim::ObstacleType parseObstacleType(const std::string& s) {
   throw std::invalid_argument("obstacle_type '" + s + "' is not one of none, static, dynamic, both");
 }
 
+std::map<std::string, std::string> shieldParameterMap(const ActionShieldConfig& config) {
+  std::map<std::string, std::string> out;
+  for (const std::string& name : shieldParameterNames()) out[name] = shieldParameter(config, name);
+  return out;
+}
+
 class VecEnv {
  public:
-  VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads, bool action_shield) : seed_(seed) {
+  VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads, bool action_shield,
+         const std::map<std::string, std::string>& shield_parameters)
+      : seed_(seed) {
+    // The shield as the robot runs it: the named parameters of config/dovs.yaml and config/static_safety.yaml
+    // (python/dqn_dovs/decision_config.py reads them), then `action_shield` switches it on or off.
+    for (const auto& [name, value] : shield_parameters) {
+      if (const std::string e = setShieldParameter(shield_, name, value); !e.empty()) {
+        throw std::invalid_argument("shield_parameters: " + e);
+      }
+    }
     shield_.enabled = action_shield;
+    if (const std::string e = shield_.validate(); !e.empty()) throw std::invalid_argument("shield_parameters: " + e);
     if (num_envs < 1 || num_envs > 4096) throw std::invalid_argument("num_envs must be in [1, 4096]");
     EpisodeConfig config;
     config.perfect_info = perfect_info;
@@ -234,6 +251,10 @@ class VecEnv {
   ActionShieldConfig shield_;
   uint64_t seed_ = 0;
   int threads_ = 1;
+
+ public:
+  /// The shield's parameters as the environments run them (name -> value as text).
+  std::map<std::string, std::string> shieldParameters() const { return shieldParameterMap(shield_); }
 };
 
 }  // namespace
@@ -242,9 +263,16 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "dqn_dovs C++ core: vectorised training environment (simulator -> LIDAR -> tracker -> DOVS -> state)";
   m.attr("STATE_SIZE") = kStateSize;
   m.attr("NUM_ACTIONS") = kNumActions;
+  m.def("shield_parameter_names", &shieldParameterNames,
+        "Every action shield parameter name (config/dovs.yaml action_shield/*, config/static_safety.yaml).");
+  m.def("default_shield_parameters", [] { return shieldParameterMap(ActionShieldConfig{}); },
+        "The C++ defaults of the shield's parameters (what dqn_dovs_eval runs without --shield).");
   py::class_<VecEnv>(m, "VecEnv")
-      .def(py::init<int, uint64_t, bool, int, bool>(), py::arg("num_envs"), py::arg("seed"),
-           py::arg("perfect_info") = false, py::arg("threads") = 0, py::arg("action_shield") = false)
+      .def(py::init<int, uint64_t, bool, int, bool, const std::map<std::string, std::string>&>(),
+           py::arg("num_envs"), py::arg("seed"), py::arg("perfect_info") = false, py::arg("threads") = 0,
+           py::arg("action_shield") = false, py::arg("shield_parameters") = std::map<std::string, std::string>{})
+      .def("shield_parameters", &VecEnv::shieldParameters,
+           "The action shield's parameters as the environments run them (name -> value as text).")
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),
            py::arg("obstacles_min"), py::arg("obstacles_max"), py::arg("obstacle_type"))
       .def("seed", &VecEnv::seed, py::arg("seed"), "Restarts the scenario sequence from a new seed.")

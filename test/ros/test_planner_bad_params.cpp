@@ -146,9 +146,13 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
   struct Case {
     const char *exe, *culprit, *args;
   };
-  const std::array<Case, 5> cases = {{
+  const std::array<Case, 8> cases = {{
       {"dovs_node", "max_input_age", "_max_input_age:=0.0"},
       {"dovs_node", "v_max", "_robot/v_max:=-1.0"},
+      // The shield's parameters, read by name (shieldParameterNames): the setter's and the validation's refusals.
+      {"dovs_node", "action_shield/escape_window_samples", "_action_shield/escape_window_samples:=2.5"},
+      {"dovs_node", "margin", "_static_safety/margin:=-1.0"},
+      {"dovs_node", "action_shield/passive_escape", "_action_shield/passive_escape:=maybe"},
       {"obstacle_tracker_node", "tf_timeout", "_tf_timeout:=9.0"},
       {"simulator_node", "period", "_period:=0.0"},
       {"simulator_node", "realtime_factor", "_realtime_factor:=-1.0"},

@@ -43,7 +43,7 @@ Built buildMessage(const dqn_dovs::Twist2& current, const std::optional<dqn_dovs
   Built b;
   dqn_dovs::DovsStep step;
   const std::string error = dqn_dovs::buildDovsStep(obstacles_msg, dqn_dovs::Pose2{}, current, goal, limits,
-                                                    dqn_dovs::dovsStateNormalization(limits, config), unshielded(),
+                                                    dqn_dovs::stateNormalization(limits, config), unshielded(),
                                                     "base_footprint", builder, b.space, step);
   EXPECT_EQ(error, "");
   b.msg = step.msg;

@@ -34,7 +34,7 @@ Step build(const Twist2& current, const std::vector<MovingObstacle>& obstacles) 
   msg.header.frame_id = "odom";
   Step s;
   const std::string error = buildDovsStep(msg, Pose2{}, current, Vec2(4.0, 0.0), limits,
-                                          dovsStateNormalization(limits, config), ActionShieldConfig{},
+                                          stateNormalization(limits, config), ActionShieldConfig{},
                                           "base_footprint", builder, s.space, s.step);
   EXPECT_EQ(error, "");
   return s;
@@ -50,7 +50,7 @@ TEST(PipelineSteps, TheMessageCarriesTheStaticGeometryForThePlannersLastCheck) {
   msg.header.frame_id = "odom";
   Step s;
   const Pose2 robot{0.2, 0.0, 0.5};
-  ASSERT_EQ(buildDovsStep(msg, robot, {0.3, 0.0}, Vec2(4.0, 0.0), limits, dovsStateNormalization(limits, config),
+  ASSERT_EQ(buildDovsStep(msg, robot, {0.3, 0.0}, Vec2(4.0, 0.0), limits, stateNormalization(limits, config),
                           ActionShieldConfig{}, "base_footprint", builder, s.space, s.step),
             "");
   const Dovs& d = s.step.msg;
@@ -118,6 +118,37 @@ TEST(PipelineSteps, WithAFreeActionThereIsNoEscapeAndTheNetworkChooses) {
   ASSERT_LT(a, kNumActions);
   EXPECT_TRUE(d.action_valid[static_cast<size_t>(a)]);
   EXPECT_EQ(choiceVelocity(d, a).v, d.action_v[static_cast<size_t>(a)]);
+}
+
+TEST(PipelineSteps, ThePlannerRefusesStatesNormalisedOtherwiseThanItsModel) {
+  // dovs_node configured with another obstacle range builds states the network was not trained on.
+  const RobotLimits limits;
+  DovsConfig wider;
+  wider.obstacle_range_m = 5.0;
+  DovsBuilder builder(limits, wider);
+  TrackedObstacleArray msg = movingObstaclesToMsg({movingDisc(2.5, 1.5, 0.0, 0.3)}, {});
+  msg.header.stamp = ros::Time(10.0);
+  msg.header.frame_id = "odom";
+  Step s;
+  ASSERT_EQ(buildDovsStep(msg, Pose2{}, {0.3, 0.0}, Vec2(4.0, 0.0), limits, stateNormalization(limits, wider),
+                          ActionShieldConfig{}, "base_footprint", builder, s.space, s.step),
+            "");
+  const Dovs& d = s.step.msg;
+  ASSERT_EQ(d.state_normalization.size(), static_cast<size_t>(StateNormalization::kNumFields));
+  EXPECT_FLOAT_EQ(d.state_normalization[7], 5.0f);  // obstacle_clearance_scale_m
+  const QNetwork net = shippedNetwork();
+  std::string why;
+  EXPECT_EQ(chooseAction(net, d, why), -1);
+  EXPECT_NE(why.find("obstacle_clearance_scale_m"), std::string::npos) << why;
+  EXPECT_NE(why.find("dovs/obstacle_range"), std::string::npos) << why;
+  // The configuration it was trained with is accepted; a message without the normalisation is not.
+  Dovs same = d;
+  same.state_normalization[7] = 4.0f;
+  EXPECT_GE(chooseAction(net, same, why), 0) << why;
+  Dovs none = d;
+  none.state_normalization.clear();
+  EXPECT_EQ(chooseAction(net, none, why), -1);
+  EXPECT_NE(why.find("state_normalization has 0 values"), std::string::npos) << why;
 }
 
 }  // namespace

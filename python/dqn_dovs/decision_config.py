@@ -1,0 +1,71 @@
+"""The decision step's parameters as the robot reads them, for the trainer.
+
+The nodes read the action shield from the parameter server, loaded from `config/dovs.yaml` (`action_shield/*`)
+and `config/static_safety.yaml` (`static_safety/*`). The trainer reads the same two files here and hands the
+values to the C++ environment by name (`dqn_dovs._core.VecEnv(..., shield_parameters=...)`, the names of
+`setShieldParameter` in include/dqn_dovs/action_shield.h), so training never runs C++ defaults while the robot
+runs the YAML.
+
+    from dqn_dovs.decision_config import load_shield_parameters
+    params = load_shield_parameters()            # the repository's config/
+    params = load_shield_parameters("my/config")  # another folder with the same two files
+"""
+
+from __future__ import annotations
+
+import os
+
+import yaml
+
+DEFAULT_CONFIG_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "config")
+# (file, section, name prefix): config/dovs.yaml action_shield/NAME -> NAME,
+# config/static_safety.yaml static_safety/NAME -> static_safety/NAME.
+SOURCES = (("dovs.yaml", "action_shield", ""), ("static_safety.yaml", "static_safety", "static_safety/"))
+
+
+class DecisionConfigError(ValueError):
+    """A configuration file that cannot be read as the robot reads it; the message names the file and key."""
+
+
+def _text(value) -> str:
+    """A YAML scalar as the C++ setter reads it: booleans as true/false, numbers in full precision."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)
+    raise TypeError(f"{value!r} is not a boolean or a number")
+
+
+def load_shield_parameters(config_dir: str | None = None) -> dict[str, str]:
+    """The action shield's parameters of `config_dir` (default: the repository's config/) as name -> text.
+
+    Raises DecisionConfigError naming the file and key for a missing file or section, a key that is not a
+    shield parameter, or a value that is not a scalar."""
+    from . import env  # noqa: PLC0415 - the compiled module is needed only here
+
+    known = set(env.import_core().shield_parameter_names())
+    config_dir = config_dir or DEFAULT_CONFIG_DIR
+    out: dict[str, str] = {}
+    for file_name, section, prefix in SOURCES:
+        path = os.path.join(config_dir, file_name)
+        try:
+            with open(path) as f:
+                document = yaml.safe_load(f) or {}
+        except OSError as e:
+            raise DecisionConfigError(f"{path}: cannot be read ({e.strerror})") from None
+        except yaml.YAMLError as e:
+            raise DecisionConfigError(f"{path}: not valid YAML ({e})") from None
+        values = document.get(section) if isinstance(document, dict) else None
+        if not isinstance(values, dict):
+            raise DecisionConfigError(f"{path}: no '{section}' section")
+        for key, value in values.items():
+            name = prefix + str(key)
+            if name not in known:
+                raise DecisionConfigError(f"{path}: '{section}/{key}' is not an action shield parameter")
+            try:
+                out[name] = _text(value)
+            except TypeError as e:
+                raise DecisionConfigError(f"{path}: '{section}/{key}': {e}") from None
+    return out
