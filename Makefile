@@ -7,7 +7,7 @@ JOBS ?= 2
 BENCHES := sim tracker dovs inference training e2e eval-sdovs eval-dqn
 SOAK_SECONDS ?= 3600
 
-.PHONY: all setup build test test-cpp test-python bench demo clean format help soak fuzz test-asan
+.PHONY: all setup build test check test-cpp test-python bench demo clean format help soak fuzz test-asan
 all: build
 .PHONY: benchmark-table performance-report select-model
 
@@ -15,6 +15,7 @@ help:
 	@echo "make setup   install Debian ROS 1 packages and the Python venv (idempotent)"
 	@echo "make build   colcon build of the dqn_dovs package (+ the Python module)"
 	@echo "make test    every test: gtest, rostest, Python, fuzz regressions + 40 s per fuzz target"
+	@echo "make check   the edit loop: build, the gtests that need no ROS master and the Python tests but the training smoke run"
 	@echo "make fuzz    libFuzzer targets (fuzz/), FUZZ_SECONDS=600 each (make fuzz FUZZ_TARGETS=scenario for one)"
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
@@ -31,6 +32,9 @@ build: setup
 
 test: build
 	@bash scripts/run_tests.sh
+
+check: build
+	@bash scripts/check.sh
 
 fuzz: build
 	@FUZZ_SECONDS=$${FUZZ_SECONDS:-600} bash scripts/fuzz.sh $(FUZZ_TARGETS)

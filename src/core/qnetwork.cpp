@@ -1,4 +1,5 @@
 #include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/sim/random.h"
 
 #include <algorithm>
 #include <cmath>
@@ -43,10 +44,9 @@ class SplitMix64 {
  public:
   explicit SplitMix64(std::uint64_t seed) : state_(seed) {}
   std::uint64_t next() {
-    std::uint64_t z = (state_ += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
+    const std::uint64_t out = sim::mixSeed(state_);  // the SplitMix64 step: the finaliser of state + golden gamma
+    state_ += 0x9E3779B97F4A7C15ull;
+    return out;
   }
   float uniform(float bound) {
     const double u = static_cast<double>(next() >> 11) * (1.0 / 9007199254740992.0);

@@ -18,19 +18,13 @@
 
 #include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/episode.h"
+#include "dqn_dovs/sim/random.h"
 #include "dqn_dovs/sim/scenario.h"
 
 namespace py = pybind11;
 using namespace dqn_dovs;
 
 namespace {
-
-uint64_t splitmix64(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ULL;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
-  return x ^ (x >> 31);
-}
 
 sim::ObstacleType parseObstacleType(const std::string& s) {
   if (s == "none") return sim::ObstacleType::None;
@@ -210,8 +204,8 @@ class VecEnv {
     // A drawn scenario can end during the sensor warm-up (an obstacle runs into the still robot): such
     // episodes teach nothing, so the next scenario of the sequence is drawn instead.
     for (int attempt = 0; attempt < 100; ++attempt) {
-      const uint64_t s = splitmix64(seed_ ^ splitmix64(i * 0x100000001B3ULL + env.episodes++));
-      env.episode.reset(sim::generateScenario(generator_, s), splitmix64(s));
+      const uint64_t s = sim::mixSeed(seed_ ^ sim::mixSeed(i * 0x100000001B3ULL + env.episodes++));
+      env.episode.reset(sim::generateScenario(generator_, s), sim::mixSeed(s));
       if (!env.episode.done()) return;
     }
     throw std::runtime_error("100 scenarios in a row ended before their first step: check the stage settings");
