@@ -9,10 +9,11 @@
 // least one goal reached, (loosely) at most a quarter of the control periods late, and no collision with static
 // geometry (walls, static obstacles: passive safety). Other collisions, split into robot at rest / moving
 // with the speed at contact, and timeouts are reported, not asserted.
-#include <dirent.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <gtest/gtest.h>
+#include <ros/network.h>
 #include <ros/ros.h>
+#include <xmlrpcpp/XmlRpcClient.h>
 
 #include <algorithm>
 #include <cmath>
@@ -40,31 +41,29 @@ const std::vector<std::string> kNodes = {"simulator", "obstacle_tracker", "dovs"
 
 double wallNow() { return ros::WallTime::now().toSec(); }
 
-/// The process launched with __name:=<name> (roslaunch passes it on the command line), or -1.
+/// The process of node `name` as this test's own master knows it, or -1: the master's lookupNode gives the
+/// node's XML-RPC URI and the node's getPid its process id. Never a search of the machine's processes, so
+/// another pipeline running on the same machine (its own master, the same node names) is never mistaken for
+/// this one.
 int findNodePid(const std::string& name) {
-  DIR* proc = opendir("/proc");
-  if (!proc) return -1;
-  int found = -1;
-  const std::string want = "__name:=" + name;
-  while (dirent* e = readdir(proc)) {
-    const std::string d = e->d_name;
-    if (d.empty() || !std::all_of(d.begin(), d.end(), ::isdigit)) continue;
-    std::ifstream f("/proc/" + d + "/cmdline", std::ios::binary);
-    std::string cmdline((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    size_t start = 0;
-    while (start < cmdline.size()) {
-      const size_t end = cmdline.find('\0', start);
-      if (cmdline.compare(start, (end == std::string::npos ? cmdline.size() : end) - start, want) == 0) {
-        found = std::stoi(d);
-        break;
-      }
-      if (end == std::string::npos) break;
-      start = end + 1;
-    }
-    if (found > 0) break;
+  const std::string node = ros::names::resolve(name);
+  XmlRpc::XmlRpcValue request, response, payload;
+  request[0] = ros::this_node::getName();
+  request[1] = node;
+  if (!ros::master::execute("lookupNode", request, response, payload, false)) return -1;
+  const std::string uri = payload;
+  std::string host;
+  uint32_t port = 0;
+  if (!ros::network::splitURI(uri, host, port)) return -1;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue args, result;
+  args[0] = ros::this_node::getName();
+  if (!client.execute("getPid", args, result) || client.isFault()) return -1;
+  // [code, status message, pid]; code 1 is success.
+  if (result.getType() != XmlRpc::XmlRpcValue::TypeArray || result.size() != 3 || static_cast<int>(result[0]) != 1) {
+    return -1;
   }
-  closedir(proc);
-  return found;
+  return static_cast<int>(result[2]);
 }
 
 /// RSS in MB of a live process; -1 when it is gone or a zombie.
