@@ -11,8 +11,8 @@
 set -euo pipefail
 out_json="${1:-bench/results/e2e.json}"
 root="$(pwd)"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. "$root/scripts/env.sh"
 setup="${DQN_DOVS_SETUP:-install/setup.sh}"
 [ -f "$setup" ] || { echo "bench_e2e: $setup does not exist; run 'make build' (or set DQN_DOVS_SETUP)" >&2; exit 2; }
 scenario="$(realpath -m "${SCENARIO:-$root/../shared/scenarios/rumor/1-8/3.dovs}")"

@@ -29,39 +29,6 @@ start=$(date +%s.%N)
 "$exe" --methods dqn_dovs,s_dovs --model "$model" --scenarios ../shared/scenarios/rumor --obstacles "$obstacles" \
   --episodes "$episodes" --threads 2 --trajectories 0 --out "$out_dir/"
 end=$(date +%s.%N)
-# summary.json is flat ("method.figure": value, one per line); s_dovs.time_ratio_mean is s_dovs's time over the
-# reference's (dqn_dovs) on the episodes both solved.
-total=$(($(wc -l <"$out_dir/results.csv") - 1))
-awk -v episodes="$episodes" -v total="$total" -v wall="$(echo "$end - $start" | bc)" '
-  BEGIN { n = 0 }
-  {
-    line = $0; sub(/,[[:space:]]*$/, "", line)
-    if (match(line, /"dqn_dovs\.(success_(mean|[0-9]+)|collision_mean|timeout_mean|danger_frequency|mean_time_success_s)"/)) {
-      sub(/"dqn_dovs\./, "\"", line); items[n++] = line
-    } else if (line ~ /"s_dovs\.success_mean"/) {
-      sub(/"s_dovs\./, "\"s_dovs_", line); items[n++] = line
-    } else if (line ~ /"s_dovs\.time_ratio_mean"/) {
-      sub(/"s_dovs\.time_ratio_mean"/, "\"time_ratio_vs_sdovs\"", line); items[n++] = line
-    }
-  }
-  END {
-    print "{"
-    for (i = 0; i < n; ++i) print items[i] ","
-    printf "  \"episodes_per_count\": %d,\n  \"episodes\": %d,\n  \"wall_s\": %.1f,\n  \"episodes_per_s\": %.2f\n}\n",
-      episodes, total, wall, (wall > 0 ? total / wall : 0)
-  }' "$out_dir/summary.json" > "$out_json"
-MPLBACKEND=Agg PYTHONPATH="$(pwd)/python" .venv/bin/python - "$out_dir/results.csv" "$out_json" <<'EOF'
-import json
-import sys
-
-from dqn_dovs.benchmark_report import paired_comparison, read_results
-
-pooled = paired_comparison(read_results(sys.argv[1]), "dqn_dovs", "s_dovs")[None]
-with open(sys.argv[2]) as f:
-    figures = json.load(f)
-figures.update(wins_vs_sdovs=pooled.wins, losses_vs_sdovs=pooled.losses, sign_test_p_vs_sdovs=pooled.p_value)
-with open(sys.argv[2], "w") as f:
-    json.dump(figures, f, indent=2)
-    f.write("\n")
-EOF
+PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs.eval_figures --eval-dir "$out_dir" --method dqn_dovs --rival s_dovs \
+  --episodes-per-count "$episodes" --wall "$(echo "$end - $start" | bc)" --out "$out_json"
 echo "wrote $out_json"

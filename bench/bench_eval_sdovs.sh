@@ -19,15 +19,6 @@ start=$(date +%s.%N)
 "$exe" --methods s_dovs --scenarios ../shared/scenarios/rumor --obstacles 1-15 --episodes "$episodes" \
   --threads 2 --out "$out_dir/"
 end=$(date +%s.%N)
-# summary.json holds success_mean, success_N and the other rates; keep the benchmark's figures and add the run's size.
-awk -v episodes="$episodes" -v wall="$(echo "$end - $start" | bc)" '
-  BEGIN { n = 0 }
-  /"success_(mean|[0-9]+)"|"collision_mean"|"timeout_mean"/ {
-    line = $0; sub(/,[[:space:]]*$/, "", line); items[n++] = line
-  }
-  END {
-    print "{"
-    for (i = 0; i < n; ++i) print items[i] ","
-    printf "  \"episodes_per_count\": %d,\n  \"wall_s\": %.1f\n}\n", episodes, wall
-  }' "$out_dir/summary.json" > "$out_json"
+PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs.eval_figures --eval-dir "$out_dir" --method s_dovs \
+  --episodes-per-count "$episodes" --wall "$(echo "$end - $start" | bc)" --out "$out_json"
 echo "wrote $out_json"

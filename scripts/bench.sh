@@ -2,7 +2,8 @@
 # Runs one benchmark by name from the repository root; its figures land in bench/results/NAME.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 name="$1"
 file_name="${name//-/_}"
 mkdir -p bench/results

@@ -10,8 +10,8 @@
 # OUT_DIR (docs/benchmark).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 root="$(pwd)"
 episodes="${EPISODES:-100}"
 obstacles="${OBSTACLES:-1-15}"
@@ -53,32 +53,12 @@ for perception in tracker perfect; do
 done
 total_end=$(date +%s.%N)
 
-model_sha=$(sha256sum "$model" | cut -d' ' -f1)
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 dirty=$(git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo "+local changes" || true)
-WALL_TRACKER="${wall[tracker]}" WALL_PERFECT="${wall[perfect]}" CMD_TRACKER="${cmd[tracker]}" \
-CMD_PERFECT="${cmd[perfect]}" TOTAL_WALL="$(echo "$total_end - $total_start" | bc)" MODEL_PATH="$model" \
-MODEL_SHA="$model_sha" COMMIT="$commit$dirty" .venv/bin/python - "$out_dir/run_info.json" <<'PY'
-import json, os, sys, datetime
-cpu = "unknown"
-with open("/proc/cpuinfo") as f:
-    for line in f:
-        if line.startswith("model name"):
-            cpu = line.split(":", 1)[1].strip()
-            break
-e = os.environ
-info = {
-    "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-    "commit": e["COMMIT"], "model": e["MODEL_PATH"], "model_sha256": e["MODEL_SHA"],
-    "nproc": os.cpu_count(), "cpu_model": cpu,
-    "tracker": {"command": e["CMD_TRACKER"], "wall_s": float(e["WALL_TRACKER"])},
-    "perfect": {"command": e["CMD_PERFECT"], "wall_s": float(e["WALL_PERFECT"])},
-    "total_wall_s": float(e["TOTAL_WALL"]),
-}
-with open(sys.argv[1], "w") as f:
-    json.dump(info, f, indent=2)
-    f.write("\n")
-PY
+PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs.run_info --out "$out_dir/run_info.json" \
+  --commit "$commit$dirty" --model "$model" --tracker-command "${cmd[tracker]}" --tracker-wall "${wall[tracker]}" \
+  --perfect-command "${cmd[perfect]}" --perfect-wall "${wall[perfect]}" \
+  --total-wall "$(echo "$total_end - $total_start" | bc)"
 
 MPLBACKEND=Agg PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs.benchmark_report \
   --tracker "$out_dir/tracker/results.csv" --perfect "$out_dir/perfect/results.csv" \

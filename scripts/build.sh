@@ -2,7 +2,8 @@
 # colcon build of the package at the repository root; quiet unless something fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 export MAKEFLAGS="-j${JOBS:-2}"
 log=log/build.last.txt
 mkdir -p log

@@ -6,8 +6,8 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 root="$(pwd)"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 [ -f install/setup.sh ] || { echo "check: install/setup.sh missing; run 'make build' first" >&2; exit 2; }
 # The rviz plugin test finds the package (pluginlib) through the sourced environment.
 # shellcheck disable=SC1091

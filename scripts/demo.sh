@@ -2,8 +2,8 @@
 # make demo: the full ROS pipeline in simulation with the shipped model on a few shared scenarios.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 # shellcheck disable=SC1091
 set +u; . install/setup.sh; set -u
 export ROS_HOME="$(pwd)/out/demo/ros_home"

@@ -9,7 +9,8 @@
 # Needs the generated message headers of `make build` (build/dqn_dovs/devel/include) for dovs_msg.
 set -uo pipefail
 cd "$(dirname "$0")/.."
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 seconds=${FUZZ_SECONDS:-600}
 jobs=${JOBS:-2}
 all_targets=(weight_file scan_tracker scenario dovs_msg)

@@ -12,8 +12,8 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 scenario="$(realpath -m "${1:-$root/../shared/scenarios/rumor/1-2/1.dovs}")"
 out="$(realpath -m "${2:-$root/test/data/replay.bag}")"
 cd "$root"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. "$root/scripts/env.sh"
 port="${ROS_PORT:-11472}"
 duration="${DURATION:-14}"
 setup="${DQN_DOVS_SETUP:-install/setup.sh}"

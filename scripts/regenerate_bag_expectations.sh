@@ -7,8 +7,8 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$root"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. "$root/scripts/env.sh"
 setup="${DQN_DOVS_SETUP:-install/setup.sh}"
 [ -f "$setup" ] || { echo "regenerate_bag_expectations: $setup does not exist (build first, or set DQN_DOVS_SETUP)" >&2; exit 2; }
 # shellcheck disable=SC1090

@@ -5,8 +5,8 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 root="$(pwd)"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 # shellcheck disable=SC1091
 set +u; . install/setup.sh; set -u
 export ROS_HOME="$root/log/ros_home"
@@ -37,13 +37,11 @@ if ls test/python/test_*.py >/dev/null 2>&1; then
     DQN_DOVS_REQUIRE_CORE="${DQN_DOVS_REQUIRE_CORE:-1}" MPLBACKEND=Agg \
     .venv/bin/python -m pytest -q -p no:cacheprovider --junitxml=log/pytest.xml test/python >log/pytest.last.txt 2>&1
   tail -n 30 log/pytest.last.txt
-  read -r py_total py_err py_fail0 py_skip < <(.venv/bin/python - <<'PY'
-import xml.etree.ElementTree as ET
-r = ET.parse("log/pytest.xml").getroot()
-s = r if r.tag == "testsuite" else r.find("testsuite")
-print(s.get("tests"), s.get("errors"), s.get("failures"), s.get("skipped"))
-PY
-)
+  # The counts are the attributes of the JUnit report's first <testsuite> element.
+  suite=$(grep -oE '<testsuite [^>]*>' log/pytest.xml 2>/dev/null | head -n 1)
+  count() { local v; v=$(echo "$suite" | grep -oE " $1=\"[0-9]+\"" | grep -oE "[0-9]+"); echo "${v:-0}"; }
+  py_total=$(count tests); py_err=$(count errors); py_fail0=$(count failures); py_skip=$(count skipped)
+  [ -n "$suite" ] || { echo "[test] no pytest report (log/pytest.xml)" >&2; py_err=1; }
   py_fail=$((py_fail0 + py_err)); py_skip=$py_skip; py_pass=$((py_total - py_fail - py_skip))
 fi
 

@@ -9,8 +9,8 @@
 # THREADS (2), EXTRA (more .dqnw files, space-separated), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 root="$(pwd)"
 run="${1:?usage: scripts/select_model.sh RUN_DIR}"
 seeds="${SEEDS:-9101 9102}"
@@ -59,46 +59,5 @@ for f in "${candidates[@]}"; do
   echo "${aliases[$(sha256sum "$f" | cut -d' ' -f1)]:-}" >"$out/c$i/aliases"
 done
 
-OUT="$out" SEEDS="$seeds" OBSTACLES="$obstacles" EPISODES="$episodes" .venv/bin/python - <<'EOF'
-import json, os, re, sys
-
-out = os.environ["OUT"]
-seeds = os.environ["SEEDS"].split()
-lo, _, hi = os.environ["OBSTACLES"].partition("-")
-counts = list(range(int(lo), int(hi or lo) + 1))
-upper = counts[len(counts) // 2:]
-rows = []
-for c in sorted(os.listdir(out), key=lambda d: int(d[1:]) if re.fullmatch(r"c\d+", d) else 1 << 30):
-    if not re.fullmatch(r"c\d+", c):
-        continue
-    with open(os.path.join(out, c, "model_path")) as f:
-        path = f.read().strip()
-    with open(os.path.join(out, c, "aliases")) as f:
-        also = f.read().strip()
-    per_n = {n: [] for n in counts}
-    for s in seeds:
-        with open(os.path.join(out, c, s, "summary.json")) as f:
-            summary = json.load(f)
-        for n in counts:
-            per_n[n].append(summary[f"success_{n}"])  # one method: unprefixed keys
-    success = {n: sum(v) / len(v) for n, v in per_n.items()}
-    rows.append({"model": path, "also": also, "mean": sum(success.values()) / len(counts),
-                 "upper_mean": sum(success[n] for n in upper) / len(upper), **{f"success_{n}": success[n] for n in counts}})
-rows.sort(key=lambda r: (-r["mean"], -r["upper_mean"]))
-keys = list(rows[0].keys())
-with open(os.path.join(out, "selection.csv"), "w") as f:
-    f.write(",".join(keys) + "\n")
-    for r in rows:
-        f.write(",".join(r[k] if k in ("model", "also") else f"{r[k]:.4f}" for k in keys) + "\n")
-with open(os.path.join(out, "selection.md"), "w") as f:
-    f.write(f"# Model selection\n\nHeld-out generated scenarios (seeds {' '.join(seeds)}, obstacles "
-            f"{counts[0]}-{counts[-1]}, {os.environ['EPISODES']} episodes per count and seed), tracker in the loop, "
-            "method dqn_dovs. Ranked by mean success, then by the mean over the upper half of the counts "
-            f"({upper[0]}-{upper[-1]}).\n\n| rank | model | mean | {upper[0]}-{upper[-1]} |\n|---|---|---|---|\n")
-    for i, r in enumerate(rows, 1):
-        also = f" (same file: {', '.join(f'`{a}`' for a in r['also'].split())})" if r["also"] else ""
-        f.write(f"| {i} | `{r['model']}`{also} | {r['mean']:.3f} | {r['upper_mean']:.3f} |\n")
-for r in rows:
-    print(f"  {r['mean']:.3f}  {r['upper_mean']:.3f}  {r['model']}", file=sys.stderr)
-print(rows[0]["model"])
-EOF
+PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs.select_model --selection "$out" --seeds "$seeds" \
+  --obstacles "$obstacles" --episodes "$episodes"

@@ -4,7 +4,8 @@
 # Idempotent and quiet: a second run only checks and returns.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+# shellcheck source=scripts/env.sh
+. "$here/scripts/env.sh"
 
 APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config clang-format

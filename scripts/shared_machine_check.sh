@@ -7,8 +7,8 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 root="$(pwd)"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 # The test executables live in the build's devel space (as colcon test runs them).
 setup=build/dqn_dovs/devel/setup.sh
 [ -f "$setup" ] || { echo "shared_machine_check: $setup missing; run 'make build' first" >&2; exit 2; }

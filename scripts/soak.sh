@@ -5,8 +5,8 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 root="$(pwd)"
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-export PYTHONNOUSERSITE=1
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 export ROS_HOME="$root/log/ros_home"
 export ROS_LOG_DIR="$ROS_HOME/log"
 mkdir -p "$ROS_LOG_DIR" bench/results

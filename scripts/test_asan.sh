@@ -4,7 +4,8 @@
 # Ends with "N passed, N failed" (one per gtest executable) and the build and run times.
 set -uo pipefail
 cd "$(dirname "$0")/.."
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
 jobs=${JOBS:-2}
 ba=build_asan
 mkdir -p "$ba"

@@ -83,3 +83,25 @@ def test_missing_run_and_empty_run_are_named(tmp_path):
     (tmp_path / "empty").mkdir()
     result = _run(tmp_path / "empty")
     assert result.returncode == 2 and "no .dqnw files" in result.stderr
+
+
+def test_ranking_by_mean_then_upper_half(tmp_path):
+    # The ranking step alone, on hand-made evaluations: a tie on the mean is broken by the upper half of the
+    # counts; a missing evaluation is a clear error.
+    import json  # noqa: PLC0415
+
+    from dqn_dovs import select_model  # noqa: PLC0415
+
+    sel = tmp_path / "selection"
+    rates = {"c1": {3: 0.9, 4: 0.5}, "c2": {3: 0.5, 4: 0.9}, "c3": {3: 0.4, 4: 0.4}}
+    for c, per_n in rates.items():
+        (sel / c / "9").mkdir(parents=True)
+        (sel / c / "model_path").write_text(f"/runs/{c}.dqnw\n")
+        (sel / c / "aliases").write_text("")
+        (sel / c / "9" / "summary.json").write_text(json.dumps({f"success_{n}": r for n, r in per_n.items()}))
+    ranked = select_model.rank(select_model.read_candidates(str(sel), ["9"], [3, 4]), [3, 4])
+    assert [c.model for c in ranked] == ["/runs/c2.dqnw", "/runs/c1.dqnw", "/runs/c3.dqnw"]
+    assert select_model.main(["--selection", str(sel), "--seeds", "9", "--obstacles", "3-4", "--episodes", "1"]) == 0
+    assert (sel / "selection.csv").read_text().splitlines()[1].startswith("/runs/c2.dqnw,,0.7000,0.9000")
+    (sel / "c3" / "9" / "summary.json").unlink()
+    assert select_model.main(["--selection", str(sel), "--seeds", "9", "--obstacles", "3-4", "--episodes", "1"]) == 1
