@@ -11,6 +11,10 @@
 #include "conversions.h"
 #include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/dovs.h"
+#include "dqn_dovs/episode.h"
+#include "dqn_dovs/planners/dqn_dovs_planner.h"
+#include "dqn_dovs/sim/scenario.h"
+#include "dqn_dovs/state.h"
 #include "dqn_dovs/qnetwork.h"
 #include "../core/obstacle_test_helpers.h"
 #include "pipeline_steps.h"
@@ -149,6 +153,63 @@ TEST(PipelineSteps, ThePlannerRefusesStatesNormalisedOtherwiseThanItsModel) {
   none.state_normalization.clear();
   EXPECT_EQ(chooseAction(net, none, why), -1);
   EXPECT_NE(why.find("state_normalization has 0 values"), std::string::npos) << why;
+}
+
+// The decision step through the robot's path (the Dovs message dovs_node builds, then the planner's choice on it)
+// and through the evaluation's (DqnDovsPlanner on the Episode's context) makes the same choices, step by step, on
+// the same inputs: whole episodes with the LIDAR and the tracker in the loop, driven by the evaluation's choices.
+TEST(PipelineSteps, TheRobotsPathChoosesAsTheEvaluationDoes) {
+  const QNetwork net = shippedNetwork();
+  EpisodeConfig config;
+  Episode episode(config);
+  const RobotLimits& limits = config.world.robot;
+  DqnDovsConfig planner_config;
+  planner_config.model_path = std::string(DQN_DOVS_SOURCE_DIR) + "/models/dqn_dovs.dqnw";
+  planner_config.normalization = stateNormalization(limits, config.dovs);
+  DqnDovsPlanner planner(planner_config);
+  DovsBuilder builder(limits, config.dovs);
+  sim::GeneratorConfig generator;
+  generator.obstacle_count_min = 8;
+  generator.obstacle_count_max = 14;
+  int steps = 0, escapes = 0;
+  for (uint64_t seed = 1; seed <= 6; ++seed) {
+    episode.reset(sim::generateScenario(generator, seed), seed);
+    planner.reset();
+    while (!episode.done()) {
+      const PlannerDecision d = planner.decide(episode.plannerInput());
+      const Observation& obs = episode.observation();
+      TrackedObstacleArray msg = movingObstaclesToMsg(obs.obstacles, obs.segments);
+      msg.header.stamp = ros::Time(10.0 + 0.2 * steps);
+      msg.header.frame_id = "odom";
+      Step node;
+      ASSERT_EQ(buildDovsStep(msg, obs.robot_pose, obs.robot_twist, obs.goal, limits,
+                              stateNormalization(limits, config.dovs), planner_config.shield, "base_footprint",
+                              builder, node.space, node.step),
+                "");
+      // The same network input ...
+      ASSERT_EQ(node.step.msg.state.size(), static_cast<size_t>(episode.state().size()));
+      for (int i = 0; i < episode.state().size(); ++i) {
+        ASSERT_EQ(node.step.msg.state[static_cast<size_t>(i)], episode.state()[i]) << "seed " << seed << " input " << i;
+      }
+      // ... and the same choice: an action, or the shield's escape velocity.
+      std::string why;
+      const int a = chooseAction(net, node.step.msg, why);
+      ASSERT_EQ(why, "") << "seed " << seed << " step " << episode.steps();
+      if (d.action >= 0) {
+        ASSERT_EQ(a, d.action) << "seed " << seed << " step " << episode.steps() << ": " << d.note;
+      } else {
+        ASSERT_EQ(a, kEscapeChoice) << "seed " << seed << " step " << episode.steps() << ": " << d.note;
+        const Twist2 u = choiceVelocity(node.step.msg, a);
+        ASSERT_EQ(u.v, d.command.v);
+        ASSERT_EQ(u.w, d.command.w);
+        ++escapes;
+      }
+      episode.stepDecision(d);
+      ++steps;
+    }
+  }
+  EXPECT_GT(steps, 200);
+  EXPECT_GT(escapes, 0) << "the episodes never reached the escape: the comparison missed a path";
 }
 
 }  // namespace
