@@ -7,7 +7,7 @@ JOBS ?= 2
 BENCHES := sim tracker dovs inference training e2e eval-sdovs eval-dqn
 SOAK_SECONDS ?= 3600
 
-.PHONY: all setup build test check test-cpp test-python bench demo clean format help soak fuzz test-asan
+.PHONY: all setup build test check format-check test-cpp test-python bench demo clean format help soak fuzz test-asan
 all: build
 .PHONY: benchmark-table performance-report select-model
 
@@ -15,6 +15,7 @@ help:
 	@echo "make setup   install Debian ROS 1 packages and the Python venv (idempotent)"
 	@echo "make build   colcon build of the dqn_dovs package (+ the Python module)"
 	@echo "make test    every test: gtest, rostest, Python, fuzz regressions + 40 s per fuzz target"
+	@echo "make format-check  every C++ file formatted as .clang-format says (part of make test)"
 	@echo "make check   the edit loop: build, the gtests that need no ROS master and the Python tests but the training smoke run"
 	@echo "make fuzz    libFuzzer targets (fuzz/), FUZZ_SECONDS=600 each (make fuzz FUZZ_TARGETS=scenario for one)"
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
@@ -69,7 +70,10 @@ soak: build
 	@SOAK_SECONDS=$(SOAK_SECONDS) bash scripts/soak.sh
 
 format:
-	@find include src test bench tools -name '*.cpp' -o -name '*.h' | xargs clang-format -i
+	@find include src test bench tools fuzz \( -name '*.cpp' -o -name '*.h' \) -type f | xargs clang-format -i
+
+format-check: setup
+	@bash scripts/format_check.sh
 
 clean:
 	rm -rf build install log

@@ -22,8 +22,8 @@
 #include "dqn_dovs/qnetwork.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/sim/world.h"
-#include "dqn_dovs/weight_file.h"
 #include "dqn_dovs/state.h"
+#include "dqn_dovs/weight_file.h"
 
 namespace fs = std::filesystem;
 using namespace dqn_dovs;

@@ -70,7 +70,8 @@ inline void checkNetwork(const QNetwork& net, ByteStream& in) {
       }
     } catch (const QNetworkInputError& e) {
       // Documented: a non-finite state, or Q-values that came out non-finite (huge finite weights).
-      require(std::string(e.what()).find("Q-network") == 0, std::string("QNetworkInputError names the network: ") + e.what());
+      require(std::string(e.what()).find("Q-network") == 0,
+              std::string("QNetworkInputError names the network: ") + e.what());
     }
   }
 }
@@ -175,7 +176,8 @@ inline void scanTrackerOne(const std::uint8_t* data, std::size_t size) {
     if (r.status == TrackerStatus::kRejected) {
       require(!r.message.empty(), when + ": a rejection says why");
       require(tracker.trackCount() == tracks_before, when + ": a rejected scan leaves the tracks untouched");
-      require(r.scene.obstacles.size() == scene_before.obstacles.size(), when + ": a rejection reports the previous scene");
+      require(r.scene.obstacles.size() == scene_before.obstacles.size(),
+              when + ": a rejection reports the previous scene");
     } else {
       require(r.scene.stamp_s == scan.stamp_s, when + ": the scene has the scan's stamp");
       require(r.ignored_beams <= scan.ranges.size(), when + ": ignored beams <= beams");

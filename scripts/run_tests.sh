@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Runs every test (core gtests, rostests, Python tests, fuzz targets, core gtests under ASan) and ends with one
-# line "N passed, N failed".
+# Runs every test (core gtests, rostests, Python tests, C++ formatting, fuzz targets, core gtests under ASan) and
+# ends with one line "N passed, N failed".
 # Exits non-zero when any test fails or errors, or when no test ran.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -45,6 +45,14 @@ if ls test/python/test_*.py >/dev/null 2>&1; then
   py_fail=$((py_fail0 + py_err)); py_skip=$py_skip; py_pass=$((py_total - py_fail - py_skip))
 fi
 
+# Formatting of every C++ file (.clang-format; make format applies it): one test.
+echo "[test] C++ formatting (scripts/format_check.sh)"
+if bash scripts/format_check.sh >log/format.last.txt 2>&1; then
+  fmt_pass=1; fmt_fail=0; tail -n 1 log/format.last.txt
+else
+  fmt_pass=0; fmt_fail=1; head -n 30 log/format.last.txt
+fi
+
 # Fuzz targets (fuzz/, scripts/fuzz.sh): the committed crash inputs once, then a bounded fuzzing run per target.
 fz_seconds=${DQN_DOVS_FUZZ_SECONDS:-40}
 echo "[test] fuzz targets: regressions + ${fz_seconds} s of fuzzing each (scripts/fuzz.sh)"
@@ -65,7 +73,8 @@ if ! [[ "${as_pass:-}" =~ ^[0-9]+$ ]]; then
 fi
 
 c_pass=$((c_tests - c_fail - c_err - c_skip))
-passed=$((c_pass + py_pass + fz_pass + as_pass)); failed=$((c_fail + c_err + py_fail + fz_fail + as_fail))
+passed=$((c_pass + py_pass + fmt_pass + fz_pass + as_pass))
+failed=$((c_fail + c_err + py_fail + fmt_fail + fz_fail + as_fail))
 skipped=$((c_skip + py_skip))
 echo
 echo "$passed passed, $failed failed, $skipped skipped"

@@ -182,9 +182,10 @@ std::vector<std::pair<int, int>> trajectoryJobs(const EvalConfig& c, int n) {
   for (int i = 0; i < n && i < counts * c.episodes; ++i) {
     const int round = i / counts, slot = i % counts;
     const int per_round = std::min(n - round * counts, counts);
-    const int count = per_round <= 1 ? c.obstacles_min + (counts - 1) / 2
-                                     : c.obstacles_min + static_cast<int>(std::lround(
-                                                             static_cast<double>(slot) * (counts - 1) / (per_round - 1)));
+    const int count =
+        per_round <= 1 ? c.obstacles_min + (counts - 1) / 2
+                       : c.obstacles_min +
+                             static_cast<int>(std::lround(static_cast<double>(slot) * (counts - 1) / (per_round - 1)));
     out.emplace_back(count, 1 + round);
   }
   return out;
@@ -213,8 +214,9 @@ int run(const Options& o, const std::string& command) {
   const size_t total = scenarios.size() * config.methods.size();
   const size_t every = std::max<size_t>(1, total / 40);
   std::cerr << "dqn_dovs_eval: " << total << " episodes (" << config.methods.size() << " method(s) x "
-            << scenarios.size() << " scenarios), " << (config.episode.perfect_info ? "perfect information" : "tracker in the loop")
-            << ", " << config.threads << " thread(s)\n";
+            << scenarios.size() << " scenarios), "
+            << (config.episode.perfect_info ? "perfect information" : "tracker in the loop") << ", " << config.threads
+            << " thread(s)\n";
   auto progress = [&](const dqn_dovs::EpisodeRecord& r, size_t done, size_t all) {
     auto& [succ, eps] = running[r.method];
     succ += r.outcome == dqn_dovs::Outcome::Success ? 1 : 0;
@@ -226,8 +228,7 @@ int run(const Options& o, const std::string& command) {
     for (const std::string& m : config.methods) {
       const auto it = running.find(m);
       if (it == running.end() || it->second.second == 0) continue;
-      std::cerr << " " << m << " " << std::setprecision(3)
-                << static_cast<double>(it->second.first) / it->second.second;
+      std::cerr << " " << m << " " << std::setprecision(3) << static_cast<double>(it->second.first) / it->second.second;
     }
     std::cerr << "\n";
   };
@@ -242,7 +243,8 @@ int run(const Options& o, const std::string& command) {
                                           : "`" + config.scenarios_dir + "`")
          << "; obstacles " << config.obstacles_min << "-" << config.obstacles_max << ", " << config.episodes
          << " episodes each; dynamic fraction " << config.dynamic_fraction << "  \n"
-         << "Perception: " << (config.episode.perfect_info ? "perfect information (ground truth)" : "LIDAR + tracker in the loop")
+         << "Perception: "
+         << (config.episode.perfect_info ? "perfect information (ground truth)" : "LIDAR + tracker in the loop")
          << "; step " << config.episode.world.robot.dt << " s, limit " << config.episode.reward.max_steps
          << " steps  \nWall time: " << std::fixed << std::setprecision(1) << wall_s << " s on " << config.threads
          << " thread(s)";
@@ -269,7 +271,8 @@ int run(const Options& o, const std::string& command) {
     std::cout << std::setw(9) << label;
     for (const dqn_dovs::EvalCell& c : cells) {
       std::ostringstream cell;
-      cell << std::fixed << std::setprecision(2) << c.success_rate << " c" << c.collision_rate << " t" << c.timeout_rate;
+      cell << std::fixed << std::setprecision(2) << c.success_rate << " c" << c.collision_rate << " t"
+           << c.timeout_rate;
       std::cout << "  " << std::setw(22) << cell.str();
     }
     std::cout << "\n";

@@ -97,12 +97,12 @@ enum class ShieldLevel : int {
 
 /// How passively safe the escape velocity is, best first.
 enum class EscapeTier : int {
-  kFree = 0,       ///< statically safe, and a follow-up keeps every contact away over the horizon
-  kRest = 1,       ///< statically safe, and braking comes to rest before any contact
-  kSlowest = 2,    ///< statically safe, moving at a contact: the lowest speed at contact
-  kUnsafe = 3,     ///< nothing is statically safe: the most clearance to static geometry
-  kDodge = 4,      ///< statically safe, moving: a dodge that puts the contact off by dodge_advantage_s more than
-                   ///< any way to rest does (only with dodge_advantage_s >= 0)
+  kFree = 0,     ///< statically safe, and a follow-up keeps every contact away over the horizon
+  kRest = 1,     ///< statically safe, and braking comes to rest before any contact
+  kSlowest = 2,  ///< statically safe, moving at a contact: the lowest speed at contact
+  kUnsafe = 3,   ///< nothing is statically safe: the most clearance to static geometry
+  kDodge = 4,    ///< statically safe, moving: a dodge that puts the contact off by dodge_advantage_s more than
+                 ///< any way to rest does (only with dodge_advantage_s >= 0)
 };
 const char* escapeTierName(EscapeTier tier);
 

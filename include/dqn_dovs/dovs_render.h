@@ -29,6 +29,7 @@ struct DovsPlotFrame {
 /// Renders `dovs` with the action set, the current velocity and the chosen action (-1: none) highlighted, as a
 /// BGR image of size_px x size_px. Throws DovsError when size_px is below 64 or above 4096, or chosen_action is
 /// not in [-1, 7].
-cv::Mat renderDovs(const VelocitySpace& dovs, const ActionSet& actions, const Twist2& current, int chosen_action, int size_px);
+cv::Mat renderDovs(const VelocitySpace& dovs, const ActionSet& actions, const Twist2& current, int chosen_action,
+                   int size_px);
 
 }  // namespace dqn_dovs

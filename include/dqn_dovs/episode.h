@@ -23,25 +23,25 @@ namespace dqn_dovs {
 
 /// Reward and termination constants (DESIGN §7, the paper's values).
 struct RewardConfig {
-  double goal_reward = 15.0;          ///< terminal reward for reaching and stopping at the goal
-  double collision_reward = -15.0;    ///< terminal reward for a collision
-  double distance_weight = 2.5;       ///< r = -distance_weight * (d_goal(t) - d_goal(t-1))
-  double safe_distance_m = 0.2;       ///< clearance below which r_safe applies
-  double safe_weight = 0.1;           ///< r_safe = -safe_weight * |safe_distance_m - clearance|
-  double goal_tolerance_m = 0.15;     ///< success: distance to goal below this ...
-  double goal_speed_mps = 0.2;        ///< ... and linear speed below this
-  int max_steps = 500;                ///< decisions before the episode is truncated (timeout)
+  double goal_reward = 15.0;        ///< terminal reward for reaching and stopping at the goal
+  double collision_reward = -15.0;  ///< terminal reward for a collision
+  double distance_weight = 2.5;     ///< r = -distance_weight * (d_goal(t) - d_goal(t-1))
+  double safe_distance_m = 0.2;     ///< clearance below which r_safe applies
+  double safe_weight = 0.1;         ///< r_safe = -safe_weight * |safe_distance_m - clearance|
+  double goal_tolerance_m = 0.15;   ///< success: distance to goal below this ...
+  double goal_speed_mps = 0.2;      ///< ... and linear speed below this
+  int max_steps = 500;              ///< decisions before the episode is truncated (timeout)
   std::string validate() const;
 };
 
 struct EpisodeConfig {
-  sim::WorldConfig world;             ///< simulator (robot limits live in world.robot)
-  TrackerConfig tracker;              ///< obstacle tracker used when perfect_info is false
-  DovsConfig dovs;                    ///< velocity-space model
+  sim::WorldConfig world;  ///< simulator (robot limits live in world.robot)
+  TrackerConfig tracker;   ///< obstacle tracker used when perfect_info is false
+  DovsConfig dovs;         ///< velocity-space model
   RewardConfig reward;
-  double scan_period_s = 0.1;         ///< LIDAR period; must divide the control period world.robot.dt
-  bool perfect_info = false;          ///< true: the planner sees the simulator's ground truth (comparison only)
-  double sensor_warmup_s = 0.3;       ///< the robot senses this long, standing still, before the episode starts
+  double scan_period_s = 0.1;    ///< LIDAR period; must divide the control period world.robot.dt
+  bool perfect_info = false;     ///< true: the planner sees the simulator's ground truth (comparison only)
+  double sensor_warmup_s = 0.3;  ///< the robot senses this long, standing still, before the episode starts
   std::string validate() const;
 };
 
@@ -100,8 +100,8 @@ class Episode {
   PlannerInput plannerInput() const;
 
  private:
-  void sense();           // scan + tracker update at the current world time
-  void buildContext();    // observation -> DOVS, actions, state
+  void sense();         // scan + tracker update at the current world time
+  void buildContext();  // observation -> DOVS, actions, state
   // Runs one control period, moving the robot with `move_robot(dt_s)` at each scan, then scores it.
   StepResult advance(const std::function<void(double)>& move_robot);
 

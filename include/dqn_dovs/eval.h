@@ -129,12 +129,12 @@ struct EvalCell {
   double mean_time_success_s = 0.0;  ///< NaN when no episode succeeded
   /// Sum of this method's times over the sum of the reference's times, on episodes both solved; NaN when none.
   double time_ratio = 0.0;
-  int both_solved = 0;             ///< episodes behind time_ratio
-  double danger_frequency = 0.0;   ///< danger steps / steps, over all episodes
-  double mean_min_clearance_m = 0.0;  ///< mean over episodes of the smallest clearance
-  int static_collisions = 0;       ///< collisions with static geometry (must be 0)
-  int rest_collisions = 0;         ///< collisions with the robot at rest
-  int moving_collisions = 0;       ///< collisions with the robot moving into a moving obstacle
+  int both_solved = 0;                  ///< episodes behind time_ratio
+  double danger_frequency = 0.0;        ///< danger steps / steps, over all episodes
+  double mean_min_clearance_m = 0.0;    ///< mean over episodes of the smallest clearance
+  int static_collisions = 0;            ///< collisions with static geometry (must be 0)
+  int rest_collisions = 0;              ///< collisions with the robot at rest
+  int moving_collisions = 0;            ///< collisions with the robot moving into a moving obstacle
   double mean_contact_speed_mps = 0.0;  ///< robot speed at contact over the collisions; NaN when none
   double p95_contact_speed_mps = 0.0;   ///< its 95th percentile (nearest rank); NaN when none
 };

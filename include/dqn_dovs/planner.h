@@ -25,15 +25,15 @@ class PlannerError : public std::runtime_error {
 /// are built once per decision by the caller (episode runner or ROS node) and shared by all planners.
 struct PlannerInput {
   const Observation* observation = nullptr;  ///< fixed-frame view of the world (tracked or true obstacles)
-  const VelocitySpace* dovs = nullptr;                ///< the dynamic object velocity space at this instant
+  const VelocitySpace* dovs = nullptr;       ///< the dynamic object velocity space at this instant
   const ActionSet* actions = nullptr;        ///< the 8 dynamic-window actions and their mask
   const Eigen::VectorXf* state = nullptr;    ///< the 408-float network state (may be null for classic planners)
   RobotLimits limits;
 };
 
 struct PlannerDecision {
-  Twist2 command;   ///< velocity to reach by the end of the control period (inside the dynamic window)
-  int action = -1;  ///< index into the action set when the planner chose one of the 8 actions, else -1
+  Twist2 command;    ///< velocity to reach by the end of the control period (inside the dynamic window)
+  int action = -1;   ///< index into the action set when the planner chose one of the 8 actions, else -1
   std::string note;  ///< short human-readable reason (strategy name, fallback cause)
   /// Set only by planners of a holonomic robot (`orca_holonomic`): the fixed-frame velocity (vx, vy) in m/s to
   /// hold for the control period. Episode::stepDecision executes it with World::stepHolonomic; every other

@@ -3,8 +3,8 @@
 #pragma once
 
 #include <array>
-#include <vector>
 #include <string>
+#include <vector>
 
 #include "dqn_dovs/geometry.h"
 
@@ -18,12 +18,12 @@ struct Twist2 {
 
 /// Kinodynamic limits of the robot. Every planner, the simulator and the DOVS read the same struct.
 struct RobotLimits {
-  double v_max = 0.7;          ///< Maximum forward speed, m/s. Reverse is not allowed (v >= 0).
-  double w_max = kPi;          ///< Maximum turn rate magnitude at v = 0, rad/s.
-  double a_v = 0.5;            ///< Linear acceleration limit, m/s^2 (both signs).
-  double a_w = 2.0;            ///< Angular acceleration limit, rad/s^2 (both signs).
-  double dt = 0.2;             ///< Control period, s.
-  double radius = 0.2;         ///< Robot footprint radius, m.
+  double v_max = 0.7;   ///< Maximum forward speed, m/s. Reverse is not allowed (v >= 0).
+  double w_max = kPi;   ///< Maximum turn rate magnitude at v = 0, rad/s.
+  double a_v = 0.5;     ///< Linear acceleration limit, m/s^2 (both signs).
+  double a_w = 2.0;     ///< Angular acceleration limit, rad/s^2 (both signs).
+  double dt = 0.2;      ///< Control period, s.
+  double radius = 0.2;  ///< Robot footprint radius, m.
 
   /// Empty string when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;

@@ -37,8 +37,8 @@ class LocalScene {
     const Pose2& pose = obs.robot_pose;
     for (const MovingObstacle& m : obs.obstacles) {
       // Non-finite tracks are the DOVS's business (it refuses them); the roll-outs just leave them out.
-      if (!m.center.allFinite() || !std::isfinite(m.radius) || !std::isfinite(m.heading) ||
-          !std::isfinite(m.speed) || !std::isfinite(m.turn_rate)) {
+      if (!m.center.allFinite() || !std::isfinite(m.radius) || !std::isfinite(m.heading) || !std::isfinite(m.speed) ||
+          !std::isfinite(m.turn_rate)) {
         continue;
       }
       LocalObstacle o;
@@ -70,7 +70,8 @@ class LocalScene {
   /// Surface-to-surface clearance (true radii) of the robot at q at time t; `collides` is set when q is inside
   /// an inflated obstacle or wall band.
   double clearance(const Vec2& q, double t, bool& collides) const {
-    return clearanceWith(q, [&](size_t j) { return obstacles_[j].at(t); }, collides);
+    return clearanceWith(
+        q, [&](size_t j) { return obstacles_[j].at(t); }, collides);
   }
 
   /// clearance() with the obstacle centres given by at(j) (j indexes obstacles()), e.g. precomputed ones.
@@ -148,8 +149,8 @@ class SampledScene {
 
   /// rollOutSwitching on the sampled times. A roll-out whose least clearance falls below give_up_below_m is
   /// abandoned there (`abandoned` set; its figures are then only bounds): for searches that need no more.
-  Rollout rollOutSwitching(const Twist2& u1, double switch_s, const Twist2& u2, Contact contact,
-                           double give_up_below_m, bool& abandoned) const;
+  Rollout rollOutSwitching(const Twist2& u1, double switch_s, const Twist2& u2, Contact contact, double give_up_below_m,
+                           bool& abandoned) const;
 
  private:
   // An obstacle at one sampled time, or a wall. key = (distance from the robot's start) - (inflated contact
@@ -167,10 +168,10 @@ class SampledScene {
   const LocalScene& scene_;
   double horizon_s_, step_s_;
   int steps_;
-  double start_clearance_m_;   // the robot's clearance where it stands, once for every roll-out
+  double start_clearance_m_;  // the robot's clearance where it stands, once for every roll-out
   bool start_inflated_ = false;
-  size_t row_size_ = 0;        // obstacles + walls
-  std::vector<Item> items_;    // steps x row_size_, row k - 1 at t_k, each row sorted by key
+  size_t row_size_ = 0;      // obstacles + walls
+  std::vector<Item> items_;  // steps x row_size_, row k - 1 at t_k, each row sorted by key
 };
 
 }  // namespace dqn_dovs

@@ -17,13 +17,13 @@ namespace dqn_dovs {
 
 /// Ways a command can leave the envelope (bit flags of EnvelopeResult::violations).
 enum EnvelopeViolation : uint32_t {
-  kEnvelopeNotFinite = 1u << 0,      ///< v or w is NaN or infinite
-  kEnvelopeReverse = 1u << 1,        ///< v < 0
-  kEnvelopeOverSpeed = 1u << 2,      ///< v > v_max
-  kEnvelopeTriangle = 1u << 3,       ///< |w| > w_max (1 - v / v_max)
-  kEnvelopeLinearAccel = 1u << 4,    ///< |v - v_prev| > a_v dt
-  kEnvelopeAngularAccel = 1u << 5,   ///< |w - w_prev| > a_w dt
-  kEnvelopeBadPrevious = 1u << 6,    ///< the previous command itself was infeasible (it is clipped first)
+  kEnvelopeNotFinite = 1u << 0,     ///< v or w is NaN or infinite
+  kEnvelopeReverse = 1u << 1,       ///< v < 0
+  kEnvelopeOverSpeed = 1u << 2,     ///< v > v_max
+  kEnvelopeTriangle = 1u << 3,      ///< |w| > w_max (1 - v / v_max)
+  kEnvelopeLinearAccel = 1u << 4,   ///< |v - v_prev| > a_v dt
+  kEnvelopeAngularAccel = 1u << 5,  ///< |w - w_prev| > a_w dt
+  kEnvelopeBadPrevious = 1u << 6,   ///< the previous command itself was infeasible (it is clipped first)
 };
 
 /// Human-readable list of the flags set in `violations` ("" when none), e.g. "linear acceleration, triangle".

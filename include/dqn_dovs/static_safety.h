@@ -70,8 +70,8 @@ class StaticScene {
 
 /// The braking trajectory of one command (see the file comment).
 struct BrakingPath {
-  bool safe = true;                ///< never closer than the margin to static geometry (see clearance_m)
-  double min_clearance_m = 0.0;    ///< least static clearance over the trajectory (+inf: nothing near), m
+  bool safe = true;              ///< never closer than the margin to static geometry (see clearance_m)
+  double min_clearance_m = 0.0;  ///< least static clearance over the trajectory (+inf: nothing near), m
 };
 
 /// The braking trajectory of command u from velocity `current` (robot frame at the observation instant).

@@ -55,8 +55,8 @@ struct DecisionHooks {
 
 /// Messages for the adapter's log: level, text, and the minimum interval between two messages of that key (0: always).
 enum class SupervisorLog { kInfo, kWarn };
-using SupervisorLogSink = std::function<void(SupervisorLog level, const std::string& key, const std::string& text,
-                                             double throttle_s)>;
+using SupervisorLogSink =
+    std::function<void(SupervisorLog level, const std::string& key, const std::string& text, double throttle_s)>;
 
 /// A clock step seen by checkClock().
 enum class ClockJump { kNone, kForward, kBackward };

@@ -46,8 +46,8 @@ struct TrackedObstacle {
   /// Covariance of the filter state [x, y, heading, speed, turn_rate].
   Eigen::Matrix<double, 5, 5> covariance = Eigen::Matrix<double, 5, 5>::Identity();
   bool is_static = false;
-  double age_s = 0.0;      ///< time since the track was born
-  int hits = 0;            ///< number of measurements associated so far
+  double age_s = 0.0;  ///< time since the track was born
+  int hits = 0;        ///< number of measurements associated so far
 
   MovingObstacle toMovingObstacle() const {
     MovingObstacle m;

@@ -134,9 +134,12 @@ std::string setShieldParameter(ActionShieldConfig& config, const std::string& na
         auto& target = fieldOf(config, member);
         using T = std::decay_t<decltype(target)>;
         if constexpr (std::is_same_v<T, bool>) {
-          if (value == "true" || value == "1") target = true;
-          else if (value == "false" || value == "0") target = false;
-          else return "'" + name + "': '" + value + "' is not true or false";
+          if (value == "true" || value == "1")
+            target = true;
+          else if (value == "false" || value == "0")
+            target = false;
+          else
+            return "'" + name + "': '" + value + "' is not true or false";
         } else {
           const std::optional<double> x = number();
           if (!x) return "'" + name + "': '" + value + "' is not a number";
@@ -234,9 +237,9 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
 // The braking trajectory of u (static_safety.h) against the moving obstacles of `scene`: where the robot first
 // touches one (true radii) while still moving faster than rest_speed_mps, and at what speed.
 struct BrakingContact {
-  bool contact = false;      ///< a true contact while moving
-  double speed_mps = 0.0;    ///< the robot's speed there
-  double time_s = 0.0;       ///< when
+  bool contact = false;                                          ///< a true contact while moving
+  double speed_mps = 0.0;                                        ///< the robot's speed there
+  double time_s = 0.0;                                           ///< when
   double clearance_m = std::numeric_limits<double>::infinity();  ///< least clearance while moving (to contact)
 };
 
@@ -391,7 +394,6 @@ Escape searchEscapeTiered(const Observation& observation, const RobotLimits& lim
 
 namespace {
 
-
 Escape searchEscape(const Observation& observation, const RobotLimits& limits, double safety_factor,
                     const ActionShieldConfig& config) {
   const LocalScene scene(observation, limits.radius, safety_factor);
@@ -459,8 +461,8 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
           const double below_best = best.ttc >= horizon - 1e-9 ? best.clearance - 1e-3 - 1e-9 : kNone;
           const double below_own = ttc >= horizon - 1e-9 ? clearance : kNone;
           bool abandoned = false;
-          const Rollout r = sampled.rollOutSwitching(u1, limits.dt, u2, Contact::kTrue,
-                                                     std::max(below_best, below_own), abandoned);
+          const Rollout r =
+              sampled.rollOutSwitching(u1, limits.dt, u2, Contact::kTrue, std::max(below_best, below_own), abandoned);
           if (abandoned) continue;
           const double t = std::min(r.collision_time_s, horizon);
           if (t > ttc + 1e-9 || (t > ttc - 1e-9 && r.min_clearance_m > clearance)) {
@@ -473,8 +475,8 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
       if (ttc < 0.0) continue;  // every follow-up abandoned: u1 cannot beat the best
       const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
       const bool better = ttc > best.ttc + 1e-9 ||
-                          (ttc > best.ttc - 1e-9 && (clearance > best.clearance + 1e-3 ||
-                                                     (clearance > best.clearance - 1e-3 && g < best.goal)));
+                          (ttc > best.ttc - 1e-9 &&
+                           (clearance > best.clearance + 1e-3 || (clearance > best.clearance - 1e-3 && g < best.goal)));
       if (better) best = Best{true, ttc, clearance, g, u1};
     }
     return best;
@@ -513,8 +515,9 @@ Escape searchEscape(const Observation& observation, const RobotLimits& limits, d
     const Twist2& u1 = candidates[k];
     const double ttc = follow_ttc[k], c = braking[k].clearance_m;
     const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
-    const bool better = ttc > rest_ttc + 1e-9 ||
-                        (ttc > rest_ttc - 1e-9 && (c > rest_clearance + 1e-3 || (c > rest_clearance - 1e-3 && g < rest_goal)));
+    const bool better =
+        ttc > rest_ttc + 1e-9 ||
+        (ttc > rest_ttc - 1e-9 && (c > rest_clearance + 1e-3 || (c > rest_clearance - 1e-3 && g < rest_goal)));
     if (!rest_found || better) {
       rest_found = true;
       rest_ttc = ttc;

@@ -66,7 +66,8 @@ std::string DovsConfig::validate() const {
 
 IntervalRange VelocitySpace::unsafeIntervals(int i) const {
   const size_t r = static_cast<size_t>(i);
-  if (i < 0 || r + 1 >= interval_begin_.size()) throw DovsError("VelocitySpace::unsafeIntervals: trajectory index out of range");
+  if (i < 0 || r + 1 >= interval_begin_.size())
+    throw DovsError("VelocitySpace::unsafeIntervals: trajectory index out of range");
   return {intervals_.data() + interval_begin_[r], intervals_.data() + interval_begin_[r + 1]};
 }
 

@@ -38,7 +38,8 @@ bool DovsPlotFrame::inPlot(int x, int y) const {
   return x >= margin_px && y >= margin_px && x < size_px - margin_px && y < size_px - margin_px;
 }
 
-cv::Mat renderDovs(const VelocitySpace& dovs, const ActionSet& actions, const Twist2& current, int chosen_action, int size_px) {
+cv::Mat renderDovs(const VelocitySpace& dovs, const ActionSet& actions, const Twist2& current, int chosen_action,
+                   int size_px) {
   if (size_px < 64 || size_px > 4096) {
     std::ostringstream os;
     os << "renderDovs: size_px = " << size_px << " must be in [64, 4096]";

@@ -9,14 +9,22 @@ namespace dqn_dovs {
 
 std::string RewardConfig::validate() const {
   std::ostringstream os;
-  if (!(goal_reward > 0.0)) os << "reward.goal_reward must be > 0";
-  else if (!(collision_reward < 0.0)) os << "reward.collision_reward must be < 0";
-  else if (!(distance_weight >= 0.0)) os << "reward.distance_weight must be >= 0";
-  else if (!(safe_distance_m >= 0.0)) os << "reward.safe_distance_m must be >= 0";
-  else if (!(safe_weight >= 0.0)) os << "reward.safe_weight must be >= 0";
-  else if (!(goal_tolerance_m > 0.0)) os << "reward.goal_tolerance_m must be > 0";
-  else if (!(goal_speed_mps > 0.0)) os << "reward.goal_speed_mps must be > 0";
-  else if (max_steps < 1) os << "reward.max_steps must be >= 1";
+  if (!(goal_reward > 0.0))
+    os << "reward.goal_reward must be > 0";
+  else if (!(collision_reward < 0.0))
+    os << "reward.collision_reward must be < 0";
+  else if (!(distance_weight >= 0.0))
+    os << "reward.distance_weight must be >= 0";
+  else if (!(safe_distance_m >= 0.0))
+    os << "reward.safe_distance_m must be >= 0";
+  else if (!(safe_weight >= 0.0))
+    os << "reward.safe_weight must be >= 0";
+  else if (!(goal_tolerance_m > 0.0))
+    os << "reward.goal_tolerance_m must be > 0";
+  else if (!(goal_speed_mps > 0.0))
+    os << "reward.goal_speed_mps must be > 0";
+  else if (max_steps < 1)
+    os << "reward.max_steps must be >= 1";
   return os.str();
 }
 
@@ -37,10 +45,14 @@ std::string EpisodeConfig::validate() const {
 
 const char* outcomeName(Outcome o) {
   switch (o) {
-    case Outcome::Running: return "running";
-    case Outcome::Success: return "success";
-    case Outcome::Collision: return "collision";
-    case Outcome::Timeout: return "timeout";
+    case Outcome::Running:
+      return "running";
+    case Outcome::Success:
+      return "success";
+    case Outcome::Collision:
+      return "collision";
+    case Outcome::Timeout:
+      return "timeout";
   }
   return "unknown";
 }
@@ -149,7 +161,8 @@ StepResult Episode::stepAction(int a) {
 }
 
 StepResult Episode::step(const Twist2& command) {
-  if (done()) throw std::logic_error("episode: step() after the episode ended (" + std::string(outcomeName(outcome_)) + ")");
+  if (done())
+    throw std::logic_error("episode: step() after the episode ended (" + std::string(outcomeName(outcome_)) + ")");
   const Twist2 target = clipToWindow(world_.robotTwist(), command, config_.world.robot);
   return advance([&](double dt_s) { world_.step(target, dt_s); });
 }

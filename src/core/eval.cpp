@@ -90,7 +90,8 @@ std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config) {
           throw EvalError("generated scenario (seed " + std::to_string(config.seed) + ", " + std::to_string(n) +
                           " obstacles, episode " + std::to_string(k) + "): " + e.what());
         }
-        s.scenario.name = "generated/" + std::to_string(config.seed) + "/" + std::to_string(n) + "/" + std::to_string(k);
+        s.scenario.name =
+            "generated/" + std::to_string(config.seed) + "/" + std::to_string(n) + "/" + std::to_string(k);
       }
       out.push_back(std::move(s));
     }
@@ -106,7 +107,8 @@ struct Worker {
   std::unique_ptr<Episode> episode;
 };
 
-EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, const EvalScenario& s, bool keep_paths) {
+EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, const EvalScenario& s,
+                     bool keep_paths) {
   Planner& planner = *w.planners[method_index];
   Episode& ep = *w.episode;
   planner.reset();
@@ -120,7 +122,8 @@ EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, 
   auto recordObstacles = [&]() {
     if (!keep_paths) return;
     const auto& obs = ep.world().obstacles();
-    for (size_t i = 0; i < obs.size() && i < r.obstacle_paths.size(); ++i) r.obstacle_paths[i].push_back(obs[i].body.center);
+    for (size_t i = 0; i < obs.size() && i < r.obstacle_paths.size(); ++i)
+      r.obstacle_paths[i].push_back(obs[i].body.center);
   };
   recordObstacles();
   const RobotLimits& limits = ep.config().world.robot;
@@ -173,7 +176,8 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
   auto work = [&]() {
     Worker w;
     try {
-      for (const std::string& m : config.methods) w.planners.push_back(makePlanner(m, config.model_path, &config.shield));
+      for (const std::string& m : config.methods)
+        w.planners.push_back(makePlanner(m, config.model_path, &config.shield));
       w.episode = std::make_unique<Episode>(config.episode);
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex);
@@ -341,8 +345,8 @@ EvalSummary summarize(const std::vector<EpisodeRecord>& records, const std::stri
   std::vector<Accumulator> all(nm);
   for (const EpisodeRecord& r : records) {
     const size_t m = static_cast<size_t>(std::find(s.methods.begin(), s.methods.end(), r.method) - s.methods.begin());
-    const size_t c = static_cast<size_t>(
-        std::find(s.obstacle_counts.begin(), s.obstacle_counts.end(), r.obstacles) - s.obstacle_counts.begin());
+    const size_t c = static_cast<size_t>(std::find(s.obstacle_counts.begin(), s.obstacle_counts.end(), r.obstacles) -
+                                         s.obstacle_counts.begin());
     const auto it = ref.find({r.obstacles, r.episode});
     const EpisodeRecord* rr = it == ref.end() ? nullptr : it->second;
     acc[m][c].add(r, rr);
@@ -403,8 +407,10 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
     // The note is free text: commas become semicolons and quotes and line breaks spaces, so the row stays plain.
     std::string note = r.last_decision;
     for (char& ch : note) {
-      if (ch == ',') ch = ';';
-      else if (ch == '"' || ch == '\n' || ch == '\r') ch = ' ';
+      if (ch == ',')
+        ch = ';';
+      else if (ch == '"' || ch == '\n' || ch == '\r')
+        ch = ' ';
     }
     out << ',' << note << '\n';
   }

@@ -16,7 +16,7 @@ const cv::Scalar kBlack(0, 0, 0), kGrey(200, 200, 200), kDarkGrey(110, 110, 110)
 
 /// Distinguishable line colours (BGR), cycled through by method / obstacle index.
 cv::Scalar palette(size_t i) {
-  static const cv::Scalar colours[] = {{180, 119, 31}, {14, 127, 255}, {44, 160, 44},  {40, 39, 214},
+  static const cv::Scalar colours[] = {{180, 119, 31},  {14, 127, 255}, {44, 160, 44},   {40, 39, 214},
                                        {189, 103, 148}, {75, 86, 140},  {194, 119, 227}, {127, 127, 127},
                                        {34, 189, 188},  {207, 190, 23}};
   return colours[i % (sizeof(colours) / sizeof(colours[0]))];
@@ -142,8 +142,9 @@ void plotTrajectory(const EpisodeRecord& record, const sim::Scenario& scenario, 
   cv::line(img, px(end.position()), px(end.position() + 0.3 * Vec2(std::cos(end.theta), std::sin(end.theta))),
            robot_colour, 2, cv::LINE_AA);
 
-  text(img, record.method + "  scenario " + record.scenario + "  " + outcomeName(record.outcome) + " after " +
-                fixed(record.time_s, 1) + " s",
+  text(img,
+       record.method + "  scenario " + record.scenario + "  " + outcomeName(record.outcome) + " after " +
+           fixed(record.time_s, 1) + " s",
        {left, 30}, 0.6, kBlack, 2);
   const int lx = left + room_px + 20;
   int ly = top + 20;

@@ -1,7 +1,7 @@
-#include "dqn_dovs/planners/dqn_dovs_planner.h"
-
 #include <cmath>
 #include <sstream>
+
+#include "dqn_dovs/planners/dqn_dovs_planner.h"
 
 namespace dqn_dovs {
 
@@ -27,7 +27,8 @@ std::shared_ptr<const QNetwork> loadNetwork(const DqnDovsConfig& config) {
   } catch (const std::exception& e) {
     throw PlannerError("DQN-DOVS: cannot load the Q-network '" + config.model_path + "': " + e.what());
   }
-  const std::string mismatch = net->normalizationMismatch(config.normalization.fields(), config.normalization_tolerance);
+  const std::string mismatch =
+      net->normalizationMismatch(config.normalization.fields(), config.normalization_tolerance);
   if (!mismatch.empty()) {
     throw PlannerError("DQN-DOVS: the Q-network '" + config.model_path +
                        "' was trained with another state normalisation: " + mismatch);
@@ -61,7 +62,8 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
     shield_level = shielded.level;
     if (shielded.has_escape) {
       // Boxed in: the shield's escape velocity, not an action.
-      if (!std::isfinite(shielded.escape.v) || !std::isfinite(shielded.escape.w)) return decelerate("escape is not finite");
+      if (!std::isfinite(shielded.escape.v) || !std::isfinite(shielded.escape.w))
+        return decelerate("escape is not finite");
       decision.command = shielded.escape;
       decision.action = -1;
       decision.note = std::string("escape (shield: ") + shieldLevelName(shielded.level) + ", " +
@@ -81,7 +83,8 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
   decision.command = u;
   decision.action = a;
   decision.note = "action " + std::to_string(a);
-  if (shield_level != ShieldLevel::kDisabled) decision.note += std::string(" (shield: ") + shieldLevelName(shield_level) + ")";
+  if (shield_level != ShieldLevel::kDisabled)
+    decision.note += std::string(" (shield: ") + shieldLevelName(shield_level) + ")";
   return decision;
 }
 

@@ -1,11 +1,10 @@
-#include "dqn_dovs/planners/s_dovs.h"
-
-#include "dqn_dovs/rollout.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
+
+#include "dqn_dovs/planners/s_dovs.h"
+#include "dqn_dovs/rollout.h"
 
 namespace dqn_dovs {
 
@@ -97,7 +96,8 @@ TargetCost targetCost(const LocalScene& scene, const Twist2& u, const Twist2& cu
     bool collides = false;
     const double c = scene.clearance(p.position(), t, collides);
     if (collides && (!start_inside || c < start_clearance - 1e-3)) {
-      if (t <= commit_s + 1e-9) out.cost_s = cfg.lookahead_s + remainingTime(last_safe, goal, limits, cfg.turn_cost_factor);
+      if (t <= commit_s + 1e-9)
+        out.cost_s = cfg.lookahead_s + remainingTime(last_safe, goal, limits, cfg.turn_cost_factor);
       break;
     }
     out.min_clearance_m = std::min(out.min_clearance_m, c);
@@ -110,7 +110,8 @@ TargetCost targetCost(const LocalScene& scene, const Twist2& u, const Twist2& cu
       out.cost_s = std::min(out.cost_s, t + remainingTime(p, goal, limits, cfg.turn_cost_factor));
     }
   }
-  if (!std::isfinite(out.cost_s)) out.cost_s = cfg.lookahead_s + remainingTime(last_safe, goal, limits, cfg.turn_cost_factor);
+  if (!std::isfinite(out.cost_s))
+    out.cost_s = cfg.lookahead_s + remainingTime(last_safe, goal, limits, cfg.turn_cost_factor);
   out.cost_s += reach_s;
   if (out.min_clearance_m < cfg.comfort_clearance_m) {
     out.cost_s += cfg.clearance_penalty_s_per_m * (cfg.comfort_clearance_m - std::max(out.min_clearance_m, -1.0));
@@ -171,11 +172,10 @@ double SDovsPlanner::brakingSpeedCap(double d_goal_m, const RobotLimits& limits)
   if (!std::isfinite(d_goal_m)) return 0.0;
   const double beyond = std::max(0.0, d_goal_m - config_.arrival_distance_m);
   const double v_arrive = std::min(config_.arrival_speed_mps, d_goal_m > config_.arrival_distance_m
-                                                                   ? config_.arrival_speed_mps
-                                                                   : config_.arrival_speed_mps * d_goal_m /
-                                                                         std::max(config_.arrival_distance_m, 1e-9));
-  return std::min(limits.v_max,
-                  std::sqrt(v_arrive * v_arrive + 2.0 * config_.braking_fraction * limits.a_v * beyond));
+                                                                  ? config_.arrival_speed_mps
+                                                                  : config_.arrival_speed_mps * d_goal_m /
+                                                                        std::max(config_.arrival_distance_m, 1e-9));
+  return std::min(limits.v_max, std::sqrt(v_arrive * v_arrive + 2.0 * config_.braking_fraction * limits.a_v * beyond));
 }
 
 std::vector<Twist2> SDovsPlanner::windowSamples(const Twist2& current, const RobotLimits& limits) const {
@@ -259,7 +259,8 @@ PlannerDecision SDovsPlanner::plan(const PlannerInput& input) const {
 
   // (c) Escape: (nearly) boxed in. Hold the window velocity that collides latest, then the one keeping most
   // clearance, then the one closest to the goal direction.
-  const double free_fraction = samples.empty() ? 0.0 : static_cast<double>(num_free) / static_cast<double>(samples.size());
+  const double free_fraction =
+      samples.empty() ? 0.0 : static_cast<double>(num_free) / static_cast<double>(samples.size());
   if (num_free == 0 || free_fraction < config_.escape_free_fraction) {
     double best_ttc = -1.0, best_clearance = -std::numeric_limits<double>::infinity(),
            best_goal = std::numeric_limits<double>::infinity();

@@ -1,11 +1,12 @@
 #include "dqn_dovs/qnetwork.h"
-#include "dqn_dovs/sim/random.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
 #include <sstream>
+
+#include "dqn_dovs/sim/random.h"
 
 namespace dqn_dovs {
 

@@ -21,7 +21,9 @@ std::string RobotLimits::validate() const {
   return {};
 }
 
-double RobotLimits::wLimitAt(double v) const { return std::max(0.0, w_max * (1.0 - std::clamp(v, 0.0, v_max) / v_max)); }
+double RobotLimits::wLimitAt(double v) const {
+  return std::max(0.0, w_max * (1.0 - std::clamp(v, 0.0, v_max) / v_max));
+}
 
 bool RobotLimits::feasible(const Twist2& t, double tol) const {
   if (!std::isfinite(t.v) || !std::isfinite(t.w)) return false;
@@ -113,4 +115,3 @@ Twist2 applyAccelerationLimits(const Twist2& current, const Twist2& command, con
 }
 
 }  // namespace dqn_dovs
-

@@ -19,7 +19,10 @@ namespace {
 class PathSampler {
  public:
   PathSampler(const Twist2& u1, double switch_s, const Twist2& u2, double step_s)
-      : u1_(u1), u2_(u2), switch_s_(switch_s), step_s_(step_s),
+      : u1_(u1),
+        u2_(u2),
+        switch_s_(switch_s),
+        step_s_(step_s),
         at_switch_(integrateUnicycle(Pose2{}, u1.v, u1.w, switch_s)) {}
 
   /// The position at the next sample time t (called for k = 1, 2, ... in order); `regular` says that t is
@@ -34,8 +37,8 @@ class PathSampler {
       c_ = c;
     } else {
       const Twist2& u = phase == 1 ? u1_ : u2_;
-      const Pose2 p = phase == 1 ? integrateUnicycle(Pose2{}, u.v, u.w, t)
-                                 : integrateUnicycle(at_switch_, u.v, u.w, t - switch_s_);
+      const Pose2 p =
+          phase == 1 ? integrateUnicycle(Pose2{}, u.v, u.w, t) : integrateUnicycle(at_switch_, u.v, u.w, t - switch_s_);
       x_ = p.x;
       y_ = p.y;
       c_ = std::cos(p.theta);
@@ -112,13 +115,13 @@ Rollout rollOutSwitching(const LocalScene& scene, const Twist2& u1, double switc
   const double start_clearance = scene.clearance(Vec2::Zero(), 0.0, start_inflated);
   return rollOutLoop(start_clearance, start_inflated, u1, switch_s, u2, horizon_s, step_s, contact,
                      -std::numeric_limits<double>::infinity(), abandoned,
-                     [&](const Vec2& q, int, double t, bool& inflated) {
-                       return scene.clearance(q, t, inflated);
-                     });
+                     [&](const Vec2& q, int, double t, bool& inflated) { return scene.clearance(q, t, inflated); });
 }
 
 SampledScene::SampledScene(const LocalScene& scene, double horizon_s, double step_s)
-    : scene_(scene), horizon_s_(horizon_s), step_s_(step_s),
+    : scene_(scene),
+      horizon_s_(horizon_s),
+      step_s_(step_s),
       steps_(static_cast<int>(std::ceil(horizon_s / step_s - 1e-9))),
       start_clearance_m_(scene.clearance(Vec2::Zero(), 0.0, start_inflated_)) {
   const std::vector<LocalObstacle>& obstacles = scene.obstacles();

@@ -125,8 +125,9 @@ Scenario parseDovsScenario(const unsigned char* data, size_t size, const std::st
     checkInside(row[0], row[1], describeRow(r));
     if (std::abs(row[3]) > kMaxScenarioSpeedMps || std::abs(row[4]) > kMaxScenarioTurnRateRadps) {
       std::ostringstream os;
-      os << describeRow(r) << " motion v = " << row[3] << " m/s, w = " << row[4] << " rad/s exceeds the limits |v| <= "
-         << kMaxScenarioSpeedMps << " m/s, |w| <= " << kMaxScenarioTurnRateRadps << " rad/s";
+      os << describeRow(r) << " motion v = " << row[3] << " m/s, w = " << row[4]
+         << " rad/s exceeds the limits |v| <= " << kMaxScenarioSpeedMps << " m/s, |w| <= " << kMaxScenarioTurnRateRadps
+         << " rad/s";
       fail(path, os.str());
     }
     MovingObstacle o;

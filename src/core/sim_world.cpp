@@ -231,7 +231,8 @@ bool World::checkCollision() {
   }
   for (size_t i = 0; i < walls_.size(); ++i) {
     if (pointSegmentDistance(p, walls_[i]) < r) {
-      if (!collided()) collision_ = {CollisionInfo::Kind::Wall, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), true};
+      if (!collided())
+        collision_ = {CollisionInfo::Kind::Wall, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), true};
       return true;
     }
   }

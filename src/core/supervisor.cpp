@@ -242,8 +242,8 @@ RampCommand Supervisor::ramp(double now_s, const DecisionHooks& hooks) {
   }
   // The time this command may take credit for: the node clock since the last published command (0 when the
   // clock went backwards), capped.
-  const double dt = !last_publish_s_ ? 1.0 / config_.ramp_rate_hz
-                                     : std::clamp(now_s - *last_publish_s_, 0.0, kMaxRampStepS);
+  const double dt =
+      !last_publish_s_ ? 1.0 / config_.ramp_rate_hz : std::clamp(now_s - *last_publish_s_, 0.0, kMaxRampStepS);
   const Twist2 next = applyAccelerationLimits(envelope_.last(), target_, config_.limits, dt);
   const bool still = next.v == 0.0 && next.w == 0.0;
   idle_zero_messages_ = still ? idle_zero_messages_ + 1 : 0;
@@ -256,8 +256,8 @@ RampCommand Supervisor::ramp(double now_s, const DecisionHooks& hooks) {
     const EnvelopeResult checked = envelope_.filter(next, dt);
     if (checked.modified()) {
       std::ostringstream os;
-      os << "cmd_vel outside the safety envelope (" << envelope_.corrected() << " so far): "
-         << envelope_.lastCorrection();
+      os << "cmd_vel outside the safety envelope (" << envelope_.corrected()
+         << " so far): " << envelope_.lastCorrection();
       log(SupervisorLog::kWarn, "envelope", os.str(), 1.0);
     }
     command_ = checked.command;

@@ -15,24 +15,22 @@ std::string laserScanFromMsg(const sensor_msgs::LaserScan& msg, LaserScan2& out,
     return "scan angle_min / angle_max / angle_increment is not finite";
   }
   if (std::abs(msg.angle_increment) < 1e-9) return "scan angle_increment is zero";
-  if (!std::isfinite(msg.range_max) || msg.range_max <= 0.0f || !std::isfinite(msg.range_min) ||
-      msg.range_min < 0.0f || msg.range_min >= msg.range_max) {
+  if (!std::isfinite(msg.range_max) || msg.range_max <= 0.0f || !std::isfinite(msg.range_min) || msg.range_min < 0.0f ||
+      msg.range_min >= msg.range_max) {
     why << "scan range limits are invalid (range_min " << msg.range_min << ", range_max " << msg.range_max << ")";
     return why.str();
   }
   const double span = static_cast<double>(msg.angle_increment) * static_cast<double>(msg.ranges.size() - 1);
   if (std::abs(span) > 2.0 * kPi + 1e-3) {
-    why << "scan has " << msg.ranges.size() << " beams of " << msg.angle_increment
-        << " rad: more than one turn";
+    why << "scan has " << msg.ranges.size() << " beams of " << msg.angle_increment << " rad: more than one turn";
     return why.str();
   }
   // The angles must describe the ranges: angle_max = angle_min + (n - 1) angle_increment, give or take a beam
   // (drivers differ on whether angle_max is the last beam's angle or one increment past it).
   const double described = (static_cast<double>(msg.angle_max) - msg.angle_min) / msg.angle_increment + 1.0;
   if (!(std::abs(described - static_cast<double>(msg.ranges.size())) <= 1.01)) {
-    why << "scan has " << msg.ranges.size() << " ranges but its angles (angle_min " << msg.angle_min
-        << ", angle_max " << msg.angle_max << ", angle_increment " << msg.angle_increment << ") describe "
-        << described << " beams";
+    why << "scan has " << msg.ranges.size() << " ranges but its angles (angle_min " << msg.angle_min << ", angle_max "
+        << msg.angle_max << ", angle_increment " << msg.angle_increment << ") describe " << described << " beams";
     return why.str();
   }
   out.stamp_s = msg.header.stamp.toSec();

@@ -34,7 +34,7 @@ std::string observationObstaclesFromMsg(const TrackedObstacleArray& msg, std::ve
                                         std::vector<Segment>& segments);
 
 /// Cylinders, id labels and velocity arrows for rviz (namespace `ns`); deletes stale markers first.
-visualization_msgs::MarkerArray obstacleMarkers(const TrackedObstacleArray& msg, const std::string& ns,
-                                                float r, float g, float b);
+visualization_msgs::MarkerArray obstacleMarkers(const TrackedObstacleArray& msg, const std::string& ns, float r,
+                                                float g, float b);
 
 }  // namespace dqn_dovs

@@ -38,8 +38,8 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   odom_sub_ = nh_.subscribe("odom", 10, &DovsNode::onOdom, this, ros::TransportHints().tcpNoDelay());
   goal_sub_ = nh_.subscribe("move_base_simple/goal", 2, &DovsNode::onGoal, this);
   action_sub_ = nh_.subscribe("planner/action", 2, &DovsNode::onChosenAction, this);
-  ROS_INFO("dovs: robot frame '%s' in '%s', %d trajectories, horizon %.1f s", base_frame_.c_str(),
-           fixed_frame_.c_str(), builder_.config().num_trajectories, builder_.config().time_horizon_s);
+  ROS_INFO("dovs: robot frame '%s' in '%s', %d trajectories, horizon %.1f s", base_frame_.c_str(), fixed_frame_.c_str(),
+           builder_.config().num_trajectories, builder_.config().time_horizon_s);
 }
 
 void DovsNode::onOdom(const nav_msgs::Odometry::ConstPtr& msg) {

@@ -41,7 +41,7 @@ class DovsNode {
   ActionShieldConfig shield_;
   VelocitySpace dovs_;
 
-  std::optional<Vec2> goal_;         // in fixed_frame_
+  std::optional<Vec2> goal_;  // in fixed_frame_
   nav_msgs::Odometry last_odom_;
   bool have_odom_ = false;
   int chosen_action_ = -1;

@@ -13,7 +13,8 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   TrackerConfig c;
   const std::string p = "tracker/";
   c.cluster_distance_base_m = param<double>(pnh, p + "cluster_distance_base", c.cluster_distance_base_m);
-  c.cluster_distance_beam_factor = param<double>(pnh, p + "cluster_distance_beam_factor", c.cluster_distance_beam_factor);
+  c.cluster_distance_beam_factor =
+      param<double>(pnh, p + "cluster_distance_beam_factor", c.cluster_distance_beam_factor);
   c.min_cluster_points = param<int>(pnh, p + "min_cluster_points", c.min_cluster_points);
   c.segment_min_length_m = param<double>(pnh, p + "segment_min_length", c.segment_min_length_m);
   c.max_circle_radius_m = param<double>(pnh, p + "max_circle_radius", c.max_circle_radius_m);
@@ -58,8 +59,8 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
 
   geometry_msgs::TransformStamped tf;
   try {
-    tf = tf_buffer_.lookupTransform(fixed_frame_, msg->header.frame_id, msg->header.stamp,
-                                    ros::Duration(tf_timeout_s_));
+    tf =
+        tf_buffer_.lookupTransform(fixed_frame_, msg->header.frame_id, msg->header.stamp, ros::Duration(tf_timeout_s_));
   } catch (const tf2::TransformException& e) {
     ROS_WARN_THROTTLE(2.0, "obstacle_tracker: no transform %s <- %s at the scan time: %s", fixed_frame_.c_str(),
                       msg->header.frame_id.c_str(), e.what());

@@ -1,9 +1,9 @@
 #include "pipeline_steps.h"
 
-#include "conversions.h"
-
 #include <cmath>
 #include <stdexcept>
+
+#include "conversions.h"
 
 namespace dqn_dovs {
 
@@ -124,7 +124,8 @@ std::string staticObservationFromDovs(const Dovs& dovs, const std::string& fixed
     if (!std::isfinite(x)) return "dovs static_discs has NaN/inf";
   }
   const auto& s = dovs.static_segments;
-  for (size_t i = 0; i + 3 < s.size(); i += 4) out.segments.push_back(Segment{Vec2(s[i], s[i + 1]), Vec2(s[i + 2], s[i + 3])});
+  for (size_t i = 0; i + 3 < s.size(); i += 4)
+    out.segments.push_back(Segment{Vec2(s[i], s[i + 1]), Vec2(s[i + 2], s[i + 3])});
   const auto& d = dovs.static_discs;
   for (size_t i = 0; i + 2 < d.size(); i += 3) {
     MovingObstacle m;
@@ -160,8 +161,10 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
   std::vector<std::pair<std::string, float>> used = expected;
   for (size_t i = 0; i < used.size(); ++i) used[i].second = dovs.state_normalization[i];
   if (const std::string mismatch = network.normalizationMismatch(used, 1e-4f); !mismatch.empty()) {
-    why = "planner error: the dovs states are normalised differently from the model's training (check robot/* and "
-          "dovs/obstacle_range of dovs_node): " + mismatch;
+    why =
+        "planner error: the dovs states are normalised differently from the model's training (check robot/* and "
+        "dovs/obstacle_range of dovs_node): " +
+        mismatch;
     return -1;
   }
   // An action whose velocity is NaN/inf cannot be commanded (clipping it into the feasible set would turn it

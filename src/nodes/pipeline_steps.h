@@ -37,8 +37,9 @@ struct DovsStep {
 /// dovs_node's step after the odom and transform checks: builds the observation (the odom velocity clipped
 /// into the feasible set; without a goal, the goal is the robot's own position), the velocity space, the
 /// actions and the Dovs message, whose action_valid is the mask the network chooses under: the validity mask
-/// narrowed by the action shield (action_shield.h; the shield's level goes into `out.shield_level`). Returns why the obstacles were dropped (NaN fields, non-positive radius),
-/// else "". Throws (DovsError, ActionError, StateError) when the core rejects the observation.
+/// narrowed by the action shield (action_shield.h; the shield's level goes into `out.shield_level`). Returns why the
+/// obstacles were dropped (NaN fields, non-positive radius), else "". Throws (DovsError, ActionError, StateError) when
+/// the core rejects the observation.
 std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
                           const StateNormalization& normalization, const ActionShieldConfig& shield,

@@ -6,7 +6,6 @@
 #include <std_msgs/Int8.h>
 #include <tf2/exceptions.h>
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
-
 #include <unistd.h>
 
 #include <algorithm>
@@ -157,12 +156,12 @@ std::string PlannerNode::scanFault(const sensor_msgs::LaserScan& msg) {
   const std::string malformed = laserScanFromMsg(msg, scan);
   if (!malformed.empty()) return malformed;
   if (msg.header.stamp.isZero()) return "scan has no stamp";
-  const size_t nan = static_cast<size_t>(std::count_if(msg.ranges.begin(), msg.ranges.end(),
-                                                       [](float r) { return std::isnan(r); }));
+  const size_t nan =
+      static_cast<size_t>(std::count_if(msg.ranges.begin(), msg.ranges.end(), [](float r) { return std::isnan(r); }));
   if (static_cast<double>(nan) > scan_max_nan_fraction_ * static_cast<double>(msg.ranges.size())) {
     std::ostringstream os;
-    os << nan << " of " << msg.ranges.size() << " beams are NaN (parameter scan_max_nan_fraction = "
-       << scan_max_nan_fraction_ << ")";
+    os << nan << " of " << msg.ranges.size()
+       << " beams are NaN (parameter scan_max_nan_fraction = " << scan_max_nan_fraction_ << ")";
     return os.str();
   }
   std::string tf_error;

@@ -61,7 +61,8 @@ RobotGeometry readRobotGeometry(const std::string& urdf_xml, const std::string& 
   }
   urdf::Pose laser;
   if (!poseInAncestor(*model, laser_frame, base_frame, laser)) {
-    throw RobotDescriptionError("link '" + laser_frame + "' is not below '" + base_frame + "' in the robot description");
+    throw RobotDescriptionError("link '" + laser_frame + "' is not below '" + base_frame +
+                                "' in the robot description");
   }
   double roll, pitch, yaw;
   laser.rotation.getRPY(roll, pitch, yaw);

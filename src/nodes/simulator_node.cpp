@@ -110,9 +110,8 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   cmd_sub_ = nh_.subscribe("cmd_vel", 5, &SimulatorNode::onCmdVel, this, ros::TransportHints().tcpNoDelay());
   reset_srv_ = pnh_.advertiseService("reset", &SimulatorNode::onReset, this);
   load_srv_ = pnh_.advertiseService("load_scenario", &SimulatorNode::onLoadScenario, this);
-  ROS_INFO("simulator: scenario '%s' with %zu obstacles, step %.3f s, scan every %.3f s%s",
-           scenario_.name.c_str(), scenario_.obstacles.size(), period_s_, scan_period_s_,
-           publish_clock_ ? ", publishing /clock" : "");
+  ROS_INFO("simulator: scenario '%s' with %zu obstacles, step %.3f s, scan every %.3f s%s", scenario_.name.c_str(),
+           scenario_.obstacles.size(), period_s_, scan_period_s_, publish_clock_ ? ", publishing /clock" : "");
 }
 
 ros::Time SimulatorNode::simNow() const {
@@ -121,7 +120,7 @@ ros::Time SimulatorNode::simNow() const {
 }
 
 void SimulatorNode::loadScenario(const sim::Scenario& scenario, uint64_t seed) {
-  if (world_) clock_offset_s_ += world_->time_s() + period_s_;  // time never goes backwards across resets
+  if (world_) clock_offset_s_ += world_->time_s() + period_s_;          // time never goes backwards across resets
   if (clock_offset_s_ == 0.0 && publish_clock_) clock_offset_s_ = 1.0;  // ros::Time(0) means "unset"
   scenario_ = scenario;
   seed_ = seed;

@@ -49,7 +49,7 @@ class SimulatorNode {
   Twist2 command_;
   double command_stamp_s_ = -1e9;  // sim time of the last cmd_vel
   double next_scan_s_ = 0.0;
-  double clock_offset_s_ = 0.0;    // sim time = offset + world time (keeps time monotonic across resets)
+  double clock_offset_s_ = 0.0;  // sim time = offset + world time (keeps time monotonic across resets)
   bool collided_reported_ = false;
 
   ros::Subscriber cmd_sub_;

@@ -138,9 +138,9 @@ class VecEnv {
           // Boxed in, the shield's escape velocity is what runs (as the planner does on the robot), whatever
           // the action; otherwise a masked action falls back to "keep" (always valid; the trainer never sends one).
           esc[i] = env.has_escape;
-          const StepResult r = env.has_escape ? ep.step(env.escape)
+          const StepResult r = env.has_escape                                 ? ep.step(env.escape)
                                : ep.actions().valid[static_cast<size_t>(act)] ? ep.stepAction(act)
-                                                                               : ep.stepAction(kActionKeep);
+                                                                              : ep.stepAction(kActionKeep);
           rw[i] = static_cast<float>(r.reward);
           te[i] = r.terminated;
           tr[i] = r.truncated;
@@ -259,12 +259,13 @@ PYBIND11_MODULE(_core, m) {
   m.attr("NUM_ACTIONS") = kNumActions;
   m.def("shield_parameter_names", &shieldParameterNames,
         "Every action shield parameter name (config/dovs.yaml action_shield/*, config/static_safety.yaml).");
-  m.def("default_shield_parameters", [] { return shieldParameterMap(ActionShieldConfig{}); },
-        "The C++ defaults of the shield's parameters (what dqn_dovs_eval runs without --shield).");
+  m.def(
+      "default_shield_parameters", [] { return shieldParameterMap(ActionShieldConfig{}); },
+      "The C++ defaults of the shield's parameters (what dqn_dovs_eval runs without --shield).");
   py::class_<VecEnv>(m, "VecEnv")
-      .def(py::init<int, uint64_t, bool, int, bool, const std::map<std::string, std::string>&>(),
-           py::arg("num_envs"), py::arg("seed"), py::arg("perfect_info") = false, py::arg("threads") = 0,
-           py::arg("action_shield") = false, py::arg("shield_parameters") = std::map<std::string, std::string>{})
+      .def(py::init<int, uint64_t, bool, int, bool, const std::map<std::string, std::string>&>(), py::arg("num_envs"),
+           py::arg("seed"), py::arg("perfect_info") = false, py::arg("threads") = 0, py::arg("action_shield") = false,
+           py::arg("shield_parameters") = std::map<std::string, std::string>{})
       .def("shield_parameters", &VecEnv::shieldParameters,
            "The action shield's parameters as the environments run them (name -> value as text).")
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),

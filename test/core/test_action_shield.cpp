@@ -81,8 +81,10 @@ TEST(ActionShield, NothingSafeKeepsTheActionsThatCollideLatest) {
   for (size_t i = 0; i < m.mask.size(); ++i) {
     if (!s.actions.valid[i]) continue;
     const double t = std::min(rollOut(local, s.actions.velocities[i], 3.0, 0.1).collision_time_s, 3.0);
-    if (m.mask[i]) worst_kept = std::min(worst_kept, t);
-    else best_dropped = std::max(best_dropped, t);
+    if (m.mask[i])
+      worst_kept = std::min(worst_kept, t);
+    else
+      best_dropped = std::max(best_dropped, t);
   }
   EXPECT_GE(worst_kept, best_dropped - config.last_resort_tolerance_s - 1e-9);
 }
@@ -97,7 +99,8 @@ TEST(ActionShield, RandomScenesKeepOnlySafeActionsAndNeverEmptyTheMask) {
     const int n = static_cast<int>(u01(rng) * 8);
     for (int i = 0; i < n; ++i) {
       const double r = 0.6 + 3.0 * u01(rng), a = (u01(rng) * 2 - 1) * kPi;
-      obstacles.push_back(movingDisc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi, u01(rng) < 0.3 ? 0.0 : u01(rng)));
+      obstacles.push_back(
+          movingDisc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi, u01(rng) < 0.3 ? 0.0 : u01(rng)));
     }
     const double v = u01(rng) * limits.v_max;
     const double w = (u01(rng) * 2 - 1) * limits.w_max * (1 - v / limits.v_max);
@@ -147,8 +150,8 @@ TEST(ActionShield, BoxedInEscapePutsTheTrueContactOffAtLeastAsLongAsAnyAction) {
       for (int j = -1; j <= 1; ++j) {
         const Twist2 u2{u1.v + i * limits.dv(), u1.w + j * limits.dw()};
         if (!limits.feasible(u2, 1e-9)) continue;
-        best = std::max(best, std::min(3.0, rollOutSwitching(local, u1, limits.dt, u2, 3.0, 0.1, Contact::kTrue)
-                                                .collision_time_s));
+        best = std::max(
+            best, std::min(3.0, rollOutSwitching(local, u1, limits.dt, u2, 3.0, 0.1, Contact::kTrue).collision_time_s));
       }
     }
     return best;
@@ -207,7 +210,7 @@ Twist2 escapeByFullSearch(const Observation& obs, const ActionShieldConfig& conf
     }
     const double g = (integrateUnicycle(Pose2{}, u1.v, u1.w, limits.dt).position() - goal).norm();
     if (ttc > best_ttc + 1e-9 || (ttc > best_ttc - 1e-9 && (clearance > best_clearance + 1e-3 ||
-                                                           (clearance > best_clearance - 1e-3 && g < best_goal)))) {
+                                                            (clearance > best_clearance - 1e-3 && g < best_goal)))) {
       best_ttc = ttc;
       best_clearance = clearance;
       best_goal = g;
@@ -228,8 +231,8 @@ Observation crowd(std::mt19937& rng) {
   const int n = 4 + static_cast<int>(u01(rng) * 12);
   for (int i = 0; i < n; ++i) {
     const double r = 0.5 + 2.0 * u01(rng), a = (u01(rng) * 2 - 1) * kPi;
-    MovingObstacle o = movingDisc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi,
-                                  u01(rng) < 0.2 ? 0.0 : 1.2 * u01(rng));
+    MovingObstacle o =
+        movingDisc(r * std::cos(a), r * std::sin(a), (u01(rng) * 2 - 1) * kPi, u01(rng) < 0.2 ? 0.0 : 1.2 * u01(rng));
     if (u01(rng) < 0.3) o.turn_rate = u01(rng) * 2 - 1;
     obs.obstacles.push_back(o);
   }
@@ -280,7 +283,7 @@ TEST(ActionShield, EscapeSearchAbandonsNothingThatCouldWin) {
     for (int n : {2, 5}) {
       ActionShieldConfig config;
       config.escape_window_samples = n;
-      config.passive_escape = false;    // the full search below is the latest-contact order ...
+      config.passive_escape = false;   // the full search below is the latest-contact order ...
       config.statics.enabled = false;  // ... over the whole window
       const Twist2 fast = escapeVelocity(obs, RobotLimits{}, DovsConfig{}.safety_factor, config);
       const Twist2 full = escapeByFullSearch(obs, config);

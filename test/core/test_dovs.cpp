@@ -200,7 +200,7 @@ TEST(VelocitySpace, TurningObstacleMatchesBruteForceAlongTrajectories) {
 
 TEST(VelocitySpace, ObstaclesOutOfRangeAreIgnored) {
   const VelocitySpace d = buildDovs(sceneWith({disc(4.5, 0.0, 0.2, kPi, 1.2)}, {Segment{{5.0, -1.0}, {5.0, 1.0}}}),
-                           RobotLimits{}, DovsConfig{});
+                                    RobotLimits{}, DovsConfig{});
   EXPECT_EQ(d.numObstaclesInModel(), 0);
   EXPECT_FALSE(d.closestObstacle().found);
   for (int i = 0; i < d.numTrajectories(); ++i) EXPECT_TRUE(d.unsafeIntervals(i).empty());

@@ -48,12 +48,13 @@ TEST(Eval, TinyRunIsCompleteAndIndependentOfThreadCount) {
   }
 
   size_t calls = 0, last_done = 0;
-  const std::vector<EpisodeRecord> a = runEvaluation(one, scenarios, [&](const EpisodeRecord&, size_t done, size_t total) {
-    ++calls;
-    EXPECT_EQ(total, 8u);
-    EXPECT_EQ(done, last_done + 1);
-    last_done = done;
-  });
+  const std::vector<EpisodeRecord> a =
+      runEvaluation(one, scenarios, [&](const EpisodeRecord&, size_t done, size_t total) {
+        ++calls;
+        EXPECT_EQ(total, 8u);
+        EXPECT_EQ(done, last_done + 1);
+        last_done = done;
+      });
   const std::vector<EpisodeRecord> b = runEvaluation(two, scenarios);
   EXPECT_EQ(calls, 8u);
   ASSERT_EQ(a.size(), 8u);
@@ -122,12 +123,11 @@ EpisodeRecord rec(const std::string& m, int n, int k, Outcome o, double t, int d
 
 TEST(Eval, SummaryMathsOnHandBuiltRecords) {
   const std::vector<EpisodeRecord> records = {
-      rec("ref", 1, 1, Outcome::Success, 10.0), rec("ref", 1, 2, Outcome::Success, 20.0),
-      rec("ref", 1, 3, Outcome::Collision, 3.0), rec("ref", 1, 4, Outcome::Timeout, 100.0),
-      rec("ref", 2, 1, Outcome::Success, 8.0),
-      rec("m", 1, 1, Outcome::Success, 15.0, 2, 10), rec("m", 1, 2, Outcome::Collision, 5.0, 4, 10),
-      rec("m", 1, 3, Outcome::Success, 30.0, 0, 20), rec("m", 1, 4, Outcome::Success, 40.0, 0, 10),
-      rec("m", 2, 1, Outcome::Timeout, 100.0, 0, 500)};
+      rec("ref", 1, 1, Outcome::Success, 10.0),       rec("ref", 1, 2, Outcome::Success, 20.0),
+      rec("ref", 1, 3, Outcome::Collision, 3.0),      rec("ref", 1, 4, Outcome::Timeout, 100.0),
+      rec("ref", 2, 1, Outcome::Success, 8.0),        rec("m", 1, 1, Outcome::Success, 15.0, 2, 10),
+      rec("m", 1, 2, Outcome::Collision, 5.0, 4, 10), rec("m", 1, 3, Outcome::Success, 30.0, 0, 20),
+      rec("m", 1, 4, Outcome::Success, 40.0, 0, 10),  rec("m", 2, 1, Outcome::Timeout, 100.0, 0, 500)};
   const EvalSummary s = summarize(records, "ref");
   ASSERT_EQ(s.methods, (std::vector<std::string>{"ref", "m"}));
   ASSERT_EQ(s.obstacle_counts, (std::vector<int>{1, 2}));

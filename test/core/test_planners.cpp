@@ -47,7 +47,8 @@ TEST(SDovs, ReachesAndStopsOnTheGoalInAnEmptyRoom) {
     Vec2 goal;
   };
   // Ahead, to the side, and behind the robot (it must turn first).
-  const Case cases[] = {{{-3.0, 0.0, 0.0}, {3.0, 0.5}}, {{-2.0, -2.0, 0.0}, {-1.0, 2.5}}, {{2.0, 0.0, 0.0}, {-2.5, -1.0}}};
+  const Case cases[] = {
+      {{-3.0, 0.0, 0.0}, {3.0, 0.5}}, {{-2.0, -2.0, 0.0}, {-1.0, 2.5}}, {{2.0, 0.0, 0.0}, {-2.5, -1.0}}};
   for (const Case& c : cases) {
     Episode ep(perfectInfo());
     ep.reset(emptyRoom(c.start, c.goal), 1);

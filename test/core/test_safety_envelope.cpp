@@ -161,9 +161,9 @@ TEST(SafetyEnvelope, CorrectionIsTheNearestAdmissibleCommandAndNaNBrakes) {
       for (int b = 0; b <= n; ++b) {
         const Twist2 c{prev.v + (2.0 * a / n - 1.0) * l.a_v * dt, prev.w + (2.0 * b / n - 1.0) * l.a_w * dt};
         if (!admissible(prev, c, l, dt)) continue;
-        ASSERT_GE(dist(c), d_out - 1e-9) << "case " << i << ": (" << c.v << ", " << c.w << ") is admissible and nearer to ("
-                                         << cmd.v << ", " << cmd.w << ") than the output (" << r.command.v << ", "
-                                         << r.command.w << ")";
+        ASSERT_GE(dist(c), d_out - 1e-9) << "case " << i << ": (" << c.v << ", " << c.w
+                                         << ") is admissible and nearer to (" << cmd.v << ", " << cmd.w
+                                         << ") than the output (" << r.command.v << ", " << r.command.w << ")";
       }
     }
     if (nan) {

@@ -57,8 +57,8 @@ TEST(StaticSafety, FastTowardAWallIsUnsafeAndBrakingIsSafe) {
   ASSERT_EQ(scene.size(), 1u);
   EXPECT_NEAR(scene.clearance(Vec2::Zero()), 0.60, 1e-12);
   const BrakingPath faster = brakingPath(scene, obs.robot_twist, {0.6, 0.0}, limits, config);
-  const BrakingPath brake = brakingPath(scene, obs.robot_twist, decelerationCommand(obs.robot_twist, limits), limits,
-                                        config);
+  const BrakingPath brake =
+      brakingPath(scene, obs.robot_twist, decelerationCommand(obs.robot_twist, limits), limits, config);
   EXPECT_FALSE(faster.safe);
   EXPECT_TRUE(brake.safe);
   EXPECT_LT(faster.min_clearance_m, brake.min_clearance_m);
@@ -150,7 +150,8 @@ Twist2 adversarialCommand(const Observation& obs, DovsBuilder& builder, const Ac
   double worst = std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < actions.velocities.size(); ++i) {
     if (!m.mask[i]) continue;
-    const double sc = score(integrateUnicycle(obs.robot_pose, actions.velocities[i].v, actions.velocities[i].w, ahead_s));
+    const double sc =
+        score(integrateUnicycle(obs.robot_pose, actions.velocities[i].v, actions.velocities[i].w, ahead_s));
     if (sc < worst) {
       worst = sc;
       command = actions.velocities[i];

@@ -1,8 +1,6 @@
 // The planner's supervision without ROS: every transition of the goal life cycle, the input watchdog (each input
 // stale, missing, rejected, future-stamped), the clock-jump latch, the ramp within the acceleration limits and
 // the idle silence, and the deadline accounting.
-#include "dqn_dovs/supervisor.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,15 +8,18 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/supervisor.h"
+
 namespace dqn_dovs {
 namespace {
 
 // A robot whose inputs the test sets: fresh scan, odom and velocity space at time t, pose at the origin, and a
 // decision that drives at 0.5 m/s.
 struct Rig {
-  Rig() : supervisor(config(), [this](SupervisorLog, const std::string& key, const std::string& text, double) {
-    logs.push_back(key + ": " + text);
-  }) {
+  Rig()
+      : supervisor(config(), [this](SupervisorLog, const std::string& key, const std::string& text, double) {
+          logs.push_back(key + ": " + text);
+        }) {
     hooks.robot_pose = [this](double) {
       RobotPoseLookup p;
       p.error = pose_error;
@@ -130,16 +131,17 @@ TEST(Supervisor, WatchdogNamesEachInputFault) {
   const std::vector<Case> cases = {
       {"scan is stale or missing", [](Rig& r, double t) { r.supervisor.scan(t - 1.0, ""); }},
       {"scan is stamped in the future", [](Rig& r, double t) { r.supervisor.scan(t + 1.0, ""); }},
-      {"odom rejected: odom twist has NaN/inf", [](Rig& r, double t) { r.supervisor.odom(t, "odom twist has NaN/inf"); }},
+      {"odom rejected: odom twist has NaN/inf",
+       [](Rig& r, double t) { r.supervisor.odom(t, "odom twist has NaN/inf"); }},
       {"odom is stale or missing", [](Rig& r, double t) { r.supervisor.odom(t - 0.6, ""); }},
       {"odom is stamped in the future", [](Rig& r, double t) { r.supervisor.odom(t + 0.6, ""); }},
       {"dovs is stale or missing", [](Rig& r, double t) { r.supervisor.space(t - 0.6); }},
       {"dovs is stamped in the future", [](Rig& r, double t) { r.supervisor.space(t + 0.6); }},
-      {"no transform odom <- base_footprint", [](Rig& r, double) { r.pose_error = "no transform odom <- base_footprint"; }},
+      {"no transform odom <- base_footprint",
+       [](Rig& r, double) { r.pose_error = "no transform odom <- base_footprint"; }},
       {"robot transform is stale", [](Rig& r, double t) { r.pose_stamp = t - 0.6; }},
       {"robot transform is stamped in the future", [](Rig& r, double t) { r.pose_stamp = t + 0.6; }},
-      {"robot transform has NaN/inf",
-       [](Rig& r, double) { r.pose.theta = std::numeric_limits<double>::quiet_NaN(); }},
+      {"robot transform has NaN/inf", [](Rig& r, double) { r.pose.theta = std::numeric_limits<double>::quiet_NaN(); }},
   };
   for (const Case& c : cases) {
     Rig r;
@@ -252,13 +254,14 @@ TEST(Supervisor, DeadlinesAreCountedOutsideClockFaults) {
   Rig r;
   r.supervisor.checkClock(1.0);
   r.supervisor.controlPeriod(1.0, 0.01, r.hooks, 0.0);
-  r.supervisor.controlPeriod(1.2, 0.15, r.hooks, 0.0);  // more than half of the 0.2 s period late
+  r.supervisor.controlPeriod(1.2, 0.15, r.hooks, 0.0);          // more than half of the 0.2 s period late
   r.supervisor.controlPeriod(1.4, std::nullopt, r.hooks, 0.0);  // unknown: not counted
   EXPECT_EQ(r.supervisor.controlPeriods(), 2u);
   EXPECT_EQ(r.supervisor.deadlineMisses(), 1u);
   EXPECT_DOUBLE_EQ(r.supervisor.maxLateness(), 0.15);
   bool logged = false;
-  for (const std::string& l : r.logs) logged = logged || l.rfind("deadline: control period started 0.15 s late", 0) == 0;
+  for (const std::string& l : r.logs)
+    logged = logged || l.rfind("deadline: control period started 0.15 s late", 0) == 0;
   EXPECT_TRUE(logged);
   r.supervisor.checkClock(1.4);
   r.supervisor.checkClock(9.0);  // a forward jump: periods are not counted until it is recovered from

@@ -168,12 +168,23 @@ class World {
     s.scan_time = 0.1f;
     s.ranges.assign(beams, std::numeric_limits<float>::infinity());  // open space: no return
     switch (fault) {
-      case ScanFault::kNone: break;
-      case ScanFault::kNaN: s.ranges.assign(beams, std::numeric_limits<float>::quiet_NaN()); break;
-      case ScanFault::kInfField: s.angle_increment = std::numeric_limits<float>::infinity(); break;
-      case ScanFault::kEmpty: s.ranges.clear(); break;
-      case ScanFault::kWrongSize: s.ranges.resize(100); break;
-      case ScanFault::kUnknownFrame: s.header.frame_id = "no_such_laser"; break;
+      case ScanFault::kNone:
+        break;
+      case ScanFault::kNaN:
+        s.ranges.assign(beams, std::numeric_limits<float>::quiet_NaN());
+        break;
+      case ScanFault::kInfField:
+        s.angle_increment = std::numeric_limits<float>::infinity();
+        break;
+      case ScanFault::kEmpty:
+        s.ranges.clear();
+        break;
+      case ScanFault::kWrongSize:
+        s.ranges.resize(100);
+        break;
+      case ScanFault::kUnknownFrame:
+        s.header.frame_id = "no_such_laser";
+        break;
     }
     return s;
   }
@@ -258,10 +269,10 @@ class World {
 /// One measured stop, for the summary (and bench/results/faults.json).
 struct StopFigure {
   std::string fault;
-  double v = 0.0, w = 0.0;         // command at the fault
-  double stop_s = -1.0;            // fault -> first zero command
-  double bound_s = 0.0;            // max(v / a_v, |w| / a_w) + 0.2
-  std::string reason;              // planner/status
+  double v = 0.0, w = 0.0;  // command at the fault
+  double stop_s = -1.0;     // fault -> first zero command
+  double bound_s = 0.0;     // max(v / a_v, |w| / a_w) + 0.2
+  std::string reason;       // planner/status
 };
 
 class PipelineFaults : public ::testing::Test {
@@ -326,8 +337,8 @@ class PipelineFaults : public ::testing::Test {
     g.pose.position.y = p.y + 5.0 * std::sin(p.theta);
     g.pose.orientation.w = 1.0;
     goal_pub_->publish(g);
-    const bool moving = waitFor(
-        [] { return lastStatus().state == PlannerStatus::ACTIVE && world_->lastCommand().v >= 0.4; }, 25.0);
+    const bool moving =
+        waitFor([] { return lastStatus().state == PlannerStatus::ACTIVE && world_->lastCommand().v >= 0.4; }, 25.0);
     ASSERT_TRUE(moving) << "the pipeline does not drive: state " << int(lastStatus().state) << " ("
                         << lastStatus().reason << "), last v " << world_->lastCommand().v;
   }
@@ -393,8 +404,8 @@ class PipelineFaults : public ::testing::Test {
       EXPECT_EQ(c.v, 0.0) << name;
       EXPECT_EQ(c.w, 0.0) << name;
     }
-    std::cout << "[fault] " << std::left << std::setw(22) << name << " v " << std::fixed << std::setprecision(3)
-              << f.v << " m/s, w " << f.w << " rad/s: zero after " << f.stop_s << " s (bound " << f.bound_s
+    std::cout << "[fault] " << std::left << std::setw(22) << name << " v " << std::fixed << std::setprecision(3) << f.v
+              << " m/s, w " << f.w << " rad/s: zero after " << f.stop_s << " s (bound " << f.bound_s
               << " s); status: " << f.reason << std::endl;
     {
       std::lock_guard<std::mutex> l(mutex_);
@@ -408,8 +419,8 @@ class PipelineFaults : public ::testing::Test {
     const double t = wallNow();
     EXPECT_TRUE(waitFor([&] { return last_obstacles_wall_.load() > t && last_dovs_wall_.load() > t; }, 5.0))
         << name << ": the tracker or dovs_node stopped publishing";
-    EXPECT_TRUE(waitFor(
-        [] { return lastStatus().state == PlannerStatus::ACTIVE && world_->lastCommand().v > 0.05; }, 10.0))
+    EXPECT_TRUE(
+        waitFor([] { return lastStatus().state == PlannerStatus::ACTIVE && world_->lastCommand().v > 0.05; }, 10.0))
         << name << ": the planner does not drive again: '" << lastStatus().reason << "'";
   }
 

@@ -63,7 +63,8 @@ void expectFatal(const NodeRun& r, const std::string& culprit, const std::string
   ASSERT_NE(fatal, std::string::npos) << what << ": no FATAL message:\n" << r.output;
   const size_t line_end = r.output.find('\n', fatal);
   const std::string line = r.output.substr(fatal, line_end == std::string::npos ? std::string::npos : line_end - fatal);
-  EXPECT_NE(line.find(culprit), std::string::npos) << what << ": the FATAL line does not name '" << culprit << "': " << line;
+  EXPECT_NE(line.find(culprit), std::string::npos)
+      << what << ": the FATAL line does not name '" << culprit << "': " << line;
 }
 
 TEST(PlannerBadParams, GoodParametersKeepTheNodeRunning) {

@@ -321,15 +321,15 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
   }
   const double miss_fraction = p.control_periods > 0 ? double(p.deadline_misses) / p.control_periods : 0.0;
   std::ostringstream summary;
-  summary << std::fixed << std::setprecision(2) << "soak " << wall_s << " s wall (" << sim_s << " s simulated): "
-          << scenarios << " scenarios, " << reached << " goals reached, " << collisions << " collisions (static "
-          << collision_kinds["static"] << ", robot at rest " << collision_kinds["rest"] << ", robot moving "
-          << collision_kinds["moving"] << "; speed at contact mean " << speed_mean << " m/s, p95 " << speed_p95
-          << " m/s), " << timeouts
-          << " timeouts, " << unfinished << " unfinished; " << crashes << " crashes; deadline misses "
-          << p.deadline_misses << " of " << p.control_periods << " control periods (worst lateness "
-          << p.max_period_lateness << " s simulated; on the wall clock " << w.late_status_intervals << " of "
-          << w.status_intervals << " periods over 0.3 s, longest " << w.max_status_interval << " s); envelope: " << w.stream_outside << " of " << w.stream
+  summary << std::fixed << std::setprecision(2) << "soak " << wall_s << " s wall (" << sim_s
+          << " s simulated): " << scenarios << " scenarios, " << reached << " goals reached, " << collisions
+          << " collisions (static " << collision_kinds["static"] << ", robot at rest " << collision_kinds["rest"]
+          << ", robot moving " << collision_kinds["moving"] << "; speed at contact mean " << speed_mean << " m/s, p95 "
+          << speed_p95 << " m/s), " << timeouts << " timeouts, " << unfinished << " unfinished; " << crashes
+          << " crashes; deadline misses " << p.deadline_misses << " of " << p.control_periods
+          << " control periods (worst lateness " << p.max_period_lateness << " s simulated; on the wall clock "
+          << w.late_status_intervals << " of " << w.status_intervals << " periods over 0.3 s, longest "
+          << w.max_status_interval << " s); envelope: " << w.stream_outside << " of " << w.stream
           << " published commands outside, planner corrected " << p.envelope_corrections << "; RSS growth MB/h:";
   for (const auto& [name, g] : growth) summary << " " << name << " " << g;
   std::cout << "[soak] " << summary.str() << std::endl;
@@ -342,14 +342,14 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
          << ",\n  \"realtime_factor_achieved\": " << (wall_s > 0 ? sim_s / wall_s : 0.0)
          << ",\n  \"scenarios\": " << scenarios << ",\n  \"goals_reached\": " << reached
          << ",\n  \"collisions\": " << collisions << ",\n  \"collisions_static\": " << collision_kinds["static"]
-         << ",\n  \"collisions_rest\": " << collision_kinds["rest"] << ",\n  \"collisions_moving\": "
-         << collision_kinds["moving"] << ",\n  \"contact_speed_mean\": " << speed_mean
+         << ",\n  \"collisions_rest\": " << collision_kinds["rest"]
+         << ",\n  \"collisions_moving\": " << collision_kinds["moving"] << ",\n  \"contact_speed_mean\": " << speed_mean
          << ",\n  \"contact_speed_p95\": " << speed_p95 << ",\n  \"static_corrections\": " << p.static_corrections
-         << ",\n  \"timeouts\": " << timeouts
-         << ",\n  \"unfinished\": " << unfinished << ",\n  \"load_failures\": " << load_failures
-         << ",\n  \"crashes\": " << crashes << ",\n  \"deadline\": {\"control_periods\": " << p.control_periods
-         << ", \"misses\": " << p.deadline_misses << ", \"miss_fraction\": " << miss_fraction
-         << ", \"max_lateness_s\": " << p.max_period_lateness << ", \"threshold\": \"50% of the 0.2 s period\""
+         << ",\n  \"timeouts\": " << timeouts << ",\n  \"unfinished\": " << unfinished
+         << ",\n  \"load_failures\": " << load_failures << ",\n  \"crashes\": " << crashes
+         << ",\n  \"deadline\": {\"control_periods\": " << p.control_periods << ", \"misses\": " << p.deadline_misses
+         << ", \"miss_fraction\": " << miss_fraction << ", \"max_lateness_s\": " << p.max_period_lateness
+         << ", \"threshold\": \"50% of the 0.2 s period\""
          << ", \"wall_periods\": " << w.status_intervals << ", \"wall_late_periods\": " << w.late_status_intervals
          << ", \"wall_max_period_s\": " << w.max_status_interval << "}"
          << ",\n  \"envelope\": {\"stream_commands\": " << w.stream << ", \"stream_pairs_checked\": " << w.stream_pairs
@@ -358,7 +358,8 @@ TEST(Soak, PipelineRunsScenarioAfterScenario) {
          << "},\n  \"rss_warmup_s\": " << warmup_h * 3600.0 << ",\n  \"rss\": {\n"
          << rss_json.str() << "\n  },\n  \"outcomes\": \"" << outcomes.str() << "\"\n}\n";
     std::ofstream md(results_dir + "/soak.md");
-    md << "# Soak\n\n" << summary.str() << "\n\n| node | RSS start MB | end MB | max MB | growth MB/h |\n|---|---|---|---|---|\n"
+    md << "# Soak\n\n"
+       << summary.str() << "\n\n| node | RSS start MB | end MB | max MB | growth MB/h |\n|---|---|---|---|---|\n"
        << rss_md.str();
   }
 

@@ -51,7 +51,7 @@ TEST(TrackerNode, TracksMatchGroundTruthWhileTheRobotMoves) {
   ros::WallTime wall_deadline = ros::WallTime::now() + ros::WallDuration(duration * 4 + 30.0);
   while (ros::ok() && ros::Time::now() - start < ros::Duration(duration) && ros::WallTime::now() < wall_deadline) {
     geometry_msgs::Twist cmd;
-    cmd.linear.x = 0.3;   // a slow arc keeps the robot moving, so ego-motion must not leak into tracks
+    cmd.linear.x = 0.3;  // a slow arc keeps the robot moving, so ego-motion must not leak into tracks
     cmd.angular.z = 0.25;
     cmd_pub.publish(cmd);
     ros::WallDuration(0.02).sleep();
@@ -79,8 +79,8 @@ TEST(TrackerNode, TracksMatchGroundTruthWhileTheRobotMoves) {
           best_track = &t;
         }
       }
-      const bool near_robot = std::hypot(g.center.x - rec.odom.pose.pose.position.x,
-                                         g.center.y - rec.odom.pose.pose.position.y) < 3.0;
+      const bool near_robot =
+          std::hypot(g.center.x - rec.odom.pose.pose.position.x, g.center.y - rec.odom.pose.pose.position.y) < 3.0;
       if (near_robot) ++truths_near;
       if (!best_track || best > 0.5) continue;
       if (near_robot) ++truths_found;

@@ -8,15 +8,15 @@
 #include <stdexcept>
 #include <string>
 
+#include "../core/obstacle_test_helpers.h"
 #include "conversions.h"
 #include "dqn_dovs/action_shield.h"
 #include "dqn_dovs/dovs.h"
 #include "dqn_dovs/episode.h"
 #include "dqn_dovs/planners/dqn_dovs_planner.h"
+#include "dqn_dovs/qnetwork.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/state.h"
-#include "dqn_dovs/qnetwork.h"
-#include "../core/obstacle_test_helpers.h"
 #include "pipeline_steps.h"
 
 namespace dqn_dovs {
@@ -37,9 +37,9 @@ Step build(const Twist2& current, const std::vector<MovingObstacle>& obstacles) 
   msg.header.stamp = ros::Time(10.0);
   msg.header.frame_id = "odom";
   Step s;
-  const std::string error = buildDovsStep(msg, Pose2{}, current, Vec2(4.0, 0.0), limits,
-                                          stateNormalization(limits, config), ActionShieldConfig{},
-                                          "base_footprint", builder, s.space, s.step);
+  const std::string error =
+      buildDovsStep(msg, Pose2{}, current, Vec2(4.0, 0.0), limits, stateNormalization(limits, config),
+                    ActionShieldConfig{}, "base_footprint", builder, s.space, s.step);
   EXPECT_EQ(error, "");
   return s;
 }
@@ -48,8 +48,8 @@ TEST(PipelineSteps, TheMessageCarriesTheStaticGeometryForThePlannersLastCheck) {
   const RobotLimits limits;
   const DovsConfig config;
   DovsBuilder builder(limits, config);
-  TrackedObstacleArray msg = movingObstaclesToMsg({movingDisc(0.9, 0.3), movingDisc(1.0, -0.5, kPi, 0.8)},
-                                                  {Segment{{0.0, 0.8}, {2.0, 0.8}}});
+  TrackedObstacleArray msg =
+      movingObstaclesToMsg({movingDisc(0.9, 0.3), movingDisc(1.0, -0.5, kPi, 0.8)}, {Segment{{0.0, 0.8}, {2.0, 0.8}}});
   msg.header.stamp = ros::Time(10.0);
   msg.header.frame_id = "odom";
   Step s;
@@ -59,8 +59,8 @@ TEST(PipelineSteps, TheMessageCarriesTheStaticGeometryForThePlannersLastCheck) {
             "");
   const Dovs& d = s.step.msg;
   EXPECT_EQ(d.static_frame, "odom");
-  ASSERT_EQ(d.static_segments.size(), 4u);  // the wall
-  ASSERT_EQ(d.static_discs.size(), 3u);     // the static disc only
+  ASSERT_EQ(d.static_segments.size(), 4u);    // the wall
+  ASSERT_EQ(d.static_discs.size(), 3u);       // the static disc only
   EXPECT_NEAR(d.static_discs[0], 0.9, 1e-6);  // in the fixed frame, as tracked
   EXPECT_NEAR(d.static_discs[1], 0.3, 1e-6);
   // The planner sees the same geometry from where the robot is now.
@@ -90,8 +90,8 @@ TEST(PipelineSteps, BoxedInTheMessageCarriesTheEscapeAndThePlannerHoldsIt) {
   ASSERT_EQ(s.step.shield_level, ShieldLevel::kLatest);
   const Dovs& d = s.step.msg;
   ASSERT_TRUE(d.escape);
-  const Twist2 expected = escapeVelocity(s.step.observation, RobotLimits{}, DovsConfig{}.safety_factor,
-                                         ActionShieldConfig{});
+  const Twist2 expected =
+      escapeVelocity(s.step.observation, RobotLimits{}, DovsConfig{}.safety_factor, ActionShieldConfig{});
   EXPECT_DOUBLE_EQ(d.escape_v, expected.v);
   EXPECT_DOUBLE_EQ(d.escape_w, expected.w);
   const QNetwork net = shippedNetwork();
@@ -182,10 +182,10 @@ TEST(PipelineSteps, TheRobotsPathChoosesAsTheEvaluationDoes) {
       msg.header.stamp = ros::Time(10.0 + 0.2 * steps);
       msg.header.frame_id = "odom";
       Step node;
-      ASSERT_EQ(buildDovsStep(msg, obs.robot_pose, obs.robot_twist, obs.goal, limits,
-                              stateNormalization(limits, config.dovs), planner_config.shield, "base_footprint",
-                              builder, node.space, node.step),
-                "");
+      ASSERT_EQ(
+          buildDovsStep(msg, obs.robot_pose, obs.robot_twist, obs.goal, limits, stateNormalization(limits, config.dovs),
+                        planner_config.shield, "base_footprint", builder, node.space, node.step),
+          "");
       // The same network input ...
       ASSERT_EQ(node.step.msg.state.size(), static_cast<size_t>(episode.state().size()));
       for (int i = 0; i < episode.state().size(); ++i) {

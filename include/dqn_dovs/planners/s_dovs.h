@@ -17,8 +17,9 @@ struct SDovsConfig {
   int window_samples = 10;
   /// The goal counts as reached closer than this: the robot only brakes there, m (the episode's 0.15 m).
   double goal_tolerance_m = 0.15;
-  /// Braking rule: the speed may not exceed sqrt(arrival_speed^2 + 2 * braking_fraction * a_v * (d - arrival_distance)),
-  /// so that the robot crosses into the goal tolerance below the success speed. Speed at the arrival distance, m/s.
+  /// Braking rule: the speed may not exceed sqrt(arrival_speed^2 + 2 * braking_fraction * a_v * (d -
+  /// arrival_distance)), so that the robot crosses into the goal tolerance below the success speed. Speed at the
+  /// arrival distance, m/s.
   double arrival_speed_mps = 0.15;
   /// Braking rule: distance to the goal at which the speed must be down to arrival_speed_mps, m.
   double arrival_distance_m = 0.12;
