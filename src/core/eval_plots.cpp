@@ -49,9 +49,21 @@ void plotSuccessVsObstacles(const EvalSummary& summary, const std::string& path)
   if (summary.methods.empty() || summary.obstacle_counts.empty()) {
     throw EvalError("cannot plot '" + path + "': the summary has no methods or obstacle counts");
   }
-  const int width = 900, height = 560, left = 80, right = 200, top = 50, bottom = 70;
+  // The legend (a line sample and "method (mean)") goes right of the plot; the canvas grows to hold the longest
+  // label, so no method name or mean is cut off.
+  std::vector<std::string> labels;
+  int label_w = 0;
+  for (size_t m = 0; m < summary.methods.size(); ++m) {
+    labels.push_back(summary.methods[m] + " (" + fixed(summary.overall[m].success_rate, 2) + ")");
+    int baseline = 0;
+    label_w = std::max(label_w, cv::getTextSize(labels.back(), cv::FONT_HERSHEY_SIMPLEX, 0.5, 1, &baseline).width);
+  }
+  const int plot_w = 620, left = 80, top = 50, bottom = 70;
+  const int right = std::max(200, 52 + label_w + 15);
+  const int width = left + plot_w + right;
+  const int height = std::max(560, top + 20 + 24 * static_cast<int>(summary.methods.size()) + bottom);
   cv::Mat img(height, width, CV_8UC3, kWhite);
-  const int pw = width - left - right, ph = height - top - bottom;
+  const int pw = plot_w, ph = height - top - bottom;
   const int n_lo = summary.obstacle_counts.front(), n_hi = summary.obstacle_counts.back();
   const double span = std::max(1, n_hi - n_lo);
   auto px = [&](double n) { return left + static_cast<int>(std::lround((n - n_lo) / span * pw)); };
@@ -80,7 +92,7 @@ void plotSuccessVsObstacles(const EvalSummary& summary, const std::string& path)
     }
     const int ly = top + 20 + static_cast<int>(m) * 24;
     cv::line(img, {left + pw + 15, ly - 5}, {left + pw + 45, ly - 5}, colour, 2, cv::LINE_AA);
-    text(img, summary.methods[m] + " (" + fixed(summary.overall[m].success_rate, 2) + ")", {left + pw + 52, ly}, 0.5);
+    text(img, labels[m], {left + pw + 52, ly}, 0.5);
   }
   save(img, path);
 }

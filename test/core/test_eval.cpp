@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <string>
 
@@ -219,6 +220,30 @@ TEST(Eval, BadConfigurationAndMissingFilesAreNamed) {
   } catch (const EvalError& e) {
     EXPECT_NE(std::string(e.what()).find("teleport"), std::string::npos) << e.what();
   }
+}
+
+TEST(EvalPlots, TheSuccessLegendIsNeverCutOff) {
+  // Eight methods with long names: every label lies inside the picture, whose right edge stays blank.
+  std::vector<EpisodeRecord> records;
+  std::vector<std::string> names;
+  for (int m = 0; m < 8; ++m) {
+    names.push_back("a_rather_long_method_name_number_" + std::to_string(m) + "_with_variant");
+    for (int n = 1; n <= 3; ++n)
+      records.push_back(rec(names.back(), n, 1, m % 2 ? Outcome::Success : Outcome::Collision, 5.0));
+  }
+  test::TempDir dir;
+  const std::string plot = dir.file("success.png");
+  plotSuccessVsObstacles(summarize(records, names[0]), plot);
+  const cv::Mat img = cv::imread(plot, cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(img.empty());
+  EXPECT_GT(img.cols, 900);  // grown for the labels
+  int dark_near_right = 0, dark_in_legend = 0;
+  for (int y = 0; y < img.rows; ++y) {
+    for (int x = img.cols - 6; x < img.cols; ++x) dark_near_right += img.at<uint8_t>(y, x) < 128;
+    for (int x = 700; x < img.cols; ++x) dark_in_legend += img.at<uint8_t>(y, x) < 128;
+  }
+  EXPECT_EQ(dark_near_right, 0) << "a label reaches the right edge";
+  EXPECT_GT(dark_in_legend, 500) << "no legend drawn";
 }
 
 }  // namespace
