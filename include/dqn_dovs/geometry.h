@@ -84,6 +84,40 @@ inline Pose2 integrateUnicycle(const Pose2& p, double v, double w, double dt) {
   return out;
 }
 
+/// One arc of (v, w) held for dt, in the frame of the pose it starts from: the displacement and the turn as a cosine
+/// and sine (integrateUnicycle's arc; 1 - cos written as 2 sin^2 so that slow turns keep their precision).
+struct UnicycleStep {
+  double dx = 0.0, dy = 0.0, turn_c = 1.0, turn_s = 0.0;
+};
+inline UnicycleStep unicycleStep(double v, double w, double dt) {
+  UnicycleStep s;
+  if (std::abs(w) < 1e-9) {
+    s.dx = v * dt;
+    return s;
+  }
+  const double a = w * dt, half = std::sin(0.5 * a);
+  s.turn_s = std::sin(a);
+  s.turn_c = 1.0 - 2.0 * half * half;
+  s.dx = v / w * s.turn_s;
+  s.dy = v / w * 2.0 * half * half;
+  return s;
+}
+
+/// A pose that carries its heading as a cosine and sine, moved by UnicycleSteps without further trigonometry (for
+/// paths sampled many times per decision: the escape's roll-outs, the braking walks).
+struct HeadingPose {
+  Vec2 position = Vec2::Zero();
+  double c = 1.0, s = 0.0;
+  HeadingPose() = default;
+  explicit HeadingPose(const Pose2& p) : position(p.position()), c(std::cos(p.theta)), s(std::sin(p.theta)) {}
+  void advance(const UnicycleStep& u) {
+    position += Vec2(c * u.dx - s * u.dy, s * u.dx + c * u.dy);
+    const double c1 = c * u.turn_c - s * u.turn_s;
+    s = s * u.turn_c + c * u.turn_s;
+    c = c1;
+  }
+};
+
 /// Distance along a ray (origin o, unit direction d) to its first hit with a circle, if any in [0, inf).
 /// A ray starting inside the circle hits at distance 0.
 std::optional<double> rayCircle(const Vec2& o, const Vec2& d, const Circle& c);

@@ -30,49 +30,24 @@ class PathSampler {
   Vec2 next(double t, bool regular) {
     const int phase = t <= switch_s_ ? 1 : 2;
     if (regular && phase == phase_) {
-      x_ += c_ * chord_x_ - s_ * chord_y_;
-      y_ += s_ * chord_x_ + c_ * chord_y_;
-      const double c = c_ * turn_c_ - s_ * turn_s_;
-      s_ = s_ * turn_c_ + c_ * turn_s_;
-      c_ = c;
+      pose_.advance(step_);
     } else {
       const Twist2& u = phase == 1 ? u1_ : u2_;
-      const Pose2 p =
-          phase == 1 ? integrateUnicycle(Pose2{}, u.v, u.w, t) : integrateUnicycle(at_switch_, u.v, u.w, t - switch_s_);
-      x_ = p.x;
-      y_ = p.y;
-      c_ = std::cos(p.theta);
-      s_ = std::sin(p.theta);
-      if (phase != phase_) setChord(u);
+      pose_ = HeadingPose(phase == 1 ? integrateUnicycle(Pose2{}, u.v, u.w, t)
+                                     : integrateUnicycle(at_switch_, u.v, u.w, t - switch_s_));
+      if (phase != phase_) step_ = unicycleStep(u.v, u.w, step_s_);
       phase_ = phase;
     }
-    return Vec2(x_, y_);
+    return pose_.position;
   }
 
  private:
-  // One step of u in the frame of the pose it starts from (integrateUnicycle's arc, with 1 - cos written as
-  // 2 sin^2 so that slow turns keep their precision).
-  void setChord(const Twist2& u) {
-    if (std::abs(u.w) < 1e-9) {
-      chord_x_ = u.v * step_s_;
-      chord_y_ = 0.0;
-      turn_c_ = 1.0;
-      turn_s_ = 0.0;
-      return;
-    }
-    const double a = u.w * step_s_, half = std::sin(0.5 * a);
-    turn_c_ = std::cos(a);
-    turn_s_ = std::sin(a);
-    chord_x_ = u.v / u.w * turn_s_;
-    chord_y_ = u.v / u.w * 2.0 * half * half;
-  }
-
   Twist2 u1_, u2_;
   double switch_s_, step_s_;
   Pose2 at_switch_;
   int phase_ = 0;
-  double x_ = 0.0, y_ = 0.0, c_ = 1.0, s_ = 0.0;
-  double chord_x_ = 0.0, chord_y_ = 0.0, turn_c_ = 1.0, turn_s_ = 0.0;
+  HeadingPose pose_;
+  UnicycleStep step_;  // one step of the current phase's velocity
 };
 
 // The roll-out loop shared by LocalScene and SampledScene: clearance_at(q, k, t, inflated) is the scene's

@@ -87,29 +87,16 @@ template <typename Visit>
 void walkBraking(const Twist2& current, const Twist2& u, const RobotLimits& limits, const StaticSafetyConfig& config,
                  Visit&& visit) {
   Twist2 vel = (std::isfinite(current.v) && std::isfinite(current.w)) ? limits.clipToFeasible(current) : Twist2{};
-  // The pose carries its heading as a cosine and sine: each step is integrateUnicycle's arc in the pose's own
-  // frame, rotated, which takes one sine and cosine instead of four (the escape walks ~100 of these paths).
-  Vec2 position = Vec2::Zero();
-  double heading_c = 1.0, heading_s = 0.0;
+  // The pose carries its heading as a cosine and sine: one sine and cosine per step instead of four (the escape
+  // walks ~100 of these paths).
+  HeadingPose pose;
   double t = 0.0;
   const double h = config.step_s;
   auto advance = [&](const Twist2& next, double dt) {
-    const double v = 0.5 * (vel.v + next.v), w = 0.5 * (vel.w + next.w);
-    double dx = v * dt, dy = 0.0, turn_c = 1.0, turn_s = 0.0;
-    if (std::abs(w) >= 1e-9) {
-      const double a = w * dt, half = std::sin(0.5 * a);
-      turn_s = std::sin(a);
-      turn_c = 1.0 - 2.0 * half * half;
-      dx = v / w * turn_s;
-      dy = v / w * 2.0 * half * half;
-    }
-    position += Vec2(heading_c * dx - heading_s * dy, heading_s * dx + heading_c * dy);
-    const double c = heading_c * turn_c - heading_s * turn_s;
-    heading_s = heading_s * turn_c + heading_c * turn_s;
-    heading_c = c;
+    pose.advance(unicycleStep(0.5 * (vel.v + next.v), 0.5 * (vel.w + next.w), dt));
     vel = next;
     t += dt;
-    return visit(t, position, vel.v);
+    return visit(t, pose.position, vel.v);
   };
   // 1. reaction: the current velocity is held.
   for (double left = config.latency_s; left > 1e-9;) {
