@@ -44,14 +44,16 @@ class LogSink {
   std::map<std::string, double> last_;
 };
 
+// The supervisor's parameters over its defaults; SupervisorConfig::validate holds the ranges (and names the field).
 SupervisorConfig supervisorConfig(const ros::NodeHandle& pnh, const RobotLimits& limits) {
   SupervisorConfig c;
   c.limits = limits;
-  c.max_input_age_s = paramInRange(pnh, "max_input_age", 0.5, 0.05, 5.0);
-  c.goal_tolerance_m = paramInRange(pnh, "goal_tolerance", 0.15, 0.01, 2.0);
-  c.goal_speed_mps = paramInRange(pnh, "goal_speed", 0.2, 0.01, limits.v_max);
-  c.ramp_rate_hz = paramInRange(pnh, "ramp_rate", 50.0, 20.0, 500.0);
-  c.deadline_fraction = paramInRange(pnh, "deadline_fraction", 0.5, 0.05, 10.0);
+  c.max_input_age_s = param<double>(pnh, "max_input_age", c.max_input_age_s);
+  c.goal_tolerance_m = param<double>(pnh, "goal_tolerance", c.goal_tolerance_m);
+  c.goal_speed_mps = param<double>(pnh, "goal_speed", c.goal_speed_mps);
+  c.ramp_rate_hz = param<double>(pnh, "ramp_rate", c.ramp_rate_hz);
+  c.deadline_fraction = param<double>(pnh, "deadline_fraction", c.deadline_fraction);
+  if (const std::string e = c.validate(); !e.empty()) throw ParameterError(pnh.resolveName("") + ": " + e);
   return c;
 }
 }  // namespace
