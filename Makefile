@@ -49,7 +49,7 @@ bench: build
 
 # docs/performance.md from bench/results/ (what has not run is reported as not measured).
 performance-report: setup
-	@PYTHONPATH=$(CURDIR)/python MPLBACKEND=Agg .venv/bin/python -m dqn_dovs.performance_report --benches "$(BENCHES)"
+	@PYTHONPATH=$(CURDIR)/python MPLBACKEND=Agg .venv/bin/python -m dqn_dovs_py.performance_report --benches "$(BENCHES)"
 
 benchmark-table: build
 	@bash scripts/benchmark_table.sh

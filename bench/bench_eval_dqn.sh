@@ -5,7 +5,7 @@
 # time_ratio_vs_sdovs (s_dovs's total time over dqn_dovs's on the episodes both solved), episodes_per_count,
 # episodes (all methods), wall_s and episodes_per_s; and the paired comparison pooled over the counts:
 # wins_vs_sdovs (episodes dqn_dovs solved and s_dovs did not), losses_vs_sdovs (the reverse) and
-# sign_test_p_vs_sdovs (exact two-sided sign test on those, python/dqn_dovs/benchmark_report.py).
+# sign_test_p_vs_sdovs (exact two-sided sign test on those, python/dqn_dovs_py/benchmark_report.py).
 # Run from the repository root (scripts/bench.sh does): bash bench/bench_eval_dqn.sh bench/results/eval-dqn.json
 # Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), MODEL (models/dqn_dovs.dqnw).
 set -euo pipefail
@@ -29,6 +29,6 @@ start=$(date +%s.%N)
 "$exe" --methods dqn_dovs,s_dovs --model "$model" --scenarios ../shared/scenarios/rumor --obstacles "$obstacles" \
   --episodes "$episodes" --threads 2 --trajectories 0 --out "$out_dir/"
 end=$(date +%s.%N)
-PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs.eval_figures --eval-dir "$out_dir" --method dqn_dovs --rival s_dovs \
+PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs_py.eval_figures --eval-dir "$out_dir" --method dqn_dovs --rival s_dovs \
   --episodes-per-count "$episodes" --wall "$(echo "$end - $start" | bc)" --out "$out_json"
 echo "wrote $out_json"

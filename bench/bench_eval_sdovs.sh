@@ -19,6 +19,6 @@ start=$(date +%s.%N)
 "$exe" --methods s_dovs --scenarios ../shared/scenarios/rumor --obstacles 1-15 --episodes "$episodes" \
   --threads 2 --out "$out_dir/"
 end=$(date +%s.%N)
-PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs.eval_figures --eval-dir "$out_dir" --method s_dovs \
+PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs_py.eval_figures --eval-dir "$out_dir" --method s_dovs \
   --episodes-per-count "$episodes" --wall "$(echo "$end - $start" | bc)" --out "$out_json"
 echo "wrote $out_json"

@@ -22,7 +22,7 @@ def main() -> int:
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     with tempfile.TemporaryDirectory() as tmp:
         run = os.path.join(tmp, "run")
-        cmd = [sys.executable, "-m", "dqn_dovs.train", "--config", os.path.join(root, "config", "curriculum.yaml"),
+        cmd = [sys.executable, "-m", "dqn_dovs_py.train", "--config", os.path.join(root, "config", "curriculum.yaml"),
                "--out", run, "--scale", str(args.scale), "--device", "cpu", "--threads", "1", "--no-progress"]
         env = dict(os.environ, PYTHONPATH=os.path.join(root, "python"))
         subprocess.run(cmd, check=True, env=env, cwd=root, stdout=subprocess.DEVNULL)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Regenerates docs/benchmark.md: every method on the shared scenarios with the evaluation CLI, once with the
 # LIDAR + tracker in the loop (docs/benchmark/tracker/) and once with perfect information
-# (docs/benchmark/perfect/), then python/dqn_dovs/benchmark_report.py writes the tables, plots and verdicts.
+# (docs/benchmark/perfect/), then python/dqn_dovs_py/benchmark_report.py writes the tables, plots and verdicts.
 # Run from anywhere (make benchmark-table does). With the defaults (2 x 9000 episodes) about 10 min on an idle
 # 2-core machine: 1000 CPU-s measured from a 2-episode run (tracker 0.065, perfect information 0.042 CPU-s per
 # episode); proportionally longer when the cores are shared.
@@ -55,12 +55,12 @@ total_end=$(date +%s.%N)
 
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 dirty=$(git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo "+local changes" || true)
-PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs.run_info --out "$out_dir/run_info.json" \
+PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.run_info --out "$out_dir/run_info.json" \
   --commit "$commit$dirty" --model "$model" --tracker-command "${cmd[tracker]}" --tracker-wall "${wall[tracker]}" \
   --perfect-command "${cmd[perfect]}" --perfect-wall "${wall[perfect]}" \
   --total-wall "$(echo "$total_end - $total_start" | bc)"
 
-MPLBACKEND=Agg PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs.benchmark_report \
+MPLBACKEND=Agg PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.benchmark_report \
   --tracker "$out_dir/tracker/results.csv" --perfect "$out_dir/perfect/results.csv" \
   --paper ../shared/reference/paper_table1.csv --discussion docs/benchmark_discussion.md \
   --run-info "$out_dir/run_info.json" --plots "$out_dir" --out "$out_doc"

@@ -15,7 +15,7 @@ if ! colcon build --base-paths . --build-base build --install-base install --mer
   tail -40 "$log" >&2
   exit 1
 fi
-# The trainer imports the compiled core as dqn_dovs._core from python/dqn_dovs.
-so=$(find build/dqn_dovs/python/dqn_dovs -maxdepth 1 -name '_core*.so' 2>/dev/null | head -n1 || true)
-if [ -n "$so" ]; then ln -sf "$(pwd)/$so" python/dqn_dovs/; fi
+# The trainer imports the compiled core as dqn_dovs_py._core from python/dqn_dovs_py.
+so=$(find build/dqn_dovs/python/dqn_dovs_py -maxdepth 1 -name '_core*.so' 2>/dev/null | head -n1 || true)
+if [ -n "$so" ]; then ln -sf "$(pwd)/$so" python/dqn_dovs_py/; fi
 echo "[build] ok"

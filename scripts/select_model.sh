@@ -59,5 +59,5 @@ for f in "${candidates[@]}"; do
   echo "${aliases[$(sha256sum "$f" | cut -d' ' -f1)]:-}" >"$out/c$i/aliases"
 done
 
-PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs.select_model --selection "$out" --seeds "$seeds" \
+PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.select_model --selection "$out" --seeds "$seeds" \
   --obstacles "$obstacles" --episodes "$episodes"

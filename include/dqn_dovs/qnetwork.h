@@ -1,6 +1,6 @@
 // The DQN-DOVS Q-network on the robot: Eigen inference of the two-stream dueling network stored in a
 // `.dqnw` weight file (docs/weight_format.md), with masked action choice.
-// Numerically the same function as python/dqn_dovs/model.py's DuelingQNet (parity-tested to 1e-4).
+// Numerically the same function as python/dqn_dovs_py/model.py's DuelingQNet (parity-tested to 1e-4).
 #pragma once
 
 #include <Eigen/Core>
@@ -23,7 +23,7 @@ class QNetworkInputError : public std::runtime_error {
 };
 
 /// Shape of the two-stream dueling network; the same hyper-parameters, names and defaults as the
-/// constructor of python/dqn_dovs/model.py's DuelingQNet. Used to generate networks in C++ (tests,
+/// constructor of python/dqn_dovs_py/model.py's DuelingQNet. Used to generate networks in C++ (tests,
 /// benchmarks); a loaded network takes its shapes from the file.
 struct DuelingArchitecture {
   /// Output channels of each 3x3 convolution of the grid stream, in order.

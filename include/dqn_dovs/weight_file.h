@@ -1,5 +1,5 @@
 // The `.dqnw` weight file of the Q-network (docs/weight_format.md): its in-memory form, a strict reader
-// and a writer. The Python exporter (python/dqn_dovs/export.py) writes the same bytes.
+// and a writer. The Python exporter (python/dqn_dovs_py/export.py) writes the same bytes.
 // The reader checks the container (magic, version, sizes, truncation, checksum); whether the layers form
 // a network the planner can run is checked by QNetwork (qnetwork.h).
 #pragma once

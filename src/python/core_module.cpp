@@ -1,4 +1,4 @@
-// dqn_dovs._core: the C++ core as a vectorised training environment for the Python trainer.
+// dqn_dovs_py._core: the C++ core as a vectorised training environment for the Python trainer.
 // Each environment is an Episode (simulator -> LIDAR -> tracker -> DOVS -> state), so training runs the
 // code the robot runs. Environments are stepped in parallel threads with the GIL released.
 #include <pybind11/numpy.h>
@@ -46,7 +46,7 @@ class VecEnv {
          const std::map<std::string, std::string>& shield_parameters)
       : seed_(seed) {
     // The shield as the robot runs it: the named parameters of config/dovs.yaml and config/static_safety.yaml
-    // (python/dqn_dovs/decision_config.py reads them), then `action_shield` switches it on or off.
+    // (python/dqn_dovs_py/decision_config.py reads them), then `action_shield` switches it on or off.
     for (const auto& [name, value] : shield_parameters) {
       if (const std::string e = setShieldParameter(shield_, name, value); !e.empty()) {
         throw std::invalid_argument("shield_parameters: " + e);

@@ -1,4 +1,4 @@
-"""A small deterministic corridor task with the dqn_dovs._core.VecEnv interface, so the
+"""A small deterministic corridor task with the dqn_dovs_py._core.VecEnv interface, so the
 trainer's whole loop (collection, n-step, replay, learning, curriculum, evaluation,
 checkpoints, export) can be tested where the C++ environment is not built.
 

@@ -5,8 +5,8 @@ import pytest
 import torch
 from torch import nn
 
-from dqn_dovs.agent import AgentConfig, DQNAgent
-from dqn_dovs.replay import SampledBatch, Transitions
+from dqn_dovs_py.agent import AgentConfig, DQNAgent
+from dqn_dovs_py.replay import SampledBatch, Transitions
 
 
 class FeatureQ(nn.Module):

@@ -8,7 +8,7 @@ import os
 
 import pytest
 
-from dqn_dovs import benchmark_report as br
+from dqn_dovs_py import benchmark_report as br
 
 HEADER = ["method", "obstacles", "episode", "scenario", "outcome", "time_s", "path_length_m", "min_clearance_m",
           "danger_steps", "steps", "planner_errors"]

@@ -6,7 +6,7 @@ import os
 import pytest
 import yaml
 
-from dqn_dovs.curriculum import Curriculum, CurriculumError
+from dqn_dovs_py.curriculum import Curriculum, CurriculumError
 
 CONFIG = os.path.join(os.path.dirname(__file__), "..", "..", "config", "curriculum.yaml")
 

@@ -2,7 +2,7 @@
 config/static_safety.yaml as the nodes do, the C++ environment applies them by name, and the C++ defaults
 (what dqn_dovs_eval runs without --shield) are the YAML values. Bad files are refused naming file and key.
 
-Needs dqn_dovs._core (skipped without it unless DQN_DOVS_REQUIRE_CORE=1, as in scripts/run_tests.sh)."""
+Needs dqn_dovs_py._core (skipped without it unless DQN_DOVS_REQUIRE_CORE=1, as in scripts/run_tests.sh)."""
 
 import os
 import shutil
@@ -16,11 +16,11 @@ REQUIRE_CORE = os.environ.get("DQN_DOVS_REQUIRE_CORE") == "1"
 @pytest.fixture
 def core():
     try:
-        from dqn_dovs import _core  # noqa: PLC0415
+        from dqn_dovs_py import _core  # noqa: PLC0415
     except ImportError as error:
         if REQUIRE_CORE:
-            pytest.fail(f"dqn_dovs._core cannot be imported ({error}) [DQN_DOVS_REQUIRE_CORE=1]")
-        pytest.skip(f"dqn_dovs._core cannot be imported ({error})")
+            pytest.fail(f"dqn_dovs_py._core cannot be imported ({error}) [DQN_DOVS_REQUIRE_CORE=1]")
+        pytest.skip(f"dqn_dovs_py._core cannot be imported ({error})")
     return _core
 
 
@@ -33,7 +33,7 @@ def _same(a: str, b: str) -> bool:
 
 
 def test_the_repository_config_names_every_shield_parameter(core):
-    from dqn_dovs.decision_config import load_shield_parameters  # noqa: PLC0415
+    from dqn_dovs_py.decision_config import load_shield_parameters  # noqa: PLC0415
 
     params = load_shield_parameters()
     assert set(params) == set(core.shield_parameter_names())
@@ -42,8 +42,8 @@ def test_the_repository_config_names_every_shield_parameter(core):
 
 
 def test_the_environment_runs_the_yaml_and_the_defaults_are_the_yaml(core, tmp_path):
-    from dqn_dovs.decision_config import load_shield_parameters  # noqa: PLC0415
-    from dqn_dovs.env import VecEnv  # noqa: PLC0415
+    from dqn_dovs_py.decision_config import load_shield_parameters  # noqa: PLC0415
+    from dqn_dovs_py.env import VecEnv  # noqa: PLC0415
 
     params = load_shield_parameters()
     # dqn_dovs_eval and the C++ defaults: the same values as the files the robot's launch loads.
@@ -70,8 +70,8 @@ def test_the_environment_runs_the_yaml_and_the_defaults_are_the_yaml(core, tmp_p
 
 
 def test_bad_files_and_values_are_named(core, tmp_path):
-    from dqn_dovs.decision_config import DecisionConfigError, load_shield_parameters  # noqa: PLC0415
-    from dqn_dovs.env import VecEnv  # noqa: PLC0415
+    from dqn_dovs_py.decision_config import DecisionConfigError, load_shield_parameters  # noqa: PLC0415
+    from dqn_dovs_py.env import VecEnv  # noqa: PLC0415
 
     other = tmp_path / "config"
     shutil.copytree(os.path.join(REPO, "config"), other)

@@ -1,4 +1,4 @@
-"""The evaluation benchmarks' figures (python -m dqn_dovs.eval_figures) from a real dqn_dovs_eval run: the
+"""The evaluation benchmarks' figures (python -m dqn_dovs_py.eval_figures) from a real dqn_dovs_eval run: the
 method's rates, the rival's success and time ratio, the pooled paired comparison, the run's size; bad input is
 named."""
 
@@ -7,8 +7,8 @@ import subprocess
 from pathlib import Path
 
 from built_tools import built_tool
-from dqn_dovs import eval_figures
-from dqn_dovs.benchmark_report import paired_comparison, read_results
+from dqn_dovs_py import eval_figures
+from dqn_dovs_py.benchmark_report import paired_comparison, read_results
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import torch
 
-from dqn_dovs.export import (FORMAT_VERSION, MAGIC, WeightFileError, export_model, load_weights, main,
+from dqn_dovs_py.export import (FORMAT_VERSION, MAGIC, WeightFileError, export_model, load_weights, main,
                              model_from_weights)
-from dqn_dovs.model import DuelingQNet, masked_argmax
+from dqn_dovs_py.model import DuelingQNet, masked_argmax
 
 NORMALIZATION = {"v_max": 0.7, "w_max": 3.14159265, "distance_scale": 8.0}
 
@@ -116,11 +116,11 @@ def test_cli_exports_a_checkpoint(tmp_path: Path, capsys: pytest.CaptureFixture[
     net = DuelingQNet()
     ckpt = tmp_path / "ckpt.pt"
     torch.save({"model": net.state_dict(), "model_config": net.config(), "normalization": NORMALIZATION,
-                "command": "python -m dqn_dovs.train --seed 4"}, ckpt)
+                "command": "python -m dqn_dovs_py.train --seed 4"}, ckpt)
     out = tmp_path / "net.dqnw"
     assert main([str(ckpt), str(out)]) == 0
     weights = load_weights(out)
-    assert "python -m dqn_dovs.train --seed 4" in weights.metadata
+    assert "python -m dqn_dovs_py.train --seed 4" in weights.metadata
     assert "source revision:" in weights.metadata and "exported:" in weights.metadata
     x = torch.randn(3, 408)
     with torch.no_grad():

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dqn_dovs.replay import NStepAccumulator
+from dqn_dovs_py.replay import NStepAccumulator
 
 GAMMA = 0.9
 

@@ -3,7 +3,7 @@ evaluation throughput, and the figures land beside their commands."""
 
 import json
 
-from dqn_dovs import performance_report as pr
+from dqn_dovs_py import performance_report as pr
 
 BENCHES = ["sim", "tracker", "dovs", "inference", "training", "e2e", "eval-sdovs", "eval-dqn"]
 

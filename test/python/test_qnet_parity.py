@@ -14,8 +14,8 @@ import pytest
 import torch
 
 from built_tools import built_tool
-from dqn_dovs.export import export_model
-from dqn_dovs.model import DuelingQNet, masked_argmax
+from dqn_dovs_py.export import export_model
+from dqn_dovs_py.model import DuelingQNet, masked_argmax
 
 NORMALIZATION = {"v_max": 0.7, "w_max": 3.14159265, "goal_distance_scale": 8.0}
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dqn_dovs.replay import PrioritizedReplay, SumTree, Transitions
+from dqn_dovs_py.replay import PrioritizedReplay, SumTree, Transitions
 
 
 def make_transitions(n, start=0, rng=None, num_actions=8):

@@ -1,4 +1,4 @@
-"""docs/benchmark/run_info.json (python -m dqn_dovs.run_info) and scripts/benchmark_table.sh end to end on a tiny
+"""docs/benchmark/run_info.json (python -m dqn_dovs_py.run_info) and scripts/benchmark_table.sh end to end on a tiny
 run (one method, one obstacle count, one episode) written outside docs/."""
 
 import hashlib
@@ -8,7 +8,7 @@ import subprocess
 from pathlib import Path
 
 from built_tools import built_tool
-from dqn_dovs import run_info
+from dqn_dovs_py import run_info
 
 REPO = Path(__file__).resolve().parents[2]
 MODEL = REPO / "models" / "dqn_dovs.dqnw"

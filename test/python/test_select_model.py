@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import torch
 from built_tools import built_tool
-from dqn_dovs.export import export_model, load_weights, model_from_weights
+from dqn_dovs_py.export import export_model, load_weights, model_from_weights
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "scripts" / "select_model.sh"
@@ -90,7 +90,7 @@ def test_ranking_by_mean_then_upper_half(tmp_path):
     # counts; a missing evaluation is a clear error.
     import json  # noqa: PLC0415
 
-    from dqn_dovs import select_model  # noqa: PLC0415
+    from dqn_dovs_py import select_model  # noqa: PLC0415
 
     sel = tmp_path / "selection"
     rates = {"c1": {3: 0.9, 4: 0.5}, "c2": {3: 0.5, 4: 0.9}, "c3": {3: 0.4, 4: 0.4}}

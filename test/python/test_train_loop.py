@@ -13,9 +13,9 @@ import torch
 import yaml
 
 from chain_env import ChainCore
-from dqn_dovs.env import VecEnv
-from dqn_dovs.export import load_weights, model_from_weights
-from dqn_dovs.train import ConfigError, Trainer, TrainConfig, load_config, main
+from dqn_dovs_py.env import VecEnv
+from dqn_dovs_py.export import load_weights, model_from_weights
+from dqn_dovs_py.train import ConfigError, Trainer, TrainConfig, load_config, main
 
 REPO = os.path.join(os.path.dirname(__file__), "..", "..")
 
@@ -94,7 +94,7 @@ def test_exported_model_matches_the_trained_network(full_run):
     out, _ = full_run
     weights = load_weights(out / "model.dqnw")
     assert weights.normalization == {"cells": 20.0, "max_steps": 40.0}
-    assert "python -m dqn_dovs.train" in weights.metadata or "test" in weights.metadata
+    assert "python -m dqn_dovs_py.train" in weights.metadata or "test" in weights.metadata
     exported = model_from_weights(weights).eval()
     checkpoint = torch.load(out / "checkpoint.pt", weights_only=True)
     trained = type(exported)(**checkpoint["model_config"])
@@ -196,15 +196,15 @@ def test_command_line_reports_errors_clearly(tmp_path, capsys):
     assert main(["--config", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "r")]) == 2
     assert "missing.yaml: cannot read the configuration" in capsys.readouterr().err
     try:
-        import dqn_dovs._core  # noqa: F401
+        import dqn_dovs_py._core  # noqa: F401
     except ImportError:
         code = main(["--config", os.path.join(REPO, "config", "curriculum.yaml"), "--out", str(tmp_path / "r"),
                      "--scale", "0.001", "--device", "cpu", "--no-progress"])
         assert code == 2
-        assert "dqn_dovs._core" in capsys.readouterr().err
+        assert "dqn_dovs_py._core" in capsys.readouterr().err
 
 
 def test_help_runs_as_a_module():
-    result = subprocess.run([sys.executable, "-m", "dqn_dovs.train", "--help"], capture_output=True, text=True,
+    result = subprocess.run([sys.executable, "-m", "dqn_dovs_py.train", "--help"], capture_output=True, text=True,
                             env={**os.environ, "PYTHONPATH": os.path.join(REPO, "python")}, timeout=60)
     assert result.returncode == 0 and "--resume" in result.stdout and "--scale" in result.stdout

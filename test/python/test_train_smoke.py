@@ -1,6 +1,6 @@
-"""Short CPU training run on the real C++ environment (dqn_dovs._core), a few minutes.
+"""Short CPU training run on the real C++ environment (dqn_dovs_py._core), a few minutes.
 
-Skipped when dqn_dovs._core cannot be imported, unless DQN_DOVS_REQUIRE_CORE=1 (as in
+Skipped when dqn_dovs_py._core cannot be imported, unless DQN_DOVS_REQUIRE_CORE=1 (as in
 scripts/run_tests.sh), where its absence is a failure. Checks: the shipped curriculum
 runs through every stage type with a stop and a resume; rewards agree with DESIGN
 section 7 at episode ends; the learning step lowers the loss on the collected data; the
@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 import torch
 
-from dqn_dovs.env import OUTCOME_COLLISION, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
-from dqn_dovs.export import load_weights
-from dqn_dovs.model import masked_argmax
-from dqn_dovs.train import Trainer, init_from_factory, load_config
-from dqn_dovs.train import main as train_main
+from dqn_dovs_py.env import OUTCOME_COLLISION, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
+from dqn_dovs_py.export import load_weights
+from dqn_dovs_py.model import masked_argmax
+from dqn_dovs_py.train import Trainer, init_from_factory, load_config
+from dqn_dovs_py.train import main as train_main
 
 REPO = os.path.join(os.path.dirname(__file__), "..", "..")
 REQUIRE_CORE = os.environ.get("DQN_DOVS_REQUIRE_CORE") == "1"
@@ -29,10 +29,10 @@ REQUIRE_CORE = os.environ.get("DQN_DOVS_REQUIRE_CORE") == "1"
 
 def _core_or_skip():
     try:
-        from dqn_dovs import _core  # noqa: PLC0415
+        from dqn_dovs_py import _core  # noqa: PLC0415
     except ImportError as error:
-        message = (f"dqn_dovs._core cannot be imported ({error}); build the package first (make build links "
-                   "the compiled module into python/dqn_dovs/)")
+        message = (f"dqn_dovs_py._core cannot be imported ({error}); build the package first (make build links "
+                   "the compiled module into python/dqn_dovs_py/)")
         if REQUIRE_CORE:
             pytest.fail(message + " [DQN_DOVS_REQUIRE_CORE=1]")
         pytest.skip(message)

@@ -1,6 +1,6 @@
-"""Learning curves of a training run as PNG: `python -m dqn_dovs.plots runs/NAME`.
+"""Learning curves of a training run as PNG: `python -m dqn_dovs_py.plots runs/NAME`.
 
-Reads the run's train_log.csv and eval_log.csv (written by dqn_dovs.train) and draws
+Reads the run's train_log.csv and eval_log.csv (written by dqn_dovs_py.train) and draws
 returns, outcome rates, loss and epsilon over episodes, and the greedy evaluations,
 with the curriculum's stage boundaries marked.
 """
@@ -122,7 +122,7 @@ def plot_run(run_dir: str, curriculum=None, out: str | None = None, window: int 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m dqn_dovs.plots", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m dqn_dovs_py.plots", description=__doc__.splitlines()[0])
     parser.add_argument("run_dir", help="training run directory (holds train_log.csv)")
     parser.add_argument("--out", help=f"PNG path (default RUN_DIR/{PNG_NAME})")
     parser.add_argument("--window", type=int, default=100, help="episodes in the moving averages")

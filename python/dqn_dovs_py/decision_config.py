@@ -2,11 +2,11 @@
 
 The nodes read the action shield from the parameter server, loaded from `config/dovs.yaml` (`action_shield/*`)
 and `config/static_safety.yaml` (`static_safety/*`). The trainer reads the same two files here and hands the
-values to the C++ environment by name (`dqn_dovs._core.VecEnv(..., shield_parameters=...)`, the names of
+values to the C++ environment by name (`dqn_dovs_py._core.VecEnv(..., shield_parameters=...)`, the names of
 `setShieldParameter` in include/dqn_dovs/action_shield.h), so training never runs C++ defaults while the robot
 runs the YAML.
 
-    from dqn_dovs.decision_config import load_shield_parameters
+    from dqn_dovs_py.decision_config import load_shield_parameters
     params = load_shield_parameters()            # the repository's config/
     params = load_shield_parameters("my/config")  # another folder with the same two files
 """

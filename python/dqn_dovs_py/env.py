@@ -1,13 +1,13 @@
-"""Typed wrapper of the vectorised training environment implemented in C++ (`dqn_dovs._core`).
+"""Typed wrapper of the vectorised training environment implemented in C++ (`dqn_dovs_py._core`).
 
 The compiled module runs the same core as the robot: simulator -> LIDAR -> obstacle
 tracker -> DOVS -> 408-float state, with the 8 actions of DESIGN section 6 and the
 reward of section 7. This module only checks and types what crosses the boundary; it
 holds no simulation of its own.
 
-Contract of `dqn_dovs._core.VecEnv` (n = num_envs, all arrays numpy):
+Contract of `dqn_dovs_py._core.VecEnv` (n = num_envs, all arrays numpy):
 
-    core = dqn_dovs._core.VecEnv(num_envs: int, seed: int, perfect_info: bool = False,
+    core = dqn_dovs_py._core.VecEnv(num_envs: int, seed: int, perfect_info: bool = False,
                                  threads: int = 0, action_shield: bool = False,
                                  shield_parameters: dict[str, str] = {})
         Deterministic given the seed. perfect_info=True feeds the DOVS with ground-truth
@@ -64,7 +64,7 @@ OUTCOME_NAMES = {OUTCOME_RUNNING: "running", OUTCOME_SUCCESS: "success", OUTCOME
 
 
 class CoreUnavailableError(ImportError):
-    """The compiled module dqn_dovs._core is missing (the C++ package has not been built)."""
+    """The compiled module dqn_dovs_py._core is missing (the C++ package has not been built)."""
 
 
 class EnvContractError(RuntimeError):
@@ -72,14 +72,14 @@ class EnvContractError(RuntimeError):
 
 
 def import_core():
-    """Imports dqn_dovs._core, or raises CoreUnavailableError saying how to build it."""
+    """Imports dqn_dovs_py._core, or raises CoreUnavailableError saying how to build it."""
     try:
         from . import _core  # noqa: PLC0415 - imported lazily: most of the package works without it
     except ImportError as error:
         raise CoreUnavailableError(
-            "dqn_dovs._core (the C++ training environment) cannot be imported: "
+            "dqn_dovs_py._core (the C++ training environment) cannot be imported: "
             f"{error}. Build it with `make build` (scripts/build.sh links the compiled module "
-            "into python/dqn_dovs/)") from error
+            "into python/dqn_dovs_py/)") from error
     return _core
 
 
@@ -116,7 +116,7 @@ class VecEnv:
     """`num_envs` training environments stepped together.
 
     `core` is an object with the contract above; by default a new
-    dqn_dovs._core.VecEnv. Every array that comes back is checked for shape and
+    dqn_dovs_py._core.VecEnv. Every array that comes back is checked for shape and
     finiteness, so a broken environment stops training with a message naming the field
     instead of poisoning the replay buffer.
     """

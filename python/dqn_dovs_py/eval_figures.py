@@ -3,7 +3,7 @@ dqn_dovs_eval output folder: the method's rates from summary.json, the run's siz
 rival method its success and time ratio and the paired comparison pooled over the counts (wins, losses, exact
 sign test; benchmark_report.paired_comparison).
 
-    python -m dqn_dovs.eval_figures --eval-dir bench/results/eval-dqn --method dqn_dovs --rival s_dovs \
+    python -m dqn_dovs_py.eval_figures --eval-dir bench/results/eval-dqn --method dqn_dovs --rival s_dovs \
         --episodes-per-count 100 --wall 95.3 --out bench/results/eval-dqn.json
 """
 
@@ -56,7 +56,7 @@ def figures(summary: dict, results_csv: str, method: str, rival: str | None, epi
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m dqn_dovs.eval_figures", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m dqn_dovs_py.eval_figures", description=__doc__.splitlines()[0])
     p.add_argument("--eval-dir", required=True, help="dqn_dovs_eval's --out folder (summary.json, results.csv)")
     p.add_argument("--method", required=True)
     p.add_argument("--rival", default=None, help="a second method of the same run to compare with")

@@ -5,7 +5,7 @@ candidate's path in cI/model_path and the paths of byte-identical files in cI/al
 success over the obstacle counts (ties: the mean over the upper half of the counts), writes
 SELECTION/selection.csv and selection.md, lists the ranking on stderr and prints the winner's path on stdout.
 
-    python -m dqn_dovs.select_model --selection RUN/selection --seeds "9101 9102" --obstacles 3-15 --episodes 40
+    python -m dqn_dovs_py.select_model --selection RUN/selection --seeds "9101 9102" --obstacles 3-15 --episodes 40
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def write_selection(selection: str, ranked: list[Candidate], seeds: list[str], c
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m dqn_dovs.select_model", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m dqn_dovs_py.select_model", description=__doc__.splitlines()[0])
     p.add_argument("--selection", required=True, help="the selection folder scripts/select_model.sh filled")
     p.add_argument("--seeds", required=True, help="generator seeds, space-separated")
     p.add_argument("--obstacles", required=True, help="obstacle counts A-B")

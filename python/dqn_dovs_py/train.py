@@ -1,4 +1,4 @@
-"""DQN-DOVS trainer: `python -m dqn_dovs.train --config config/curriculum.yaml --out runs/NAME`.
+"""DQN-DOVS trainer: `python -m dqn_dovs_py.train --config config/curriculum.yaml --out runs/NAME`.
 
 Double DQN with a dueling network, prioritized replay, 5-step returns and invalid-action
 masks, trained through the paper's curriculum on the vectorised C++ environment. See
@@ -167,7 +167,7 @@ class TrainConfig:
     # exactly as the planner applies it on the robot. false = the paper's validity mask only.
     action_shield: bool = False
     # Folder of the dovs.yaml and static_safety.yaml whose action shield the environments run ("": the
-    # repository's config/, what the robot's launch files load; python/dqn_dovs/decision_config.py).
+    # repository's config/, what the robot's launch files load; python/dqn_dovs_py/decision_config.py).
     decision_config: str = ""
     # Discount per control period.
     gamma: float = 0.97
@@ -741,7 +741,7 @@ class Trainer:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m dqn_dovs.train", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m dqn_dovs_py.train", description=__doc__.splitlines()[0])
     p.add_argument("--config", default=None, help="training configuration (default: config/curriculum.yaml, "
                                                    "or the run's own config.yaml with --resume)")
     p.add_argument("--out", required=True, help="run directory, e.g. runs/NAME")
@@ -794,7 +794,7 @@ def main(argv: list[str] | None = None) -> int:
         model_factory = init_from_factory(args.init_from) if args.init_from else None
         trainer = Trainer(config, args.out, device=args.device, threads=args.threads, resume=args.resume,
                           model_factory=model_factory, progress=not args.no_progress,
-                          command="python -m dqn_dovs.train " + " ".join(shlex.quote(a) for a in argv_list))
+                          command="python -m dqn_dovs_py.train " + " ".join(shlex.quote(a) for a in argv_list))
         summary = trainer.run()
     except (ConfigError, CurriculumError, DecisionConfigError, FileExistsError, FileNotFoundError, ImportError,
             WeightFileError) as error:

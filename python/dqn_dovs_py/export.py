@@ -1,6 +1,6 @@
 """Writes and reads the `.dqnw` weight file of the Q-network (docs/weight_format.md).
 
-    python -m dqn_dovs.export CHECKPOINT OUT.dqnw [--normalization FILE] [--note TEXT]
+    python -m dqn_dovs_py.export CHECKPOINT OUT.dqnw [--normalization FILE] [--note TEXT]
 
 CHECKPOINT is a `torch.save`d dict with the keys
   "model"          state_dict of a DuelingQNet (required; a bare state_dict is accepted too),
@@ -362,7 +362,7 @@ def _load_mapping(path: str) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m dqn_dovs.export",
+    parser = argparse.ArgumentParser(prog="python -m dqn_dovs_py.export",
                                      description="Export a DQN-DOVS checkpoint to a .dqnw weight file.")
     parser.add_argument("checkpoint", help="torch.save'd checkpoint (see the module docstring for its keys)")
     parser.add_argument("out", help="output .dqnw path")
