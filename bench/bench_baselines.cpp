@@ -18,10 +18,10 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/episode.h"
-#include "dqn_dovs/eval.h"
-#include "dqn_dovs/planners/dwa.h"
-#include "dqn_dovs/planners/orca.h"
+#include "dqn_dovs/evaluation/episode.h"
+#include "dqn_dovs/evaluation/eval.h"
+#include "dqn_dovs/planning/dwa.h"
+#include "dqn_dovs/planning/orca.h"
 
 namespace {
 
@@ -107,12 +107,12 @@ int main(int argc, char** argv) {
       auto& cell = tally.per_count[s.obstacles];
       ++cell.second;
       switch (ep.outcome()) {
-        case Outcome::Success:
+        case Outcome::kSuccess:
           ++tally.success;
           ++cell.first;
           tally.success_time_s += ep.time_s();
           break;
-        case Outcome::Collision:
+        case Outcome::kCollision:
           ++tally.collision;
           break;
         default:

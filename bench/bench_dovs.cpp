@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "../test/core/dovs_bruteforce.h"
-#include "dqn_dovs/action_shield.h"
+#include "dovs_bruteforce.h"
+#include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
 
 namespace {

@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/qnetwork.h"
-#include "dqn_dovs/weight_file.h"
+#include "dqn_dovs/policy/qnetwork.h"
+#include "dqn_dovs/policy/weight_file.h"
 
 namespace {
 

@@ -12,7 +12,7 @@
 //   pos_rmse_m             RMS centre error over all matched pairs.
 //   speed_rmse_mps         RMS speed error, matched pairs with track age >= 1 s and a true speed >= 0.1 m/s.
 //   heading_err_deg_median median |heading error| over the same pairs.
-//   turn_rate_rmse_radps   RMS turn-rate error over the same pairs.
+//   turn_rate_rmse_rps   RMS turn-rate error over the same pairs.
 //   id_switches_per_min    matched track id of a true obstacle differs from its previous matched id, per
 //                          obstacle-minute of simulated time.
 //   false_tracks_per_scan  confirmed tracks matched to no true obstacle, per scan.
@@ -41,9 +41,9 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/perception/tracker.h"
+#include "dqn_dovs/perception/tracker_metrics.h"
 #include "dqn_dovs/sim/world.h"
-#include "dqn_dovs/tracker.h"
-#include "dqn_dovs/tracker_metrics.h"
 
 namespace {
 
@@ -89,7 +89,7 @@ std::vector<int> beamsOnObstacles(const sim::World& world, const std::vector<Mov
   std::vector<int> counts(truths.size(), 0);
   const Vec2 o = laser.position();
   for (int i = 0; i < lidar.beams; ++i) {
-    const double a = laser.theta + lidar.angleMin() + i * lidar.angleIncrement();
+    const double a = laser.theta + lidar.angleMin_rad() + i * lidar.angleIncrement_rad();
     const Vec2 d(std::cos(a), std::sin(a));
     double best = lidar.range_max_m;
     int who = -1;
@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
       {"pos_rmse_m", s.pos_rmse_m},
       {"speed_rmse_mps", s.speed_rmse_mps},
       {"heading_err_deg_median", s.heading_err_deg_median},
-      {"turn_rate_rmse_radps", s.turn_rate_rmse_radps},
+      {"turn_rate_rmse_rps", s.turn_rate_rmse_rps},
       {"id_switches_per_min", s.id_switches_per_min},
       {"false_tracks_per_scan", s.false_tracks_per_scan},
       {"missed_rate", s.missed_rate},

@@ -1,5 +1,5 @@
 // Shared pieces of the fuzz targets (fuzz/fuzz_*.cpp) and their regression replay
-// (test/core/test_fuzz_regressions.cpp): a reader that turns arbitrary bytes into numbers (with a bias towards the
+// (test/policy/test_fuzz_regressions.cpp): a reader that turns arbitrary bytes into numbers (with a bias towards the
 // values that break code: NaN, inf, 0, huge, negative) and the invariant check that makes a fuzz target fail.
 #pragma once
 

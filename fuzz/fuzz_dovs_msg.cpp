@@ -1,6 +1,7 @@
 // libFuzzer target: a dqn_dovs/Dovs message as it arrives on the wire (ros::serialization bytes) consumed the
-// way planner_node consumes it: chooseAction (src/nodes/pipeline_steps.h) with the shipped network, then the
-// chosen action's velocity clipped into the feasible set. Run: make fuzz (or scripts/fuzz.sh dovs_msg SECONDS).
+// way planner_node consumes it: its decision fields (core policy/dovs_decision.h, dovsDecisionFromMessage), the
+// core's chooseAction with the shipped network, then the chosen action's velocity clipped into the feasible set. Run:
+// make fuzz (or scripts/fuzz.sh dovs_msg SECONDS).
 //
 // Inputs whose array length prefixes claim more elements than the input holds are skipped before
 // deserialisation: roscpp's deserialiser resizes the vector before it checks the stream, and the transport
@@ -14,10 +15,11 @@
 #include <string>
 
 #include "dqn_dovs/Dovs.h"
-#include "dqn_dovs/qnetwork.h"
-#include "dqn_dovs/robot_model.h"
+#include "dqn_dovs/common/robot_model.h"
+#include "dqn_dovs/policy/dovs_decision.h"
+#include "dqn_dovs/policy/qnetwork.h"
+#include "dqn_dovs/policy/static_safety.h"
 #include "fuzz_common.h"
-#include "pipeline_steps.h"
 
 namespace {
 
@@ -66,8 +68,9 @@ void consume(const std::uint8_t* data, std::size_t size) {
           "the deserialised message accounts for the bytes it read");
 
   // planner_node::decide: the message must have a goal and a state of the network's size, then chooseAction.
+  const dqn_dovs::DovsDecision decision = dqn_dovs::dovsDecisionFromMessage(msg);
   std::string why;
-  const int a = dqn_dovs::chooseAction(*g_network, msg, why);
+  const int a = dqn_dovs::chooseAction(*g_network, decision, why);
   if (msg.state.size() != static_cast<std::size_t>(dqn_dovs::QNetwork::kStateSize)) {
     require(a == -1 && !why.empty(), "a state of the wrong size gives no action and a reason");
     return;
@@ -82,7 +85,7 @@ void consume(const std::uint8_t* data, std::size_t size) {
   require(a == dqn_dovs::kEscapeChoice ||
               (a < dqn_dovs::QNetwork::kActionCount && msg.action_valid[static_cast<std::size_t>(a)]),
           "the chosen action is one the message marks valid");
-  const dqn_dovs::Twist2 chosen = dqn_dovs::choiceVelocity(msg, a);
+  const dqn_dovs::Twist2 chosen = dqn_dovs::choiceVelocity(decision, a);
   const double v = chosen.v, w = chosen.w;
   require(std::isfinite(v) && std::isfinite(w), "the chosen action has a finite velocity");
   const dqn_dovs::RobotLimits limits;
@@ -94,7 +97,7 @@ void consume(const std::uint8_t* data, std::size_t size) {
   // replaced by a statically safe one when its braking trajectory reaches it.
   dqn_dovs::Observation seen;
   const dqn_dovs::Twist2 current = limits.clipToFeasible({msg.v, msg.w});
-  const std::string bad = dqn_dovs::staticObservationFromDovs(msg, msg.static_frame, dqn_dovs::Pose2{}, current, seen);
+  const std::string bad = dqn_dovs::staticObservation(decision, dqn_dovs::Pose2{}, current, seen);
   if (!bad.empty()) return;  // refused with a reason: the planner halts
   const dqn_dovs::StaticSafetyConfig statics;
   const dqn_dovs::StaticScene scene(seen, limits, statics);

@@ -16,14 +16,14 @@
 #include <vector>
 
 #include "dqn_dovs/Dovs.h"
-#include "dqn_dovs/action_shield.h"
-#include "dqn_dovs/actions.h"
-#include "dqn_dovs/dovs.h"
-#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/dovs/actions.h"
+#include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/policy/qnetwork.h"
+#include "dqn_dovs/policy/weight_file.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/sim/world.h"
-#include "dqn_dovs/state.h"
-#include "dqn_dovs/weight_file.h"
 
 namespace fs = std::filesystem;
 using namespace dqn_dovs;

@@ -2,7 +2,7 @@
 // reads untrusted data, and checks the contract of that entry point. A documented rejection (the loader's
 // exception type, a rejected scan) is fine; anything else (a crash, a sanitizer report, another exception
 // type, a result that breaks an invariant) is a failure. Used by fuzz/fuzz_<target>.cpp (libFuzzer) and
-// by test/core/test_fuzz_regressions.cpp (replays fuzz/regressions/<target>/ in the ordinary gtest build).
+// by test/policy/test_fuzz_regressions.cpp (replays fuzz/regressions/<target>/ in the ordinary gtest build).
 #pragma once
 
 #include <Eigen/Core>
@@ -14,11 +14,11 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/perception/tracker.h"
+#include "dqn_dovs/policy/qnetwork.h"
+#include "dqn_dovs/policy/weight_file.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/sim/world.h"
-#include "dqn_dovs/tracker.h"
-#include "dqn_dovs/weight_file.h"
 #include "fuzz_common.h"
 
 namespace dqn_dovs::fuzz {
@@ -126,7 +126,7 @@ inline void checkScene(const TrackedScene& scene, const TrackerConfig& config, c
     require(std::isfinite(o.radius) && o.radius > 0.0, who + " radius is finite and positive");
     require(std::isfinite(o.heading) && std::isfinite(o.speed) && std::isfinite(o.turn_rate),
             who + " motion is finite");
-    require(std::abs(o.turn_rate) <= config.max_turn_rate_radps + 1e-9, who + " turn rate within the clamp");
+    require(std::abs(o.turn_rate) <= config.max_turn_rate_rps + 1e-9, who + " turn rate within the clamp");
     require(o.covariance.allFinite(), who + " covariance is finite");
     require(std::isfinite(o.age_s) && o.age_s >= 0.0, who + " age is finite and non-negative");
     require(o.hits >= 2, who + " is reported with at least 2 hits");

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The edit loop's check (make check, after make build): every gtest that needs no ROS master (test/core/,
+# The edit loop's check (make check, after make build): every gtest that needs no ROS master (test/<component>/,
 # test/ros_unit/) and the Python tests except the training smoke run. A few minutes on 2 cores; make test stays
 # the full suite (rostests, the training smoke run, fuzzing, ASan).
 # Ends with one line "N passed, N failed" (gtest executables and Python tests); exits non-zero on any failure.
@@ -17,7 +17,7 @@ mkdir -p log
 passed=0; failed=0
 bin=build/dqn_dovs/devel/lib/dqn_dovs
 echo "[check] gtests without a ROS master"
-for src in test/core/test_*.cpp test/ros_unit/test_*.cpp; do
+for src in $(core_test_sources) test/ros_unit/test_*.cpp; do
   name=$(basename "$src" .cpp)
   exe="$bin/$name"
   if [ ! -x "$exe" ]; then

@@ -4,3 +4,6 @@
 # the project's venv.
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 export PYTHONNOUSERSITE=1
+
+# The core gtest sources, one folder per component: test/<component>/test_*.cpp (not the ROS tests, not Python).
+core_test_sources() { ls test/*/test_*.cpp | grep -v -E '^test/(ros|ros_unit|python)/'; }

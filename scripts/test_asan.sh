@@ -12,7 +12,7 @@ mkdir -p "$ba"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 tests=()
-for f in test/core/test_*.cpp; do tests+=("$(basename "$f" .cpp)"); done
+for f in $(core_test_sources); do tests+=("$(basename "$f" .cpp)"); done
 t0=$(date +%s)
 echo "[asan] building the core gtests (${#tests[@]}) in $ba/ with -fsanitize=address,undefined"
 if [ ! -f "$ba/CMakeCache.txt" ]; then

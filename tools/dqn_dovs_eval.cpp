@@ -1,8 +1,16 @@
-// Evaluation CLI (DESIGN §11): runs planners over the fixed or generated scenarios, 1..15 obstacles, and writes
-// results.csv, summary.md (the paper's layout), summary.json and plots into --out. Run with --help for the flags.
+// Evaluation CLI (DESIGN §11): runs planners over the fixed or generated scenarios, 1..15 obstacles, writes the
+// records (results.csv, run.json, paths.json) into --out, then hands them to the Python reporter
+// (python -m dqn_dovs_py.report: summary.md in the paper's layout, summary.json, plots, the table on stdout).
+// Run with --help for the flags.
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -11,9 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/eval.h"
-#include "dqn_dovs/eval_plots.h"
-#include "dqn_dovs/planner.h"
+#include "dqn_dovs/evaluation/eval.h"
+#include "dqn_dovs/planning/planner.h"
 
 namespace {
 
@@ -23,6 +30,7 @@ const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
+    "                     [--no-report]\n"
     "  --methods           planners to evaluate, comma-separated (default s_dovs)\n"
     "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
     "  --generate SEED     seeded random scenarios instead of a folder\n"
@@ -36,7 +44,10 @@ const char* kUsage =
     "  --shield N=V,...    action shield parameters of the dqn_dovs methods, named as in config/dovs.yaml\n"
     "                      action_shield/* and config/static_safety.yaml (static_safety/margin=0.1, ...)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
-    "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n";
+    "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n"
+    "  --no-report         write the records only (results.csv, run.json, paths.json), not the summaries\n"
+    "The summaries and plots come from the Python reporter, python -m dqn_dovs_py.report OUT (interpreter\n"
+    "$DQN_DOVS_PYTHON, package folder $DQN_DOVS_PYTHON_DIR; defaults: the build's venv and source tree).\n";
 
 /// A bad command line: the message names the flag.
 struct UsageError : std::runtime_error {
@@ -92,6 +103,7 @@ struct Options {
   std::string reference;
   int trajectories = 3;
   bool help = false;
+  bool report = true;
 };
 
 Options parse(int argc, char** argv) {
@@ -155,6 +167,8 @@ Options parse(int argc, char** argv) {
       if (const std::string e = o.eval.shield.validate(); !e.empty()) throw UsageError("--shield: " + e);
     } else if (flag == "--reference") {
       o.reference = value();
+    } else if (flag == "--no-report") {
+      o.report = false;
     } else if (flag == "--trajectories") {
       o.trajectories = static_cast<int>(parseInt(flag, value(), 0, 1000));
     } else {
@@ -197,6 +211,43 @@ std::string commandLine(int argc, char** argv) {
   return s;
 }
 
+const char* envOr(const char* name, const char* fallback) {
+  const char* v = std::getenv(name);
+  return v != nullptr && *v != '\0' ? v : fallback;
+}
+
+/// Runs python -m dqn_dovs_py.report OUT_DIR (its table goes to stdout); returns its exit status, or 1 with the
+/// reason when it cannot run.
+int runReporter(const std::string& out_dir) {
+  const std::string python = envOr("DQN_DOVS_PYTHON", DQN_DOVS_REPORT_PYTHON);
+  const std::string package_dir = envOr("DQN_DOVS_PYTHON_DIR", DQN_DOVS_REPORT_PYTHON_DIR);
+  std::cout.flush();
+  const pid_t pid = fork();
+  if (pid < 0) {
+    std::cerr << "dqn_dovs_eval: cannot start the reporter: fork failed\n";
+    return 1;
+  }
+  if (pid == 0) {
+    const char* old = std::getenv("PYTHONPATH");
+    const std::string path = package_dir + (old != nullptr && *old != '\0' ? ":" + std::string(old) : "");
+    setenv("PYTHONPATH", path.c_str(), 1);
+    setenv("MPLBACKEND", "Agg", 0);
+    execlp(python.c_str(), python.c_str(), "-m", "dqn_dovs_py.report", out_dir.c_str(), static_cast<char*>(nullptr));
+    std::cerr << "dqn_dovs_eval: cannot run the reporter '" << python
+              << " -m dqn_dovs_py.report': " << std::strerror(errno) << " (set DQN_DOVS_PYTHON, or pass --no-report)\n";
+    _exit(127);
+  }
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0) {
+    std::cerr << "dqn_dovs_eval: lost the reporter: " << std::strerror(errno) << "\n";
+    return 1;
+  }
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return 0;
+  std::cerr << "dqn_dovs_eval: the reporter failed (" << python << " -m dqn_dovs_py.report " << out_dir
+            << "); the records are in " << out_dir << "\n";
+  return 1;
+}
+
 int run(const Options& o, const std::string& command) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -219,7 +270,7 @@ int run(const Options& o, const std::string& command) {
             << " thread(s)\n";
   auto progress = [&](const dqn_dovs::EpisodeRecord& r, size_t done, size_t all) {
     auto& [succ, eps] = running[r.method];
-    succ += r.outcome == dqn_dovs::Outcome::Success ? 1 : 0;
+    succ += r.outcome == dqn_dovs::Outcome::kSuccess ? 1 : 0;
     ++eps;
     if (done % every != 0 && done != all) return;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -235,57 +286,17 @@ int run(const Options& o, const std::string& command) {
   const std::vector<dqn_dovs::EpisodeRecord> records = dqn_dovs::runEvaluation(config, scenarios, progress);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-  const dqn_dovs::EvalSummary summary = dqn_dovs::summarize(records, o.reference);
-  std::ostringstream header;
-  header << "Command: `" << command << "`  \n"
-         << "Scenarios: "
-         << (config.scenarios_dir.empty() ? "generated, seed " + std::to_string(config.seed)
-                                          : "`" + config.scenarios_dir + "`")
-         << "; obstacles " << config.obstacles_min << "-" << config.obstacles_max << ", " << config.episodes
-         << " episodes each; dynamic fraction " << config.dynamic_fraction << "  \n"
-         << "Perception: "
-         << (config.episode.perfect_info ? "perfect information (ground truth)" : "LIDAR + tracker in the loop")
-         << "; step " << config.episode.world.robot.dt << " s, limit " << config.episode.reward.max_steps
-         << " steps  \nWall time: " << std::fixed << std::setprecision(1) << wall_s << " s on " << config.threads
-         << " thread(s)";
   const std::string out = o.out_dir + "/";
   dqn_dovs::writeResultsCsv(records, out + "results.csv");
-  dqn_dovs::writeSummaryMarkdown(summary, out + "summary.md", header.str());
-  dqn_dovs::writeSummaryJson(summary, out + "summary.json");
-  dqn_dovs::plotSuccessVsObstacles(summary, out + "success_vs_obstacles.png");
-  for (const dqn_dovs::EpisodeRecord& r : records) {
-    if (r.robot_path.empty()) continue;
-    const auto s = std::find_if(scenarios.begin(), scenarios.end(), [&](const dqn_dovs::EvalScenario& e) {
-      return e.obstacles == r.obstacles && e.episode == r.episode;
-    });
-    dqn_dovs::plotTrajectory(r, s->scenario, config.episode.reward.goal_tolerance_m,
-                             out + "trajectories_" + r.method + "_n" + std::to_string(r.obstacles) + "_e" +
-                                 std::to_string(r.episode) + ".png");
+  dqn_dovs::writeRunJson(config, {command, wall_s, o.reference}, out + "run.json");
+  const std::string paths = out + "paths.json";
+  std::filesystem::remove(paths, ec);
+  if (std::any_of(records.begin(), records.end(), [](const auto& r) { return !r.robot_path.empty(); })) {
+    dqn_dovs::writePathsJson(records, scenarios, config.episode.reward.goal_tolerance_m, paths);
   }
-
-  // Human-readable table on stdout.
-  std::cout << "obstacles";
-  for (const std::string& m : summary.methods) std::cout << "  " << std::setw(22) << m;
-  std::cout << "\n";
-  auto row = [&](const std::string& label, const std::vector<dqn_dovs::EvalCell>& cells) {
-    std::cout << std::setw(9) << label;
-    for (const dqn_dovs::EvalCell& c : cells) {
-      std::ostringstream cell;
-      cell << std::fixed << std::setprecision(2) << c.success_rate << " c" << c.collision_rate << " t"
-           << c.timeout_rate;
-      std::cout << "  " << std::setw(22) << cell.str();
-    }
-    std::cout << "\n";
-  };
-  for (size_t c = 0; c < summary.obstacle_counts.size(); ++c) {
-    std::vector<dqn_dovs::EvalCell> cells;
-    for (size_t m = 0; m < summary.methods.size(); ++m) cells.push_back(summary.cells[m][c]);
-    row(std::to_string(summary.obstacle_counts[c]), cells);
-  }
-  row("mean", summary.overall);
-  std::cout << "(success, c = collision, t = timeout rates)  wrote " << out << "{results.csv,summary.md,summary.json,"
-            << "success_vs_obstacles.png} in " << std::fixed << std::setprecision(1) << wall_s << " s\n";
-  return 0;
+  std::cerr << "dqn_dovs_eval: wrote " << out << "{results.csv,run.json" << (fs::exists(paths) ? ",paths.json" : "")
+            << "} in " << std::fixed << std::setprecision(1) << wall_s << " s\n";
+  return o.report ? runReporter(o.out_dir) : 0;
 }
 
 }  // namespace

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/policy/qnetwork.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 Reads the per-episode results.csv files written by dqn_dovs_eval (method, obstacles, episode, scenario,
 outcome, time_s, path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind,
 contact_speed_mps, last_decision; files from before the last three read as "not recorded") and computes, per
-method and obstacle count, what the evaluation's own summary computes (src/core/eval.cpp):
+method and obstacle count, the figures of an evaluation's summary (dqn_dovs_py.report, their one implementation):
 
 - success / collision / timeout rate; the mean row is the mean of the per-count rates (the paper's mean row);
 - time ratio to the reference method: the method's total time over the reference's total time on the
@@ -34,14 +34,19 @@ import os
 import re
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402 - the backend must be chosen first
 
+from . import report  # noqa: E402
 from .performance_report import machine_info  # noqa: E402 - /proc/cpuinfo model and nproc, one reader
+from .report import (  # noqa: E402,F401 - the figures, re-exported for this module's users
+    COLLISION_KINDS, REST_SPEED_MPS, Cell, Record, Summary, danger_frequency, nearest_rank, time_ratio)
+from .report import fixed as _f  # noqa: E402
+from .report import nan_mean as _mean  # noqa: E402
 
 REFERENCE = "dqn_dovs"
 # Ablations of our own method, not baselines.
@@ -51,67 +56,8 @@ KINODYNAMIC_BASELINES = ("s_dovs", "orca_diffdrive", "dwa")
 # The paper's columns that have a time ratio beside them.
 PAPER_RATIO_SUFFIX = "_time_ratio"
 STAND_COUNTS = range(5, 16)
-# results.csv's collision_kind values (src/core/eval.cpp, collisionKindName); empty for a non-collision.
-COLLISION_KINDS = ("static", "rest", "moving")
-# Below this robot speed at contact a collision is "rest" (kRestSpeedMps, include/dqn_dovs/eval.h).
-REST_SPEED_MPS = 0.05
-
-
-@dataclass
-class Record:
-    method: str
-    obstacles: int
-    episode: int
-    outcome: str
-    time_s: float
-    danger_steps: int
-    steps: int
-    min_clearance_m: float = math.nan
-    collision_kind: str | None = None  # one of COLLISION_KINDS, "" for none; None: not recorded (older files)
-    contact_speed_mps: float = math.nan  # the robot's linear speed at contact; NaN without collision or record
-    last_decision: str | None = None  # the planner's note on its last decision; None: not recorded (older files)
-
-
-@dataclass
-class Cell:
-    episodes: int = 0
-    successes: int = 0
-    collisions: int = 0
-    timeouts: int = 0
-    success_rate: float = math.nan
-    collision_rate: float = math.nan
-    timeout_rate: float = math.nan
-    mean_time_success_s: float = math.nan
-    time_ratio: float = math.nan
-    both_solved: int = 0
-    danger_frequency: float = math.nan
-    # Collisions per kind (COLLISION_KINDS); None when a collision's kind was not recorded.
-    collisions_by_kind: dict[str, int] | None = field(default_factory=lambda: dict.fromkeys(COLLISION_KINDS, 0))
-    mean_contact_speed_mps: float = math.nan
-    p95_contact_speed_mps: float = math.nan
-
-
-@dataclass
-class Summary:
-    methods: list[str]
-    counts: list[int]
-    reference: str
-    cells: dict[tuple[str, int], Cell] = field(default_factory=dict)
-    overall: dict[str, Cell] = field(default_factory=dict)
-
-    def cell(self, method: str, n: int) -> Cell:
-        return self.cells.get((method, n), Cell())
-
-
-def _optional_float(text: str | None) -> float:
-    return float(text) if text else math.nan
-
-
-def _collision_kind(text: str | None) -> str | None:
-    """A collision_kind cell: "" (no collision), one of COLLISION_KINDS, or None when the column is absent."""
-    if text is not None and text not in ("",) + COLLISION_KINDS:
-        raise ValueError(f"unknown collision_kind '{text}' (expected one of {', '.join(COLLISION_KINDS)})")
-    return text
+# The columns every results.csv has; the later ones (collision_kind, contact_speed_mps, last_decision) may be absent.
+REQUIRED_COLUMNS = ("method", "obstacles", "episode", "outcome", "time_s", "danger_steps", "steps")
 
 
 def read_results(path: str) -> list[Record]:
@@ -119,110 +65,12 @@ def read_results(path: str) -> list[Record]:
 
     collision_kind, contact_speed_mps and last_decision are optional (files written before them): absent, they
     read as None, NaN and None."""
-    records = []
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        need = {"method", "obstacles", "episode", "outcome", "time_s", "danger_steps", "steps"}
-        missing = need - set(reader.fieldnames or [])
-        if missing:
-            raise ValueError(f"{path}: missing columns {sorted(missing)}")
-        for line, row in enumerate(reader, start=2):
-            try:
-                records.append(Record(
-                    method=row["method"], obstacles=int(row["obstacles"]), episode=int(row["episode"]),
-                    outcome=row["outcome"], time_s=float(row["time_s"]), danger_steps=int(row["danger_steps"]),
-                    steps=int(row["steps"]), min_clearance_m=_optional_float(row.get("min_clearance_m")),
-                    collision_kind=_collision_kind(row.get("collision_kind")),
-                    contact_speed_mps=_optional_float(row.get("contact_speed_mps")),
-                    last_decision=row.get("last_decision")))
-            except (TypeError, ValueError) as e:
-                raise ValueError(f"{path}:{line}: {e}") from None
-    return records
-
-
-def time_ratio(mine: list[Record], reference: list[Record]) -> tuple[float, int]:
-    """Total time of `mine` over total time of `reference` on the episodes both solved, and how many those are.
-
-    Episodes are matched by (obstacles, episode); NaN when none was solved by both."""
-    ref = {(r.obstacles, r.episode): r for r in reference if r.outcome == "success"}
-    t_mine = t_ref = 0.0
-    both = 0
-    for r in mine:
-        other = ref.get((r.obstacles, r.episode))
-        if r.outcome == "success" and other is not None:
-            both += 1
-            t_mine += r.time_s
-            t_ref += other.time_s
-    return (t_mine / t_ref if both and t_ref > 0 else math.nan), both
-
-
-def danger_frequency(records: list[Record]) -> float:
-    """Sum of danger steps (clearance < 0.2 m) over sum of steps; NaN without steps."""
-    steps = sum(r.steps for r in records)
-    return sum(r.danger_steps for r in records) / steps if steps else math.nan
-
-
-def nearest_rank(values: list[float], q: float) -> float:
-    """The q-quantile by nearest rank (the ceil(q n)-th smallest, as src/core/eval.cpp); NaN without values."""
-    if not values:
-        return math.nan
-    return sorted(values)[max(math.ceil(q * len(values)), 1) - 1]
-
-
-def _cell(records: list[Record], reference: list[Record]) -> Cell:
-    c = Cell(episodes=len(records))
-    c.successes = sum(r.outcome == "success" for r in records)
-    crashes = [r for r in records if r.outcome == "collision"]
-    c.collisions = len(crashes)
-    c.collisions_by_kind = (None if any(r.collision_kind is None for r in crashes) else
-                            {k: sum(r.collision_kind == k for r in crashes) for k in COLLISION_KINDS})
-    speeds = [r.contact_speed_mps for r in crashes if math.isfinite(r.contact_speed_mps)]
-    c.mean_contact_speed_mps = _mean(speeds)
-    c.p95_contact_speed_mps = nearest_rank(speeds, 0.95)
-    c.timeouts = sum(r.outcome == "timeout" for r in records)
-    if records:
-        c.success_rate = c.successes / len(records)
-        c.collision_rate = c.collisions / len(records)
-        c.timeout_rate = c.timeouts / len(records)
-    if c.successes:
-        c.mean_time_success_s = sum(r.time_s for r in records if r.outcome == "success") / c.successes
-    c.time_ratio, c.both_solved = time_ratio(records, reference)
-    c.danger_frequency = danger_frequency(records)
-    return c
-
-
-def _mean(values) -> float:
-    values = [v for v in values if not math.isnan(v)]
-    return sum(values) / len(values) if values else math.nan
+    return report.read_results(path, required=REQUIRED_COLUMNS)
 
 
 def summarize(records: list[Record], reference: str = REFERENCE) -> Summary:
-    """Per (method, count) cells and a per-method overall cell (rates: mean of the per-count rates; time
-    ratio, danger frequency, mean time on success, collisions by kind and contact speed: pooled over every
-    episode)."""
-    methods: list[str] = []
-    for r in records:
-        if r.method not in methods:
-            methods.append(r.method)
-    if reference not in methods:
-        raise ValueError(f"reference method '{reference}' has no episodes (methods: {', '.join(methods)})")
-    counts = sorted({r.obstacles for r in records})
-    s = Summary(methods=methods, counts=counts, reference=reference)
-    by = {}
-    for r in records:
-        by.setdefault((r.method, r.obstacles), []).append(r)
-    ref_all = [r for r in records if r.method == reference]
-    for m in methods:
-        for n in counts:
-            s.cells[(m, n)] = _cell(by.get((m, n), []), by.get((reference, n), []))
-        mine = [r for r in records if r.method == m]
-        o = _cell(mine, ref_all)
-        per = [s.cells[(m, n)] for n in counts if s.cells[(m, n)].episodes]
-        o.success_rate = _mean(c.success_rate for c in per)
-        o.collision_rate = _mean(c.collision_rate for c in per)
-        o.timeout_rate = _mean(c.timeout_rate for c in per)
-        s.overall[m] = o
-    return s
+    """Per (method, count) cells and a per-method overall cell (report.summarize)."""
+    return report.summarize(records, reference)
 
 
 def baselines_of(summary: Summary, method: str = REFERENCE) -> list[str]:
@@ -299,10 +147,6 @@ def read_paper(path: str) -> dict[str, dict[int, float]]:
 
 
 # ----------------------------------------------------------------------------------------------- Markdown
-
-
-def _f(x: float, digits: int = 2) -> str:
-    return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:

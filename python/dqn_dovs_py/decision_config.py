@@ -3,7 +3,7 @@
 The nodes read the action shield from the parameter server, loaded from `config/dovs.yaml` (`action_shield/*`)
 and `config/static_safety.yaml` (`static_safety/*`). The trainer reads the same two files here and hands the
 values to the C++ environment by name (`dqn_dovs_py._core.VecEnv(..., shield_parameters=...)`, the names of
-`setShieldParameter` in include/dqn_dovs/action_shield.h), so training never runs C++ defaults while the robot
+`setShieldParameter` in include/dqn_dovs/policy/action_shield.h), so training never runs C++ defaults while the robot
 runs the YAML.
 
     from dqn_dovs_py.decision_config import load_shield_parameters

@@ -10,7 +10,7 @@ speeds v, columns turn rates w; +1 free, -1 unsafe) followed by 8 normalised fea
     heads              -> value linear (1), advantage linear (8);  Q = V + A - mean(A)
 
 The C++ planner runs the same function from the exported `.dqnw` file
-(src/core/qnetwork.cpp); export.py maps every module of this class to a record of
+(src/policy/qnetwork.cpp); export.py maps every module of this class to a record of
 that file, so changing the structure here means changing the format too.
 """
 

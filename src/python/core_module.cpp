@@ -16,9 +16,9 @@
 #include <thread>
 #include <vector>
 
-#include "dqn_dovs/action_shield.h"
-#include "dqn_dovs/episode.h"
-#include "dqn_dovs/sim/random.h"
+#include "dqn_dovs/common/random.h"
+#include "dqn_dovs/evaluation/episode.h"
+#include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
 
 namespace py = pybind11;
@@ -27,10 +27,10 @@ using namespace dqn_dovs;
 namespace {
 
 sim::ObstacleType parseObstacleType(const std::string& s) {
-  if (s == "none") return sim::ObstacleType::None;
-  if (s == "static") return sim::ObstacleType::Static;
-  if (s == "dynamic") return sim::ObstacleType::Dynamic;
-  if (s == "both") return sim::ObstacleType::Both;
+  if (s == "none") return sim::ObstacleType::kNone;
+  if (s == "static") return sim::ObstacleType::kStatic;
+  if (s == "dynamic") return sim::ObstacleType::kDynamic;
+  if (s == "both") return sim::ObstacleType::kBoth;
   throw std::invalid_argument("obstacle_type '" + s + "' is not one of none, static, dynamic, both");
 }
 
@@ -62,7 +62,7 @@ class VecEnv {
     threads_ = std::clamp(threads > 0 ? threads : hw, 1, num_envs);
     generator_.obstacle_count_min = 0;
     generator_.obstacle_count_max = 0;
-    generator_.obstacle_type = sim::ObstacleType::None;
+    generator_.obstacle_type = sim::ObstacleType::kNone;
   }
 
   void setStage(double goal_min, double goal_max, int obstacles_min, int obstacles_max, const std::string& type) {

@@ -9,10 +9,10 @@
 #include <algorithm>
 #include <string>
 
-#include "../../src/nodes/bag_replay.h"
-#include "../../src/nodes/dovs_node.h"
-#include "../../src/nodes/obstacle_tracker_node.h"
-#include "../../src/nodes/ros_params.h"
+#include "bag_replay.h"
+#include "dovs_node.h"
+#include "obstacle_tracker_node.h"
+#include "ros_params.h"
 
 namespace {
 

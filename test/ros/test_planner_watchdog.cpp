@@ -27,7 +27,7 @@
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
-#include "dqn_dovs/geometry.h"
+#include "dqn_dovs/common/geometry.h"
 
 namespace {
 

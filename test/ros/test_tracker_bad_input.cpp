@@ -14,7 +14,7 @@
 #include <optional>
 
 #include "dqn_dovs/TrackedObstacleArray.h"
-#include "dqn_dovs/geometry.h"
+#include "dqn_dovs/common/geometry.h"
 
 namespace {
 

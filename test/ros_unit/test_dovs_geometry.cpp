@@ -7,7 +7,7 @@
 
 #include "conversions.h"
 #include "dovs_geometry.h"
-#include "dqn_dovs/dovs.h"
+#include "dqn_dovs/dovs/dovs.h"
 #include "pipeline_steps.h"
 
 namespace {

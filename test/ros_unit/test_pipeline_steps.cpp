@@ -8,15 +8,15 @@
 #include <stdexcept>
 #include <string>
 
-#include "../core/obstacle_test_helpers.h"
 #include "conversions.h"
-#include "dqn_dovs/action_shield.h"
-#include "dqn_dovs/dovs.h"
-#include "dqn_dovs/episode.h"
-#include "dqn_dovs/planners/dqn_dovs_planner.h"
-#include "dqn_dovs/qnetwork.h"
+#include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/evaluation/episode.h"
+#include "dqn_dovs/planning/dqn_dovs_planner.h"
+#include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/policy/qnetwork.h"
 #include "dqn_dovs/sim/scenario.h"
-#include "dqn_dovs/state.h"
+#include "obstacle_test_helpers.h"
 #include "pipeline_steps.h"
 
 namespace dqn_dovs {

@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/geometry.h"
+#include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/common/random.h"
+#include "dqn_dovs/common/types.h"
 #include "dqn_dovs/sim/errors.h"
-#include "dqn_dovs/sim/random.h"
-#include "dqn_dovs/types.h"
 
 namespace dqn_dovs::sim {
 
@@ -40,9 +40,9 @@ struct LidarConfig {
   /// True when the fan closes the full circle.
   bool fullCircle() const { return fov_rad >= kTwoPi - 1e-9; }
   /// Angle of beam 0 in the laser frame (rad).
-  double angleMin() const { return -0.5 * fov_rad; }
+  double angleMin_rad() const { return -0.5 * fov_rad; }
   /// Angular step between consecutive beams (rad).
-  double angleIncrement() const;
+  double angleIncrement_rad() const;
 
   /// Simulation profile used for training and evaluation: 360 deg, 720 beams (0.5 deg), 0.05..10 m,
   /// 1 cm noise, mounted at the robot centre.

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/geometry.h"
+#include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/common/types.h"
 #include "dqn_dovs/sim/errors.h"
-#include "dqn_dovs/types.h"
 
 namespace dqn_dovs::sim {
 
@@ -62,10 +62,10 @@ void applyDynamicFraction(Scenario& scenario, double dynamic_fraction);
 
 /// Which obstacles the generator creates.
 enum class ObstacleType {
-  None,     ///< no obstacles at all
-  Static,   ///< only static obstacles
-  Dynamic,  ///< only moving obstacles
-  Both,     ///< each obstacle moving with probability GeneratorConfig::dynamic_fraction, otherwise static
+  kNone,     ///< no obstacles at all
+  kStatic,   ///< only static obstacles
+  kDynamic,  ///< only moving obstacles
+  kBoth,     ///< each obstacle moving with probability GeneratorConfig::dynamic_fraction, otherwise static
 };
 
 /// Parameters of the random scenario generator. Defaults follow the training arena of the paper and the
@@ -90,16 +90,16 @@ struct GeneratorConfig {
   /// See obstacle_count_min.
   int obstacle_count_max = 12;
   /// Which obstacles to create.
-  ObstacleType obstacle_type = ObstacleType::Both;
-  /// For ObstacleType::Both: probability that an obstacle moves (the rest are static). In [0, 1].
+  ObstacleType obstacle_type = ObstacleType::kBoth;
+  /// For ObstacleType::kBoth: probability that an obstacle moves (the rest are static). In [0, 1].
   double dynamic_fraction = 0.85;
   /// Moving obstacles' speed is uniform in [speed_min_mps, speed_max_mps] (m/s).
   double speed_min_mps = 0.2;
   /// See speed_min_mps.
   double speed_max_mps = 1.2;
-  /// Moving obstacles' turn rate is uniform in [-turn_rate_max_radps, turn_rate_max_radps] (rad/s). pi / 6:
+  /// Moving obstacles' turn rate is uniform in [-turn_rate_max_rps, turn_rate_max_rps] (rad/s). pi / 6:
   /// the evaluation files reach |w| = 0.5236 (the README's "0.52" is this value rounded).
-  double turn_rate_max_radps = kPi / 6.0;
+  double turn_rate_max_rps = kPi / 6.0;
   /// Obstacle radius is uniform in [radius_min_m, radius_max_m] (m).
   double radius_min_m = 0.2;
   /// See radius_min_m.

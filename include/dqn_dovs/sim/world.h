@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/geometry.h"
-#include "dqn_dovs/robot_model.h"
+#include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/common/robot_model.h"
+#include "dqn_dovs/common/types.h"
 #include "dqn_dovs/sim/errors.h"
 #include "dqn_dovs/sim/lidar.h"
 #include "dqn_dovs/sim/scenario.h"
-#include "dqn_dovs/types.h"
 
 namespace dqn_dovs::sim {
 
@@ -31,7 +31,7 @@ struct WorldConfig {
   /// The LIDAR mounted on the robot.
   LidarConfig lidar = LidarConfig::simProfile();
   /// Turn rate of an obstacle turning around in place at the room border (rad/s).
-  double border_turn_rate_radps = 0.65;
+  double border_turn_rate_rps = 0.65;
   /// An obstacle starts its turn-around when its disc comes within this distance of a room wall (m).
   double border_margin_m = 0.0;
   /// false: at the start of each step the robot takes the velocity nearest the command that the
@@ -49,15 +49,15 @@ struct WorldConfig {
 
 /// Motion phase of one obstacle.
 enum class ObstacleMotion {
-  Moving,           ///< following its nominal (speed, turn_rate)
-  TurningAtBorder,  ///< stopped at the room border, turning in place before resuming its nominal motion
+  kMoving,           ///< following its nominal (speed, turn_rate)
+  kTurningAtBorder,  ///< stopped at the room border, turning in place before resuming its nominal motion
 };
 
 /// The true state of one simulated obstacle.
 struct SimObstacle {
   /// Current centre and heading; speed and turn_rate are the nominal motion (unchanged by border turns).
   MovingObstacle body;
-  ObstacleMotion motion = ObstacleMotion::Moving;
+  ObstacleMotion motion = ObstacleMotion::kMoving;
   /// Heading change still to do in the current border turn (rad, >= 0).
   double turn_remaining_rad = 0.0;
   /// +1 turns counter-clockwise, -1 clockwise (the sense of the nominal turn rate; CCW when it is 0).
@@ -68,8 +68,8 @@ struct SimObstacle {
 
 /// What the robot hit first.
 struct CollisionInfo {
-  enum class Kind { None, Obstacle, Wall };
-  Kind kind = Kind::None;
+  enum class Kind { kNone, kObstacle, kWall };
+  Kind kind = Kind::kNone;
   /// Index into obstacles() or walls().
   int index = -1;
   /// Simulation time of the sub-step at which the contact was found (s).
@@ -109,21 +109,21 @@ class World {
   const Vec2& goal() const { return scenario_.goal; }
   const Scenario& scenario() const { return scenario_; }
   const WorldConfig& config() const { return config_; }
-  double roomHalfSize() const { return scenario_.room_half_size_m; }
+  double roomHalfSize_m() const { return scenario_.room_half_size_m; }
 
   /// True states of the obstacles, including the border state machine.
   const std::vector<SimObstacle>& obstacles() const { return obstacles_; }
   /// The obstacles with their instantaneous motion: while turning at the border, speed 0 and turn rate
-  /// +-border_turn_rate_radps; otherwise the nominal (speed, turn_rate).
+  /// +-border_turn_rate_rps; otherwise the nominal (speed, turn_rate).
   std::vector<MovingObstacle> groundTruthObstacles() const;
   /// The four room walls (counter-clockwise from the bottom wall) followed by the scenario's static segments.
   const std::vector<Segment>& walls() const { return walls_; }
 
   /// True once the robot has touched an obstacle or a wall (latched until reset()).
-  bool collided() const { return collision_.kind != CollisionInfo::Kind::None; }
+  bool collided() const { return collision_.kind != CollisionInfo::Kind::kNone; }
   const CollisionInfo& collision() const { return collision_; }
   /// Distance from the robot's surface to the nearest obstacle or wall surface (m); negative when overlapping.
-  double minClearance() const;
+  double minClearance_m() const;
 
   /// Pose of the laser in the room frame: the robot pose composed with the LIDAR mount.
   Pose2 laserPose() const { return robot_pose_.compose(config_.lidar.mount); }

@@ -1,0 +1,81 @@
+// Plain data shapes that several core modules exchange (simulator, tracker, DOVS, planners).
+// ROS-free. Units: metres, seconds, radians; all positions in one fixed frame unless a name says otherwise.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/common/robot_model.h"
+
+namespace dqn_dovs {
+
+/// A planar laser scan in the laser's own frame (ROS sensor_msgs/LaserScan semantics: beam i points at
+/// angle_min + i * angle_increment, CCW from the laser's x axis). Non-returns are +inf or > range_max.
+struct LaserScan2 {
+  double stamp_s = 0.0;
+  double angle_min = 0.0;
+  double angle_increment = 0.0;
+  double range_min = 0.0;
+  double range_max = 0.0;
+  std::vector<float> ranges;
+
+  double angleOf(size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
+};
+
+/// A disc obstacle moving on its own constant-(v, w) motion model.
+/// heading is the direction of travel; w = 0 is a straight line; v = 0 is static.
+struct MovingObstacle {
+  Vec2 center = Vec2::Zero();
+  double radius = 0.2;
+  double heading = 0.0;
+  double speed = 0.0;      ///< m/s along heading
+  double turn_rate = 0.0;  ///< rad/s
+  bool is_static = false;
+};
+
+/// One tracked obstacle as the tracker reports it (fixed frame).
+struct TrackedObstacle {
+  int id = -1;
+  Vec2 center = Vec2::Zero();
+  double radius = 0.0;
+  double heading = 0.0;    ///< rad, direction of travel (meaningless when speed ~ 0)
+  double speed = 0.0;      ///< m/s
+  double turn_rate = 0.0;  ///< rad/s
+  /// Covariance of the filter state [x, y, heading, speed, turn_rate].
+  Eigen::Matrix<double, 5, 5> covariance = Eigen::Matrix<double, 5, 5>::Identity();
+  bool is_static = false;
+  double age_s = 0.0;  ///< time since the track was born
+  int hits = 0;        ///< number of measurements associated so far
+
+  MovingObstacle toMovingObstacle() const {
+    MovingObstacle m;
+    m.center = center;
+    m.radius = radius;
+    m.heading = heading;
+    m.speed = is_static ? 0.0 : speed;
+    m.turn_rate = is_static ? 0.0 : turn_rate;
+    m.is_static = is_static;
+    return m;
+  }
+};
+
+/// What the tracker reports after one scan (fixed frame).
+struct TrackedScene {
+  double stamp_s = 0.0;
+  std::vector<TrackedObstacle> obstacles;  ///< confirmed tracks only
+  std::vector<Segment> segments;           ///< walls and other long/static line features
+};
+
+/// What a planner or the DOVS sees of the world at one decision instant (fixed frame).
+struct Observation {
+  double stamp_s = 0.0;
+  Pose2 robot_pose;
+  Twist2 robot_twist;
+  Vec2 goal = Vec2::Zero();
+  std::vector<MovingObstacle> obstacles;
+  std::vector<Segment> segments;
+};
+
+}  // namespace dqn_dovs

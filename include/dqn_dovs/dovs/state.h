@@ -1,0 +1,86 @@
+// The network input of DQN-DOVS (DESIGN §5): the DOVS grid followed by 8 normalised features. The layout and
+// every normalisation constant are documented in docs/dovs.md; the weight file carries StateNormalization so a
+// network is always fed the way it was trained. ROS-free.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dqn_dovs/common/types.h"
+#include "dqn_dovs/dovs/dovs.h"
+
+namespace dqn_dovs {
+
+constexpr int kStateGridSize = 20;
+constexpr int kStateGridCells = kStateGridSize * kStateGridSize;
+constexpr int kNumFeatures = 8;
+constexpr int kStateSize = kStateGridCells + kNumFeatures;  // 408
+
+using StateVector = Eigen::Matrix<float, kStateSize, 1>;
+using FeatureVector = std::array<float, kNumFeatures>;
+
+/// Feature indices in the state, after the grid.
+enum FeatureIndex : int {
+  kFeatureV = 0,                 ///< robot linear speed
+  kFeatureW = 1,                 ///< robot turn rate
+  kFeatureGoalDistance = 2,      ///< distance to the goal
+  kFeatureGoalAngle = 3,         ///< bearing of the goal in the robot frame
+  kFeatureObstacleHeading = 4,   ///< closest obstacle's heading relative to the robot's
+  kFeatureObstacleSpeed = 5,     ///< closest obstacle's speed
+  kFeatureObstacleBearing = 6,   ///< bearing of the closest obstacle's centre in the robot frame
+  kFeatureObstacleClearance = 7  ///< centre distance minus both radii
+};
+
+/// Normalisation of the 8 features: feature = clamp(raw / scale, -clip, clip); with no obstacle in range the four
+/// obstacle features take the fixed "far away" values (already normalised). Plain floats in a stable order
+/// (fields() / fromFields()) because the weight file stores them.
+struct StateNormalization {
+  float v_scale_mps = 0.7f;                        ///< linear speed scale (v_max), m/s
+  float w_scale_rps = 3.14159265f;                 ///< turn rate scale (w_max), rad/s
+  float goal_distance_scale_m = 10.0f;             ///< goal distance scale (about the diagonal of the 8 m room), m
+  float goal_angle_scale_rad = 3.14159265f;        ///< goal bearing scale, rad
+  float obstacle_heading_scale_rad = 3.14159265f;  ///< relative heading scale, rad
+  float obstacle_speed_scale_mps = 1.5f;           ///< obstacle speed scale (fastest expected pedestrian), m/s
+  float obstacle_bearing_scale_rad = 3.14159265f;  ///< obstacle bearing scale, rad
+  float obstacle_clearance_scale_m = 4.0f;         ///< clearance scale (the DOVS obstacle range), m
+  float far_heading = 0.0f;                        ///< normalised heading when no obstacle is in range
+  float far_speed = 0.0f;                          ///< normalised speed when no obstacle is in range
+  float far_bearing = 1.0f;                        ///< normalised bearing when no obstacle is in range (behind)
+  float far_clearance = 1.0f;                      ///< normalised clearance when no obstacle is in range
+  float clip = 1.0f;                               ///< every normalised feature is clamped to [-clip, clip]
+
+  static constexpr int kNumFields = 13;
+  /// (name, value) pairs in field order, as the weight file stores them.
+  std::vector<std::pair<std::string, float>> fields() const;
+  /// Inverse of fields(); throws std::runtime_error naming the field when a name is missing, unknown or out of
+  /// order, or the count is wrong.
+  static StateNormalization fromFields(const std::vector<std::pair<std::string, float>>& fields);
+  /// Empty when usable, otherwise a message naming the field: scales finite and positive, far values finite
+  /// and within [-clip, clip], clip finite and positive.
+  std::string validate() const;
+};
+
+/// The normalisation the pipeline feeds the network with for this robot and DOVS configuration: the speed
+/// scales are the robot's limits, the clearance scale the DOVS's obstacle range, the rest the defaults above.
+/// The one place it is made: evaluation, training, the nodes and the planner's check of the weight file all
+/// call it, so a model's stored normalisation is compared with what its states will really be.
+StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfig& dovs);
+
+/// Thrown by the state functions for bad input (NaN/inf robot state or goal, wrong grid size, bad
+/// normalisation); the message names the item.
+class StateError : public std::runtime_error {
+ public:
+  explicit StateError(const std::string& what) : std::runtime_error(what) {}
+};
+
+/// The 8 normalised features of `obs` (robot twist, goal) and the DOVS's closest obstacle.
+FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
+
+/// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), then the 8
+/// features. Throws StateError unless dovs.gridSize() == 20.
+StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
+
+}  // namespace dqn_dovs

@@ -1,0 +1,127 @@
+// One navigation episode run without ROS: simulator -> LIDAR -> tracker -> DOVS -> state, with the
+// paper's reward and termination. The trainer (through the Python module) and the evaluation CLI both
+// drive this class, so training and evaluation run exactly the code the robot runs.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/common/types.h"
+#include "dqn_dovs/dovs/actions.h"
+#include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/perception/tracker.h"
+#include "dqn_dovs/planning/planner.h"
+#include "dqn_dovs/sim/scenario.h"
+#include "dqn_dovs/sim/world.h"
+
+namespace dqn_dovs {
+
+/// Reward and termination constants (DESIGN §7, the paper's values).
+struct RewardConfig {
+  double goal_reward = 15.0;        ///< terminal reward for reaching and stopping at the goal
+  double collision_reward = -15.0;  ///< terminal reward for a collision
+  double distance_weight = 2.5;     ///< r = -distance_weight * (d_goal(t) - d_goal(t-1))
+  double safe_distance_m = 0.2;     ///< clearance below which r_safe applies
+  double safe_weight = 0.1;         ///< r_safe = -safe_weight * |safe_distance_m - clearance|
+  double goal_tolerance_m = 0.15;   ///< success: distance to goal below this ...
+  double goal_speed_mps = 0.2;      ///< ... and linear speed below this
+  int max_steps = 500;              ///< decisions before the episode is truncated (timeout)
+  std::string validate() const;
+};
+
+struct EpisodeConfig {
+  sim::WorldConfig world;  ///< simulator (robot limits live in world.robot)
+  TrackerConfig tracker;   ///< obstacle tracker used when perfect_info is false
+  DovsConfig dovs;         ///< velocity-space model
+  RewardConfig reward;
+  double scan_period_s = 0.1;    ///< LIDAR period; must divide the control period world.robot.dt
+  bool perfect_info = false;     ///< true: the planner sees the simulator's ground truth (comparison only)
+  double sensor_warmup_s = 0.3;  ///< the robot senses this long, standing still, before the episode starts
+  std::string validate() const;
+};
+
+enum class Outcome { kRunning = 0, kSuccess = 1, kCollision = 2, kTimeout = 3 };
+const char* outcomeName(Outcome o);
+
+struct StepResult {
+  double reward = 0.0;
+  bool terminated = false;  ///< success or collision (no bootstrapping past it)
+  bool truncated = false;   ///< step limit reached (bootstrap from the final state)
+  Outcome outcome = Outcome::kRunning;
+};
+
+class Episode {
+ public:
+  explicit Episode(const EpisodeConfig& config);
+
+  /// Starts a new episode on `scenario`; `seed` drives sensor noise.
+  void reset(const sim::Scenario& scenario, uint64_t seed);
+
+  /// Applies `command` (clipped to the dynamic window and the feasible set) for one control period:
+  /// the world advances, the LIDAR scans every scan_period_s and feeds the tracker, then the next
+  /// decision context (observation, DOVS, actions, state) is built. Throws std::logic_error when the
+  /// episode has already ended.
+  StepResult step(const Twist2& command);
+  /// step() with the velocity of action `a` of the current action set (an invalid action throws).
+  StepResult stepAction(int a);
+  /// Holonomic robot mode (the `orca_holonomic` baseline only): the robot moves for one control period at the
+  /// fixed-frame velocity `velocity` (m/s, norm clipped to v_max, no acceleration limit; World::stepHolonomic).
+  /// Sensing, reward and termination are those of step().
+  StepResult stepHolonomic(const Vec2& velocity);
+  /// Executes a planner's decision: stepHolonomic(*d.holonomic_velocity) when the planner drives a holonomic
+  /// robot, step(d.command) otherwise.
+  StepResult stepDecision(const PlannerDecision& d);
+
+  // Decision context for the current step.
+  const Observation& observation() const { return observation_; }
+  const VelocitySpace& dovs() const { return dovs_; }
+  const ActionSet& actions() const { return actions_; }
+  const Eigen::VectorXf& state() const { return state_; }
+  const StateNormalization& normalization() const { return normalization_; }
+
+  // Episode status and statistics.
+  Outcome outcome() const { return outcome_; }
+  bool done() const { return outcome_ != Outcome::kRunning; }
+  int steps() const { return steps_; }
+  double time_s() const { return world_.time_s() - start_time_s_; }  ///< since the start (after warm-up)
+  double pathLength_m() const { return path_length_m_; }
+  double minClearance_m() const { return min_clearance_m_; }
+  int dangerSteps() const { return danger_steps_; }  ///< steps with clearance < reward.safe_distance_m
+  const sim::World& world() const { return world_; }
+  const sim::Scenario& scenario() const { return world_.scenario(); }
+  const std::vector<Pose2>& trajectory() const { return trajectory_; }
+  const EpisodeConfig& config() const { return config_; }
+  /// The current decision context as the planners read it (pointers into this episode).
+  PlannerInput plannerInput() const;
+
+ private:
+  void sense();         // scan + tracker update at the current world time
+  void buildContext();  // observation -> DOVS, actions, state
+  // Runs one control period, moving the robot with `move_robot(dt_s)` at each scan, then scores it.
+  StepResult advance(const std::function<void(double)>& move_robot);
+
+  EpisodeConfig config_;
+  sim::World world_;
+  ObstacleTracker tracker_;
+  DovsBuilder dovs_builder_;
+  StateNormalization normalization_;
+  LaserScan2 scan_;
+  Observation observation_;
+  VelocitySpace dovs_;
+  ActionSet actions_;
+  Eigen::VectorXf state_;
+  Outcome outcome_ = Outcome::kRunning;
+  int steps_ = 0;
+  double path_length_m_ = 0.0;
+  double min_clearance_m_ = 0.0;
+  int danger_steps_ = 0;
+  double start_time_s_ = 0.0;
+  std::vector<Pose2> trajectory_;
+};
+
+}  // namespace dqn_dovs

@@ -1,0 +1,143 @@
+// The benchmark runner of DESIGN §11: the same episodes for every method, for each obstacle count, run across a
+// thread pool with deterministic results, and its records (results.csv, run.json, paths.json). Summaries, tables
+// and plots are made from those records by the Python reporter (python/dqn_dovs_py/report.py).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/evaluation/episode.h"
+#include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/sim/scenario.h"
+
+namespace dqn_dovs {
+
+/// Bad evaluation configuration, unreadable scenario folder, failed episode or unwritable output; the message
+/// names the item (flag, file, job) and the reason.
+class EvalError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// What to evaluate and how. Defaults live here only.
+struct EvalConfig {
+  /// Planner names (makePlanner), in the order of the tables.
+  std::vector<std::string> methods = {"s_dovs"};
+  /// Folder laid out like scenarios/rumor (`1-N/K.dovs`); empty: scenarios come from the seeded generator.
+  std::string scenarios_dir;
+  /// Seed of the generator (ignored with scenarios_dir); also mixed into every episode's sensor-noise seed.
+  uint64_t seed = 0;
+  /// Obstacle counts obstacles_min..obstacles_max, each evaluated on episodes 1..episodes.
+  int obstacles_min = 1;
+  /// See obstacles_min.
+  int obstacles_max = 15;
+  /// Episodes per obstacle count.
+  int episodes = 100;
+  /// Fraction of moving obstacles (scenarios README convention for files, per-obstacle probability for the
+  /// generator), in [0, 1].
+  double dynamic_fraction = 0.85;
+  /// Goal distance of generated scenarios: at least this far from the robot, as in the evaluation files, m.
+  double generated_goal_distance_min_m = 4.0;
+  /// Worker threads (each with its own planners and episode); results do not depend on it.
+  int threads = 1;
+  /// Weight file of the `dqn_dovs` method.
+  std::string model_path = "models/dqn_dovs.dqnw";
+  /// The action shield of the DQN-DOVS methods (each variant still applies its own change to it).
+  ActionShieldConfig shield;
+  /// Everything about one episode: simulator, tracker, DOVS, reward, perfect_info (false: tracker in the loop).
+  EpisodeConfig episode;
+  /// Jobs (obstacle count, episode) whose robot and obstacle paths are kept in the records, for plots.
+  std::vector<std::pair<int, int>> keep_paths;
+
+  /// Empty when consistent, otherwise a message naming the offending field and why.
+  std::string validate() const;
+};
+
+/// Collisions split by who could have avoided them (passive safety): hitting static geometry (walls, furniture,
+/// static obstacles) is never necessary; a robot at rest (speed below kRestSpeedMps) was walked into; a moving
+/// robot drove into a moving obstacle.
+enum class CollisionKind { kNone = 0, kStatic = 1, kRest = 2, kMoving = 3 };
+/// "", "static", "rest", "moving".
+const char* collisionKindName(CollisionKind kind);
+/// The robot counts as at rest at a contact below this linear speed, m/s.
+constexpr double kRestSpeedMps = 0.05;
+/// The kind of a simulator collision.
+CollisionKind classifyCollision(const sim::CollisionInfo& collision);
+
+/// One episode's scenario with its place in the protocol.
+struct EvalScenario {
+  int obstacles = 0;  ///< obstacle count N
+  int episode = 0;    ///< episode index K, from 1
+  uint64_t seed = 0;  ///< sensor-noise seed: depends only on (seed, N, K), the same for every method
+  sim::Scenario scenario;
+};
+
+/// The result of one (method, scenario) episode.
+struct EpisodeRecord {
+  std::string method;
+  int obstacles = 0;
+  int episode = 0;
+  std::string scenario;  ///< the scenario's name (file or generator seed)
+  Outcome outcome = Outcome::kRunning;
+  double time_s = 0.0;           ///< episode time after the sensor warm-up, s
+  double path_length_m = 0.0;    ///< distance the robot drove, m
+  double min_clearance_m = 0.0;  ///< smallest surface-to-surface clearance to an obstacle or wall, m
+  int danger_steps = 0;          ///< steps ending with clearance below the reward's safe distance
+  int steps = 0;                 ///< decisions taken
+  int planner_errors = 0;        ///< decisions where the planner threw and the robot decelerated instead
+  /// Collisions only: what kind (collisionKindName: static geometry, robot at rest, robot moving) and the robot's
+  /// linear speed at the contact (m/s; NaN without a collision).
+  CollisionKind collision_kind = CollisionKind::kNone;
+  double contact_speed_mps = std::numeric_limits<double>::quiet_NaN();
+  /// The planner's note on its last decision (PlannerDecision::note, e.g. the shield level or the escape tier that
+  /// drove the robot into a collision); "planner error" when it threw.
+  std::string last_decision;
+  /// Robot poses at every step (only for jobs listed in EvalConfig::keep_paths).
+  std::vector<Pose2> robot_path;
+  /// Per obstacle, its centre at every step (same jobs).
+  std::vector<std::vector<Vec2>> obstacle_paths;
+};
+
+/// The episodes of the protocol for `config`: files `scenarios_dir/1-N/K.dovs` with the dynamic fraction applied,
+/// or generated ones (N obstacles, moving with probability dynamic_fraction). Ordered by N, then K.
+/// Throws EvalError naming the file or the generator failure.
+std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config);
+
+/// Progress report: the record just finished, how many are done and the total.
+using EvalProgress = std::function<void(const EpisodeRecord& record, size_t done, size_t total)>;
+
+/// Runs every method on every scenario across config.threads threads (each thread builds its own planners and
+/// episode). Records come back ordered by method, then N, then K, identical for any thread count. `progress` is
+/// called from the worker threads, one call at a time. Throws EvalError when the configuration is invalid, a
+/// planner cannot be built or an episode fails (naming the method and the scenario).
+std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::vector<EvalScenario>& scenarios,
+                                         const EvalProgress& progress = nullptr);
+
+/// results.csv: a header, then one row per record (method, obstacles, episode, scenario, outcome, time_s,
+/// path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind, contact_speed_mps,
+/// last_decision). Throws EvalError naming the file.
+void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path);
+
+/// How the run went, for run.json.
+struct EvalRunInfo {
+  std::string command;    ///< the command line that ran the evaluation
+  double wall_s = 0.0;    ///< wall time of runEvaluation, s
+  std::string reference;  ///< the method the summaries' time ratios compare against
+};
+
+/// run.json: the configuration and how the run went (command, scenarios ("generated" or the folder), seed, obstacle
+/// range, episodes, dynamic fraction, perception, step and step limit, wall time, threads, methods in table order,
+/// the reference method, the goal tolerance). Throws EvalError naming the file.
+void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::string& path);
+
+/// paths.json: every record that kept its paths (EvalConfig::keep_paths), with its figures and its scenario's goal,
+/// room, extra walls and obstacle radii, for the trajectory plots. Throws EvalError naming the file or a record
+/// without a scenario.
+void writePathsJson(const std::vector<EpisodeRecord>& records, const std::vector<EvalScenario>& scenarios,
+                    double goal_tolerance_m, const std::string& path);
+
+}  // namespace dqn_dovs

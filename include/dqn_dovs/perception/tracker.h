@@ -1,0 +1,238 @@
+// LIDAR obstacle tracker: scan -> clusters -> circles (moving-object candidates) and segments (walls) ->
+// gated optimal association -> one CTRV extended Kalman filter per track, all in a fixed frame.
+// ROS-free (Eigen + std); obstacle_tracker_node wraps it. Pipeline and metrics: docs/tracker.md.
+#pragma once
+
+#include <cstddef>
+#include <deque>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/common/types.h"
+#include "dqn_dovs/perception/ctrv_ekf.h"
+
+namespace dqn_dovs {
+
+/// Every parameter of the tracker. Defaults suit the 360 deg / 720-beam simulated LIDAR and a Hokuyo on a
+/// Turtlebot 2 among ~0.2 m discs moving up to ~1.2 m/s.
+struct TrackerConfig {
+  // --- clustering -----------------------------------------------------------------------------------
+  /// Fixed part of the largest gap between neighbouring returns of one cluster (m).
+  double cluster_distance_base_m = 0.10;
+  /// Range-growing part of that gap, in units of the spacing of neighbouring beams at the farther point's
+  /// range (r * |angle_increment|): the threshold is base + factor * r * |angle_increment|, so sparse far
+  /// returns of one object stay together while near objects stay apart.
+  double cluster_distance_beam_factor = 3.0;
+  /// Invalid beams (NaN, inf, out of range) that may sit inside one cluster without splitting it.
+  int max_skipped_beams = 2;
+  /// Clusters (and sub-groups) with fewer valid returns are dropped as noise.
+  int min_cluster_points = 3;
+
+  // --- segments (walls) -----------------------------------------------------------------------------
+  /// Split-and-merge: a run of points is split at its farthest point from its chord when that distance
+  /// exceeds this (m).
+  double split_distance_m = 0.04;
+  /// Straight pieces (line-fit RMS <= line_max_rms_m) at least this long are walls, never circles (m).
+  double segment_min_length_m = 0.6;
+  /// Largest RMS distance to a fitted line for a piece to count as straight (m).
+  double line_max_rms_m = 0.02;
+  /// A short piece whose largest deviation from its fitted line is below this fraction of its length is
+  /// flat (a wall fragment), not an arc: a visible arc of a disc bulges by at least ~7 % of its chord.
+  double min_arc_sagitta_ratio = 0.06;
+
+  // --- circles ------------------------------------------------------------------------------------------
+  /// Largest fitted radius accepted as a circle (m); larger curved groups are reported as segments.
+  double max_circle_radius_m = 0.6;
+  /// Smallest fitted radius accepted from a free fit (m).
+  double min_circle_radius_m = 0.05;
+  /// Largest RMS residual of an accepted circle fit (m).
+  double circle_max_rms_m = 0.03;
+  /// Radius assumed for small curved clusters whose arc is too short or noisy for a free fit (m): the
+  /// centre is then placed this far behind the visible points (a LIDAR sees only the front arc of a disc).
+  /// Also the starting radius of the fit's second start.
+  double fallback_radius_m = 0.2;
+  /// Added to every reported radius (m). 0 reports the fitted (true) radius; the DOVS adds its own margins.
+  double radius_margin_m = 0.0;
+  /// Fitted radii kept per track (most recent first).
+  int radius_window = 20;
+  /// Quantile of the kept radii that is reported: above the median because partial arcs scatter low.
+  double radius_quantile = 0.75;
+
+  // --- filter -------------------------------------------------------------------------------------------
+  /// Standard deviation of a detected centre, each axis (m).
+  double measurement_noise_m = 0.03;
+  /// Process noise: white linear acceleration of the obstacles (m/s^2).
+  double accel_noise_mps2 = 1.0;
+  /// Process noise: white angular acceleration of the obstacles (rad/s^2).
+  double turn_accel_noise_rps2 = 1.0;
+  /// Turn rates beyond this are clamped (rad/s): the CTRV model is unreliable for faster spins.
+  double max_turn_rate_rps = 2.0;
+  /// Prior speed spread of a one-hit track (m/s): its second detection is searched within a disc that
+  /// grows with this times the elapsed time.
+  double init_speed_std_mps = 0.6;
+  /// Prior turn-rate spread of a new track (rad/s).
+  double init_turn_rate_std_rps = 0.5;
+
+  // --- association --------------------------------------------------------------------------------------
+  /// Gate on the squared Mahalanobis distance of a detection from a track's predicted centre
+  /// (chi-square, 2 degrees of freedom: 13.8 keeps 99.9 % of true pairs).
+  double gate_mahalanobis2 = 13.8;
+  /// Hard cap on the Euclidean distance of a pair (m), whatever the covariance says.
+  double gate_max_distance_m = 1.0;
+  /// Manoeuvre recovery: a track that was hit within the last maneuver_max_silence_s but finds nothing in
+  /// its gate (the obstacle stopped, reversed or turned sharply) is paired, in a second assignment, with a
+  /// detection left over within this distance (m); its speed, heading and turn-rate uncertainty is then
+  /// re-opened so the filter follows the new motion instead of a duplicate track being born.
+  double maneuver_gate_m = 0.45;
+  /// See maneuver_gate_m (s).
+  double maneuver_max_silence_s = 0.3;
+
+  // --- track life ---------------------------------------------------------------------------------------
+  /// Hits needed before a track is reported (confirmed tracks stay confirmed).
+  int confirm_hits = 3;
+  /// A track that is not yet confirmed is dropped after this long without a hit (s).
+  double tentative_timeout_s = 0.3;
+  /// A confirmed track is predicted through occlusions and dropped after this long without a hit (s).
+  double deletion_timeout_s = 0.8;
+  /// Tracks whose position standard deviation exceeds this are dropped (m).
+  double max_position_std_m = 1.0;
+  /// A confirmed track dropped for silence is remembered (not reported) this long (s): a new track born
+  /// near its coasted position within that time takes over its id (the obstacle was occluded for longer than
+  /// deletion_timeout_s, e.g. behind another one). 0 disables.
+  double reacquire_window_s = 2.0;
+  /// Largest distance between a remembered track's coasted position and a new detection for the new track to
+  /// take over its id (m). The coasted position's own uncertainty gates too (gate_mahalanobis2).
+  double reacquire_max_distance_m = 1.2;
+
+  // --- time ---------------------------------------------------------------------------------------------
+  /// A forward jump between scan stamps larger than this resets all tracks (s): their predictions would
+  /// be meaningless.
+  double max_time_gap_s = 1.0;
+
+  // --- output -------------------------------------------------------------------------------------------
+  /// Tracks slower than this are flagged static (m/s); their heading is frozen at the last moving value.
+  double static_speed_threshold_mps = 0.1;
+
+  /// Empty string when consistent, otherwise a message naming the offending field and why.
+  std::string validate() const;
+};
+
+/// Bad configuration; the message names the field.
+class TrackerConfigError : public std::runtime_error {
+ public:
+  explicit TrackerConfigError(const std::string& what) : std::runtime_error(what) {}
+};
+
+/// A circle found in one scan (fixed frame).
+struct CircleDetection {
+  Circle circle;
+  double fit_rms_m = 0.0;
+  /// true: free least-squares fit of centre and radius; false: fallback placement with fallback_radius_m.
+  bool free_fit = true;
+  /// The returns it was fitted to (fixed frame), for refits with a known radius.
+  std::vector<Vec2> points;
+};
+
+/// Everything found in one scan (fixed frame); the tracker keeps the last one for display.
+struct ScanDetections {
+  double stamp_s = 0.0;
+  std::vector<CircleDetection> circles;
+  std::vector<Segment> segments;
+  size_t valid_beams = 0;
+  size_t ignored_beams = 0;  ///< NaN, inf, below range_min or at/above range_max
+  size_t clusters = 0;
+};
+
+/// Empty when `scan` is usable, otherwise why not (empty, non-finite or zero angle_increment, bad range
+/// limits, NaN stamp, a fan wider than a full turn).
+std::string checkScan(const LaserScan2& scan);
+
+/// Clustering and classification of one scan seen from `laser_pose` (fixed frame). Assumes checkScan
+/// passed; invalid beams are skipped.
+ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config);
+
+/// How one update went.
+enum class TrackerStatus {
+  kOk,        ///< scan used
+  kRejected,  ///< scan not used, tracks untouched; message says why
+  kReset,     ///< tracks were dropped (time went backwards or jumped), then the scan was used; message says why
+};
+
+const char* toString(TrackerStatus status);
+
+struct TrackerResult {
+  TrackerStatus status = TrackerStatus::kOk;
+  /// Empty when status is kOk; otherwise a one-line reason (the node logs it, throttled).
+  std::string message;
+  /// Confirmed tracks and the scan's segments at the scan's stamp (after a rejection: the previous scene).
+  TrackedScene scene;
+  /// Beams of this scan that were ignored (NaN, inf, out of range).
+  size_t ignored_beams = 0;
+};
+
+class ObstacleTracker {
+ public:
+  /// Throws TrackerConfigError when config.validate() fails.
+  explicit ObstacleTracker(const TrackerConfig& config);
+
+  /// Processes one scan. laser_pose: pose of the laser in the fixed frame at scan.stamp_s (so the robot's
+  /// own motion never appears as obstacle motion). Never throws on bad data: see TrackerResult.
+  TrackerResult update(const LaserScan2& scan, const Pose2& laser_pose);
+
+  /// Drops every track and forgets the last stamp. Track ids keep increasing (an id is never reused).
+  void reset();
+
+  /// The last scene (confirmed tracks at the last used scan's stamp).
+  const TrackedScene& scene() const { return scene_; }
+  /// The confirmed tracks moved forward on their own motion to stamp_s (>= the last stamp; earlier stamps
+  /// return the last scene), e.g. to the planner's decision time. A stamp more than max_time_gap_s after the
+  /// last scan gives no obstacles (a scan that late resets the tracks). Does not change the tracker.
+  TrackedScene predictedScene(double stamp_s) const;
+  /// Circles and segments of the last used scan (fixed frame), for display.
+  const ScanDetections& lastDetections() const { return detections_; }
+  const TrackerConfig& config() const { return config_; }
+  /// Number of live tracks, confirmed or not.
+  size_t trackCount() const { return tracks_.size(); }
+
+ private:
+  struct Track {
+    int id = -1;
+    CtrvEkf ekf;
+    double born_s = 0.0;
+    double last_hit_s = 0.0;
+    int hits = 0;
+    bool confirmed = false;
+    /// Position of the first detection; a one-hit track has no velocity yet.
+    Vec2 first_position = Vec2::Zero();
+    std::deque<double> radii;
+    double radius = 0.0;
+    double reported_heading = 0.0;
+    bool updated_this_scan = false;
+  };
+
+  void predictTracks(double stamp_s);
+  void associateAndUpdate(const ScanDetections& detections, double stamp_s);
+  /// maneuver: the pair came from the second, manoeuvre assignment (re-open the motion uncertainty first).
+  void updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver = false);
+  void birthTrack(const CircleDetection& detection, double stamp_s);
+  void pruneTracks(double stamp_s);
+  void buildScene(double stamp_s);
+  /// Squared Mahalanobis distance of a detection from a track (infinity outside the hard distance cap).
+  double associationCost(const Track& track, const Vec2& z, double stamp_s) const;
+  TrackedObstacle toTrackedObstacle(const Track& track, double stamp_s) const;
+  Eigen::Matrix2d measurementCovariance(const CircleDetection& detection) const;
+
+  TrackerConfig config_;
+  std::vector<Track> tracks_;
+  /// Confirmed tracks dropped for silence, kept for re-acquisition (coasted to last_stamp_s_).
+  std::vector<Track> lost_;
+  TrackedScene scene_;
+  ScanDetections detections_;
+  bool has_stamp_ = false;
+  double last_stamp_s_ = 0.0;
+  int next_id_ = 0;
+};
+
+}  // namespace dqn_dovs

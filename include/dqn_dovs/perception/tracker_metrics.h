@@ -1,0 +1,68 @@
+// Scoring a tracker against ground truth (benchmark and tests). Definitions in docs/tracker.md "Metrics".
+#pragma once
+
+#include <map>
+#include <vector>
+
+#include "dqn_dovs/common/types.h"
+
+namespace dqn_dovs {
+
+/// Thresholds of the scoring.
+struct TrackingMetricsConfig {
+  /// A track and a true obstacle can only be matched when their centres are closer than this (m).
+  double match_distance_m = 0.5;
+  /// Speed, heading and turn-rate errors (and static speeds) are scored only for tracks at least this old (s).
+  double min_track_age_s = 1.0;
+  /// True obstacles at least this fast are "moving" and have their speed, heading and turn rate scored (m/s).
+  double moving_speed_mps = 0.1;
+  /// An id switch of a true obstacle whose centre is closer than this to another true obstacle's is also
+  /// counted as "crowded" (two discs nearly touching or, in simulation, passing through each other) (m).
+  double crowded_distance_m = 0.6;
+};
+
+/// Final figures (NaN where nothing was scored).
+struct TrackingSummary {
+  double pos_rmse_m = 0.0;
+  double speed_rmse_mps = 0.0;
+  double heading_err_deg_median = 0.0;
+  double turn_rate_rmse_rps = 0.0;
+  double id_switches_per_min = 0.0;
+  double false_tracks_per_scan = 0.0;
+  double missed_rate = 0.0;
+  double static_speed_mps_p95 = 0.0;
+  size_t scans = 0;
+  size_t matched_pairs = 0;
+  size_t id_switches = 0;
+  /// Id switches that happened while the obstacle was crowded (see crowded_distance_m).
+  size_t id_switches_crowded = 0;
+  /// Median |speed error| over the pairs of speed_rmse_mps (robust to the short lags after abrupt stops).
+  double speed_abs_err_median_mps = 0.0;
+};
+
+/// Accumulates per-scan matches over any number of episodes.
+class TrackingEvaluator {
+ public:
+  explicit TrackingEvaluator(const TrackingMetricsConfig& config = {}) : config_(config) {}
+
+  /// Starts a new episode: id histories are forgotten (ids of different episodes are unrelated).
+  void beginEpisode() { last_id_.clear(); }
+
+  /// Scores one scan. truths[k] is true obstacle k (stable index within the episode; is_static marks the
+  /// obstacles that never move); counts_for_missed[k] says whether obstacle k should have been reported
+  /// (e.g. clearly visible for a while); empty means all. period_s is the scan period (for per-minute rates).
+  /// Returns, for each truth, the index of its matched obstacle in scene.obstacles or -1.
+  std::vector<int> addScan(const TrackedScene& scene, const std::vector<MovingObstacle>& truths,
+                           const std::vector<bool>& counts_for_missed, double period_s);
+
+  TrackingSummary summary() const;
+
+ private:
+  TrackingMetricsConfig config_;
+  std::map<size_t, int> last_id_;  // truth index -> last matched track id in this episode
+  std::vector<double> pos_err_, speed_err_, heading_err_deg_, turn_err_, static_speed_;
+  size_t scans_ = 0, false_tracks_ = 0, should_see_ = 0, missed_ = 0, switches_ = 0, crowded_switches_ = 0, pairs_ = 0;
+  double truth_minutes_ = 0.0;
+};
+
+}  // namespace dqn_dovs

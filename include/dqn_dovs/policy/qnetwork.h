@@ -1,0 +1,136 @@
+// The DQN-DOVS Q-network on the robot: Eigen inference of the two-stream dueling network stored in a
+// `.dqnw` weight file (docs/weight_format.md), with masked action choice.
+// Numerically the same function as python/dqn_dovs_py/model.py's DuelingQNet (parity-tested to 1e-4).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dqn_dovs/policy/weight_file.h"
+
+namespace dqn_dovs {
+
+/// A state the network cannot evaluate (wrong size, NaN/inf), or Q-values that came out non-finite.
+/// The planner reacts by decelerating.
+class QNetworkInputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Shape of the two-stream dueling network; the same hyper-parameters, names and defaults as the
+/// constructor of python/dqn_dovs_py/model.py's DuelingQNet. Used to generate networks in C++ (tests,
+/// benchmarks); a loaded network takes its shapes from the file.
+struct DuelingArchitecture {
+  /// Output channels of each 3x3 convolution of the grid stream, in order.
+  std::vector<std::uint32_t> conv_channels = {8, 16, 16};
+  /// Stride of each convolution (same length as conv_channels); padding is conv_kernel / 2.
+  std::vector<std::uint32_t> conv_strides = {1, 2, 2};
+  /// Square kernel side of every convolution, odd.
+  std::uint32_t conv_kernel = 3;
+  /// Width of the single hidden layer of the feature stream.
+  std::uint32_t feature_hidden = 64;
+  /// Widths of the trunk's hidden layers after the concatenation, in order.
+  std::vector<std::uint32_t> trunk_hidden = {256, 128};
+
+  /// Empty when consistent, otherwise a message naming the offending field and why.
+  std::string validate() const;
+};
+
+/// Layer records of `arch` for the standard state (20 x 20 grid, 8 features, 8 actions), weights drawn
+/// like PyTorch's default initialisation (uniform in +-1/sqrt(fan_in)) from a fixed-seed generator.
+WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint64_t seed,
+                                     std::vector<std::pair<std::string, float>> normalization,
+                                     std::string metadata = "random weights");
+
+class QNetwork {
+ public:
+  static constexpr int kGridRows = 20;
+  static constexpr int kGridCols = 20;
+  static constexpr int kFeatureCount = 8;
+  static constexpr int kStateSize = kGridRows * kGridCols + kFeatureCount;  ///< 408
+  static constexpr int kActionCount = 8;
+
+  using QValues = std::array<float, kActionCount>;
+  using ActionMask = std::array<bool, kActionCount>;
+
+  /// Reads `path` and builds the network. Throws WeightFileError naming the file and the field on any
+  /// problem: missing file, magic, version, truncation, checksum, state layout, action count, layer
+  /// shapes that do not chain, NaN/inf weights or normalisation values.
+  static QNetwork load(const std::string& path);
+
+  /// Builds the network from a complete weight file image in memory (parseWeightFile + fromContents), with
+  /// the same checks and WeightFileError messages as load(); `source` names the bytes in the errors.
+  static QNetwork fromBytes(const std::vector<std::uint8_t>& bytes, const std::string& source);
+
+  /// Builds the network from parsed contents; `source` names them in error messages (a path).
+  static QNetwork fromContents(const WeightFileContents& contents, const std::string& source);
+
+  /// Q-values of one state (kStateSize floats: the grid row-major, then the features).
+  /// Throws QNetworkInputError on a wrong size or a NaN/inf element (naming the index), and when the
+  /// result is not finite. Thread-safe: scratch memory is per thread, allocated on a thread's first call
+  /// (and when a larger network is evaluated), so steady-state calls do not allocate.
+  QValues qValues(const Eigen::Ref<const Eigen::VectorXf>& state) const;
+
+  /// The valid action with the highest Q-value (lowest index on ties), or -1 when no action is valid,
+  /// in which case the network is not evaluated and the caller decelerates. Throws like qValues.
+  int selectAction(const Eigen::Ref<const Eigen::VectorXf>& state, const ActionMask& mask) const;
+
+  /// Masked argmax on precomputed Q-values: -1 when the mask is all false; NaN values are never chosen.
+  static int maskedArgmax(const QValues& q, const ActionMask& mask);
+
+  /// The normalisation constants the network was trained with, in file order.
+  const std::vector<std::pair<std::string, float>>& normalization() const { return normalization_; }
+
+  /// Empty when the file's normalisation has exactly the names of `expected` (any order) with values
+  /// equal within `rel_tol` (relative, absolute near 0); otherwise a message naming every mismatch.
+  /// The planner calls it with its own state normaliser's constants before trusting the network.
+  std::string normalizationMismatch(const std::vector<std::pair<std::string, float>>& expected,
+                                    float rel_tol = 1e-6f) const;
+
+  /// Free-text provenance (training command, date, source revision).
+  std::string metadata() const { return metadata_; }
+
+  /// Where the network was loaded from.
+  const std::string& source() const { return source_; }
+
+  /// One line per layer with its shape, for logs.
+  std::string describe() const;
+
+ private:
+  enum class OpKind { kConv, kLinear, kRelu };
+  /// One step of the forward pass on the flat per-thread scratch buffer (offsets in floats).
+  struct Op {
+    OpKind kind = OpKind::kRelu;
+    int in_offset = 0;
+    int in_size = 0;
+    int out_offset = 0;
+    int out_size = 0;
+    int param = -1;  ///< index into weights_/biases_ (conv, linear)
+    // conv geometry
+    int in_channels = 0, in_h = 0, in_w = 0, out_h = 0, out_w = 0;
+    int kernel_h = 0, kernel_w = 0, stride_h = 0, stride_w = 0, pad_h = 0, pad_w = 0;
+    int col_offset = 0;  ///< im2col matrix, (in_channels * kernel_h * kernel_w) x (out_h * out_w)
+  };
+  using RowMatrix = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+  QNetwork() = default;
+  void runOp(const Op& op, float* scratch) const;
+
+  std::vector<Op> ops_;
+  std::vector<RowMatrix> weights_;
+  std::vector<Eigen::VectorXf> biases_;
+  int scratch_size_ = 0;
+  int value_offset_ = 0;
+  int advantage_offset_ = 0;
+  std::vector<std::string> layer_descriptions_;
+  std::vector<std::pair<std::string, float>> normalization_;
+  std::string metadata_;
+  std::string source_;
+};
+
+}  // namespace dqn_dovs

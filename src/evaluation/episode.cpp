@@ -1,0 +1,224 @@
+#include "dqn_dovs/evaluation/episode.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace dqn_dovs {
+
+std::string RewardConfig::validate() const {
+  std::ostringstream os;
+  if (!(goal_reward > 0.0))
+    os << "reward.goal_reward must be > 0";
+  else if (!(collision_reward < 0.0))
+    os << "reward.collision_reward must be < 0";
+  else if (!(distance_weight >= 0.0))
+    os << "reward.distance_weight must be >= 0";
+  else if (!(safe_distance_m >= 0.0))
+    os << "reward.safe_distance_m must be >= 0";
+  else if (!(safe_weight >= 0.0))
+    os << "reward.safe_weight must be >= 0";
+  else if (!(goal_tolerance_m > 0.0))
+    os << "reward.goal_tolerance_m must be > 0";
+  else if (!(goal_speed_mps > 0.0))
+    os << "reward.goal_speed_mps must be > 0";
+  else if (max_steps < 1)
+    os << "reward.max_steps must be >= 1";
+  return os.str();
+}
+
+std::string EpisodeConfig::validate() const {
+  if (auto e = world.validate(); !e.empty()) return "world: " + e;
+  if (auto e = tracker.validate(); !e.empty()) return "tracker: " + e;
+  if (auto e = dovs.validate(); !e.empty()) return "dovs: " + e;
+  if (auto e = reward.validate(); !e.empty()) return e;
+  const double ratio = world.robot.dt / scan_period_s;
+  if (!(scan_period_s > 0.0) || std::abs(ratio - std::round(ratio)) > 1e-6 || std::round(ratio) < 1.0) {
+    std::ostringstream os;
+    os << "scan_period_s = " << scan_period_s << " must divide the control period " << world.robot.dt << " s";
+    return os.str();
+  }
+  if (!(sensor_warmup_s >= 0.0 && sensor_warmup_s <= 5.0)) return "sensor_warmup_s must be in [0, 5] s";
+  return {};
+}
+
+const char* outcomeName(Outcome o) {
+  switch (o) {
+    case Outcome::kRunning:
+      return "running";
+    case Outcome::kSuccess:
+      return "success";
+    case Outcome::kCollision:
+      return "collision";
+    case Outcome::kTimeout:
+      return "timeout";
+  }
+  return "unknown";
+}
+
+namespace {
+
+const EpisodeConfig& checked(const EpisodeConfig& c) {
+  const std::string error = c.validate();
+  if (!error.empty()) throw std::invalid_argument("episode configuration: " + error);
+  return c;
+}
+
+/// Clips a command into the dynamic window around `current`, then into the feasible triangle.
+Twist2 clipToWindow(const Twist2& current, Twist2 command, const RobotLimits& limits) {
+  if (!std::isfinite(command.v) || !std::isfinite(command.w)) return current;
+  const double dv = limits.dv(), dw = limits.dw();
+  const double norm = std::abs(command.v - current.v) / dv + std::abs(command.w - current.w) / dw;
+  if (norm > 1.0) {
+    command.v = current.v + (command.v - current.v) / norm;
+    command.w = current.w + (command.w - current.w) / norm;
+  }
+  return limits.clipToFeasible(command);
+}
+
+}  // namespace
+
+Episode::Episode(const EpisodeConfig& config)
+    : config_(checked(config)),
+      world_(sim::Scenario{}, config_.world, 0),
+      tracker_(config_.tracker),
+      dovs_builder_(config_.world.robot, config_.dovs),
+      normalization_(stateNormalization(config_.world.robot, config_.dovs)),
+      state_(Eigen::VectorXf::Zero(kStateSize)) {}
+
+void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
+  world_.reset(scenario, seed);
+  tracker_.reset();
+  outcome_ = Outcome::kRunning;
+  steps_ = 0;
+  path_length_m_ = 0.0;
+  danger_steps_ = 0;
+  trajectory_.clear();
+  // The robot senses, standing still, before it is given the goal: the tracker needs a few scans to
+  // confirm tracks and estimate their velocities. Obstacles move meanwhile, the same for every planner.
+  const int warmup_scans = static_cast<int>(std::round(config_.sensor_warmup_s / config_.scan_period_s));
+  sense();
+  for (int i = 0; i < warmup_scans; ++i) {
+    world_.step(Twist2{}, config_.scan_period_s);
+    sense();
+  }
+  start_time_s_ = world_.time_s();
+  min_clearance_m_ = world_.minClearance_m();
+  trajectory_.push_back(world_.robotPose());
+  if (world_.collided()) {
+    // A scenario that starts in contact ends at once; it is counted as a collision of the scenario.
+    outcome_ = Outcome::kCollision;
+  }
+  buildContext();
+}
+
+void Episode::sense() {
+  if (config_.perfect_info) return;
+  world_.scanInto(scan_);
+  const TrackerResult result = tracker_.update(scan_, world_.laserPose());
+  if (result.status == TrackerStatus::kRejected) {
+    throw std::runtime_error("episode: the tracker rejected a simulated scan: " + result.message);
+  }
+}
+
+void Episode::buildContext() {
+  observation_.stamp_s = world_.time_s();
+  observation_.robot_pose = world_.robotPose();
+  observation_.robot_twist = world_.robotTwist();
+  observation_.goal = world_.goal();
+  observation_.obstacles.clear();
+  observation_.segments.clear();
+  if (config_.perfect_info) {
+    observation_.obstacles = world_.groundTruthObstacles();
+    observation_.segments = world_.walls();
+  } else {
+    for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
+    observation_.segments = tracker_.scene().segments;
+  }
+  dovs_builder_.build(observation_, dovs_);
+  const Vec2 goal_local = observation_.robot_pose.toLocal(observation_.goal);
+  actions_ = computeActions(observation_.robot_twist, goal_local, config_.world.robot);
+  state_ = buildState(dovs_, observation_, normalization_);
+}
+
+PlannerInput Episode::plannerInput() const {
+  PlannerInput in;
+  in.observation = &observation_;
+  in.dovs = &dovs_;
+  in.actions = &actions_;
+  in.state = &state_;
+  in.limits = config_.world.robot;
+  return in;
+}
+
+StepResult Episode::stepAction(int a) {
+  if (a < 0 || a >= kNumActions) throw std::out_of_range("episode: action " + std::to_string(a) + " is not in [0, 8)");
+  if (!actions_.valid[static_cast<size_t>(a)]) {
+    throw std::invalid_argument("episode: action " + std::to_string(a) + " is masked out in this state");
+  }
+  return step(actions_.velocities[static_cast<size_t>(a)]);
+}
+
+StepResult Episode::step(const Twist2& command) {
+  if (done())
+    throw std::logic_error("episode: step() after the episode ended (" + std::string(outcomeName(outcome_)) + ")");
+  const Twist2 target = clipToWindow(world_.robotTwist(), command, config_.world.robot);
+  return advance([&](double dt_s) { world_.step(target, dt_s); });
+}
+
+StepResult Episode::stepHolonomic(const Vec2& velocity) {
+  if (done()) {
+    throw std::logic_error("episode: stepHolonomic() after the episode ended (" + std::string(outcomeName(outcome_)) +
+                           ")");
+  }
+  return advance([&](double dt_s) { world_.stepHolonomic(velocity, dt_s); });
+}
+
+StepResult Episode::stepDecision(const PlannerDecision& d) {
+  return d.holonomic_velocity ? stepHolonomic(*d.holonomic_velocity) : step(d.command);
+}
+
+StepResult Episode::advance(const std::function<void(double)>& move_robot) {
+  const RobotLimits& limits = config_.world.robot;
+  const double d_before = (world_.robotPose().position() - world_.goal()).norm();
+
+  const int scans = static_cast<int>(std::round(limits.dt / config_.scan_period_s));
+  for (int i = 0; i < scans; ++i) {
+    const Vec2 before = world_.robotPose().position();
+    move_robot(config_.scan_period_s);
+    path_length_m_ += (world_.robotPose().position() - before).norm();
+    sense();
+    min_clearance_m_ = std::min(min_clearance_m_, world_.minClearance_m());
+    if (world_.collided()) break;
+  }
+  ++steps_;
+  trajectory_.push_back(world_.robotPose());
+
+  const RewardConfig& rc = config_.reward;
+  StepResult r;
+  const double d_after = (world_.robotPose().position() - world_.goal()).norm();
+  const double clearance = world_.minClearance_m();
+  if (clearance < rc.safe_distance_m) ++danger_steps_;
+  if (world_.collided()) {
+    r.reward = rc.collision_reward;
+    r.terminated = true;
+    outcome_ = Outcome::kCollision;
+  } else if (d_after < rc.goal_tolerance_m && world_.robotTwist().v < rc.goal_speed_mps) {
+    r.reward = rc.goal_reward;
+    r.terminated = true;
+    outcome_ = Outcome::kSuccess;
+  } else {
+    r.reward = -rc.distance_weight * (d_after - d_before);
+    if (clearance < rc.safe_distance_m) r.reward -= rc.safe_weight * std::abs(rc.safe_distance_m - clearance);
+    if (steps_ >= rc.max_steps) {
+      r.truncated = true;
+      outcome_ = Outcome::kTimeout;
+    }
+  }
+  r.outcome = outcome_;
+  buildContext();
+  return r;
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,380 @@
+#include "dqn_dovs/evaluation/eval.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "dqn_dovs/common/random.h"
+#include "dqn_dovs/planning/planner.h"
+
+namespace dqn_dovs {
+
+std::string EvalConfig::validate() const {
+  std::ostringstream os;
+  if (methods.empty()) return "methods is empty";
+  for (size_t i = 0; i < methods.size(); ++i) {
+    if (methods[i].empty()) return "methods[" + std::to_string(i) + "] is empty";
+    for (size_t j = 0; j < i; ++j) {
+      if (methods[j] == methods[i]) return "methods lists '" + methods[i] + "' twice";
+    }
+  }
+  if (obstacles_min < 0) {
+    os << "obstacles_min = " << obstacles_min << ": must be >= 0";
+  } else if (obstacles_max < obstacles_min) {
+    os << "obstacles_max = " << obstacles_max << ": must be >= obstacles_min (" << obstacles_min << ")";
+  } else if (episodes < 1) {
+    os << "episodes = " << episodes << ": must be >= 1";
+  } else if (!(dynamic_fraction >= 0.0 && dynamic_fraction <= 1.0)) {
+    os << "dynamic_fraction = " << dynamic_fraction << ": must be in [0, 1]";
+  } else if (!(std::isfinite(generated_goal_distance_min_m) && generated_goal_distance_min_m >= 0.0)) {
+    os << "generated_goal_distance_min_m = " << generated_goal_distance_min_m << ": must be finite and >= 0";
+  } else if (threads < 1 || threads > 256) {
+    os << "threads = " << threads << ": must be in [1, 256]";
+  } else if (const std::string e = episode.validate(); !e.empty()) {
+    os << "episode: " << e;
+  } else if (const std::string e = shield.validate(); !e.empty()) {
+    os << "shield: " << e;
+  }
+  return os.str();
+}
+
+namespace {
+
+uint64_t episodeSeed(uint64_t base, int obstacles, int episode) {
+  return sim::mixSeed(sim::mixSeed(base) ^ (static_cast<uint64_t>(obstacles) << 32 | static_cast<uint32_t>(episode)));
+}
+
+}  // namespace
+
+std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config) {
+  if (const std::string e = config.validate(); !e.empty()) throw EvalError("evaluation configuration: " + e);
+  std::vector<EvalScenario> out;
+  for (int n = config.obstacles_min; n <= config.obstacles_max; ++n) {
+    for (int k = 1; k <= config.episodes; ++k) {
+      EvalScenario s;
+      s.obstacles = n;
+      s.episode = k;
+      s.seed = episodeSeed(config.seed, n, k);
+      if (!config.scenarios_dir.empty()) {
+        const std::string path = config.scenarios_dir + "/1-" + std::to_string(n) + "/" + std::to_string(k) + ".dovs";
+        try {
+          s.scenario = sim::loadDovsScenario(path);
+          sim::applyDynamicFraction(s.scenario, config.dynamic_fraction);
+        } catch (const std::exception& e) {
+          throw EvalError("scenario " + path + ": " + e.what());
+        }
+        if (static_cast<int>(s.scenario.obstacles.size()) != n) {
+          throw EvalError("scenario " + path + ": holds " + std::to_string(s.scenario.obstacles.size()) +
+                          " obstacles, the folder 1-" + std::to_string(n) + " promises " + std::to_string(n));
+        }
+        s.scenario.name = "1-" + std::to_string(n) + "/" + std::to_string(k);
+      } else {
+        sim::GeneratorConfig g;
+        g.obstacle_count_min = n;
+        g.obstacle_count_max = n;
+        g.obstacle_type = sim::ObstacleType::kBoth;
+        g.dynamic_fraction = config.dynamic_fraction;
+        g.goal_distance_min_m = config.generated_goal_distance_min_m;
+        g.random_robot_heading = false;  // as in the evaluation files
+        const uint64_t scenario_seed = episodeSeed(config.seed ^ 0x5CE7A210ULL, n, k);
+        try {
+          s.scenario = sim::generateScenario(g, scenario_seed);
+        } catch (const std::exception& e) {
+          throw EvalError("generated scenario (seed " + std::to_string(config.seed) + ", " + std::to_string(n) +
+                          " obstacles, episode " + std::to_string(k) + "): " + e.what());
+        }
+        s.scenario.name =
+            "generated/" + std::to_string(config.seed) + "/" + std::to_string(n) + "/" + std::to_string(k);
+      }
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
+namespace {
+
+/// One worker's tools: a planner per method and one episode, built once and reused for every job it runs.
+struct Worker {
+  std::vector<std::unique_ptr<Planner>> planners;
+  std::unique_ptr<Episode> episode;
+};
+
+EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, const EvalScenario& s,
+                     bool keep_paths) {
+  Planner& planner = *w.planners[method_index];
+  Episode& ep = *w.episode;
+  planner.reset();
+  ep.reset(s.scenario, s.seed);
+  EpisodeRecord r;
+  r.method = method;
+  r.obstacles = s.obstacles;
+  r.episode = s.episode;
+  r.scenario = s.scenario.name;
+  if (keep_paths) r.obstacle_paths.resize(ep.world().obstacles().size());
+  auto recordObstacles = [&]() {
+    if (!keep_paths) return;
+    const auto& obs = ep.world().obstacles();
+    for (size_t i = 0; i < obs.size() && i < r.obstacle_paths.size(); ++i)
+      r.obstacle_paths[i].push_back(obs[i].body.center);
+  };
+  recordObstacles();
+  const RobotLimits& limits = ep.config().world.robot;
+  while (!ep.done()) {
+    const PlannerInput in = ep.plannerInput();
+    PlannerDecision decision;
+    try {
+      decision = planner.decide(in);
+    } catch (const PlannerError&) {
+      // The interface's contract: the caller decelerates when a planner cannot decide.
+      ++r.planner_errors;
+      decision = PlannerDecision{};
+      decision.command = decelerationCommand(ep.observation().robot_twist, limits);
+      decision.note = "planner error";
+    }
+    r.last_decision = decision.note;
+    ep.stepDecision(decision);  // holonomic baselines move the robot holonomically
+    recordObstacles();
+  }
+  r.outcome = ep.outcome();
+  r.time_s = ep.time_s();
+  r.path_length_m = ep.pathLength_m();
+  r.min_clearance_m = ep.minClearance_m();
+  r.danger_steps = ep.dangerSteps();
+  r.steps = ep.steps();
+  if (r.outcome == Outcome::kCollision && ep.world().collided()) {
+    r.collision_kind = classifyCollision(ep.world().collision());
+    r.contact_speed_mps = ep.world().collision().robot_speed_mps;
+  }
+  if (keep_paths) r.robot_path = ep.trajectory();
+  return r;
+}
+
+}  // namespace
+
+std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::vector<EvalScenario>& scenarios,
+                                         const EvalProgress& progress) {
+  if (const std::string e = config.validate(); !e.empty()) throw EvalError("evaluation configuration: " + e);
+  const size_t num_methods = config.methods.size();
+  const size_t total = num_methods * scenarios.size();
+  std::vector<EpisodeRecord> records(total);
+  // Jobs run scenario-major (every method on a scenario before the next) so that partial progress is
+  // comparable across methods; records are stored method-major.
+  std::atomic<size_t> next{0};
+  std::atomic<bool> failed{false};
+  std::mutex mutex;
+  size_t done = 0;
+  std::string first_error;
+
+  auto work = [&]() {
+    Worker w;
+    try {
+      for (const std::string& m : config.methods)
+        w.planners.push_back(makePlanner(m, config.model_path, &config.shield));
+      w.episode = std::make_unique<Episode>(config.episode);
+    } catch (const std::exception& e) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (first_error.empty()) first_error = std::string("cannot set up a worker: ") + e.what();
+      failed = true;
+      return;
+    }
+    while (!failed) {
+      const size_t job = next.fetch_add(1);
+      if (job >= total) break;
+      const size_t si = job / num_methods, mi = job % num_methods;
+      const EvalScenario& s = scenarios[si];
+      const bool keep = std::find(config.keep_paths.begin(), config.keep_paths.end(),
+                                  std::make_pair(s.obstacles, s.episode)) != config.keep_paths.end();
+      try {
+        EpisodeRecord r = runOne(w, mi, config.methods[mi], s, keep);
+        std::lock_guard<std::mutex> lock(mutex);
+        records[mi * scenarios.size() + si] = std::move(r);
+        ++done;
+        if (progress) progress(records[mi * scenarios.size() + si], done, total);
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(mutex);
+        if (first_error.empty()) {
+          first_error = "method '" + config.methods[mi] + "' on scenario " + s.scenario.name + ": " + e.what();
+        }
+        failed = true;
+      }
+    }
+  };
+
+  const int threads = std::min<int>(config.threads, static_cast<int>(std::max<size_t>(total, 1)));
+  if (threads <= 1) {
+    work();
+  } else {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+    for (std::thread& t : pool) t.join();
+  }
+  if (failed) throw EvalError("evaluation failed: " + first_error);
+  return records;
+}
+
+const char* collisionKindName(CollisionKind kind) {
+  switch (kind) {
+    case CollisionKind::kNone:
+      return "";
+    case CollisionKind::kStatic:
+      return "static";
+    case CollisionKind::kRest:
+      return "rest";
+    case CollisionKind::kMoving:
+      return "moving";
+  }
+  return "";
+}
+
+CollisionKind classifyCollision(const sim::CollisionInfo& collision) {
+  if (collision.kind == sim::CollisionInfo::Kind::kNone) return CollisionKind::kNone;
+  if (collision.static_contact) return CollisionKind::kStatic;
+  return collision.robot_speed_mps < kRestSpeedMps ? CollisionKind::kRest : CollisionKind::kMoving;
+}
+
+namespace {
+
+std::ofstream openOut(const std::string& path) {
+  std::ofstream out(path, std::ios::trunc);
+  if (!out) throw EvalError("cannot open '" + path + "' for writing");
+  out << std::setprecision(6);
+  return out;
+}
+
+void closeOut(std::ofstream& out, const std::string& path) {
+  out.close();
+  if (!out) throw EvalError("cannot write '" + path + "'");
+}
+
+}  // namespace
+
+void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path) {
+  std::ofstream out = openOut(path);
+  out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
+         "planner_errors,collision_kind,contact_speed_mps,last_decision\n";
+  for (const EpisodeRecord& r : records) {
+    out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
+        << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
+        << r.steps << ',' << r.planner_errors << ',' << collisionKindName(r.collision_kind) << ',';
+    if (std::isfinite(r.contact_speed_mps)) out << r.contact_speed_mps;
+    // The note is free text: commas become semicolons and quotes and line breaks spaces, so the row stays plain.
+    std::string note = r.last_decision;
+    for (char& ch : note) {
+      if (ch == ',')
+        ch = ';';
+      else if (ch == '"' || ch == '\n' || ch == '\r')
+        ch = ' ';
+    }
+    out << ',' << note << '\n';
+  }
+  closeOut(out, path);
+}
+
+namespace {
+
+/// A JSON string literal: quotes, backslashes and control characters escaped.
+std::string jsonString(const std::string& text) {
+  std::ostringstream os;
+  os << '"';
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (ch == '"' || ch == '\\') {
+      os << '\\' << ch;
+    } else if (c < 0x20) {
+      os << "\\u" << std::hex << std::setw(4) << std::setfill('0') << static_cast<int>(c) << std::dec
+         << std::setfill(' ');
+    } else {
+      os << ch;
+    }
+  }
+  os << '"';
+  return os.str();
+}
+
+/// A JSON number; NaN and infinities (which JSON cannot hold) become null.
+std::string jsonNumber(double x, int digits = 10) {
+  if (!std::isfinite(x)) return "null";
+  std::ostringstream os;
+  os << std::setprecision(digits) << x;
+  return os.str();
+}
+
+}  // namespace
+
+void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::string& path) {
+  std::ofstream out = openOut(path);
+  out << "{\n  \"command\": " << jsonString(info.command)
+      << ",\n  \"scenarios\": " << jsonString(config.scenarios_dir.empty() ? "generated" : config.scenarios_dir)
+      << ",\n  \"seed\": " << config.seed << ",\n  \"obstacles_min\": " << config.obstacles_min
+      << ",\n  \"obstacles_max\": " << config.obstacles_max << ",\n  \"episodes\": " << config.episodes
+      << ",\n  \"dynamic_fraction\": " << jsonNumber(config.dynamic_fraction)
+      << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
+      << ",\n  \"step_s\": " << jsonNumber(config.episode.world.robot.dt)
+      << ",\n  \"max_steps\": " << config.episode.reward.max_steps << ",\n  \"wall_s\": " << jsonNumber(info.wall_s)
+      << ",\n  \"threads\": " << config.threads << ",\n  \"methods\": [";
+  for (size_t i = 0; i < config.methods.size(); ++i) out << (i ? ", " : "") << jsonString(config.methods[i]);
+  out << "],\n  \"reference\": " << jsonString(info.reference)
+      << ",\n  \"goal_tolerance_m\": " << jsonNumber(config.episode.reward.goal_tolerance_m) << "\n}\n";
+  closeOut(out, path);
+}
+
+void writePathsJson(const std::vector<EpisodeRecord>& records, const std::vector<EvalScenario>& scenarios,
+                    double goal_tolerance_m, const std::string& path) {
+  std::ofstream out = openOut(path);
+  out << "{\"episodes\": [";
+  bool first = true;
+  for (const EpisodeRecord& r : records) {
+    if (r.robot_path.empty()) continue;
+    const auto s = std::find_if(scenarios.begin(), scenarios.end(), [&](const EvalScenario& e) {
+      return e.obstacles == r.obstacles && e.episode == r.episode;
+    });
+    if (s == scenarios.end()) {
+      throw EvalError("cannot write '" + path + "': no scenario for the record of " + r.method +
+                      " at N=" + std::to_string(r.obstacles) + ", episode " + std::to_string(r.episode));
+    }
+    const sim::Scenario& sc = s->scenario;
+    out << (first ? "\n" : ",\n") << "{\"method\": " << jsonString(r.method) << ", \"obstacles\": " << r.obstacles
+        << ", \"episode\": " << r.episode << ", \"scenario\": " << jsonString(r.scenario)
+        << ", \"outcome\": " << jsonString(outcomeName(r.outcome)) << ", \"time_s\": " << jsonNumber(r.time_s)
+        << ", \"path_length_m\": " << jsonNumber(r.path_length_m)
+        << ", \"min_clearance_m\": " << jsonNumber(r.min_clearance_m) << ",\n \"goal\": [" << jsonNumber(sc.goal.x())
+        << ", " << jsonNumber(sc.goal.y()) << "], \"goal_tolerance_m\": " << jsonNumber(goal_tolerance_m)
+        << ", \"room_half_size_m\": " << jsonNumber(sc.room_half_size_m) << ", \"walls\": [";
+    for (size_t i = 0; i < sc.static_segments.size(); ++i) {
+      const Segment& w = sc.static_segments[i];
+      out << (i ? ", [" : "[") << jsonNumber(w.a.x()) << ", " << jsonNumber(w.a.y()) << ", " << jsonNumber(w.b.x())
+          << ", " << jsonNumber(w.b.y()) << "]";
+    }
+    out << "],\n \"robot_path\": [";
+    for (size_t k = 0; k < r.robot_path.size(); ++k) {
+      const Pose2& p = r.robot_path[k];
+      out << (k ? ", [" : "[") << jsonNumber(p.x, 6) << ", " << jsonNumber(p.y, 6) << ", " << jsonNumber(p.theta, 6)
+          << "]";
+    }
+    out << "],\n \"obstacle_paths\": [";
+    for (size_t i = 0; i < r.obstacle_paths.size(); ++i) {
+      const bool known = i < sc.obstacles.size();
+      out << (i ? ",\n  " : "\n  ") << "{\"radius\": " << jsonNumber(known ? sc.obstacles[i].radius : 0.2)
+          << ", \"static\": " << (known && sc.obstacles[i].is_static ? "true" : "false") << ", \"path\": [";
+      const std::vector<Vec2>& trail = r.obstacle_paths[i];
+      for (size_t k = 0; k < trail.size(); ++k) {
+        out << (k ? ", [" : "[") << jsonNumber(trail[k].x(), 6) << ", " << jsonNumber(trail[k].y(), 6) << "]";
+      }
+      out << "]}";
+    }
+    out << "]}";
+    first = false;
+  }
+  out << "\n]}\n";
+  closeOut(out, path);
+}
+
+}  // namespace dqn_dovs

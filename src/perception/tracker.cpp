@@ -1,0 +1,429 @@
+// Obstacle tracker: time handling, association, track life and the reported scene.
+#include "dqn_dovs/perception/tracker.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "dqn_dovs/perception/circle_fit.h"
+#include "dqn_dovs/perception/hungarian.h"
+
+namespace dqn_dovs {
+namespace {
+
+std::string badField(const char* name, double value, const char* why) {
+  std::ostringstream os;
+  os << "tracker parameter '" << name << "' = " << value << ": " << why;
+  return os.str();
+}
+
+bool positive(double x) { return std::isfinite(x) && x > 0.0; }
+bool nonNegative(double x) { return std::isfinite(x) && x >= 0.0; }
+
+}  // namespace
+
+std::string TrackerConfig::validate() const {
+  if (!positive(cluster_distance_base_m))
+    return badField("cluster_distance_base_m", cluster_distance_base_m, "must be > 0 (m)");
+  if (!nonNegative(cluster_distance_beam_factor))
+    return badField("cluster_distance_beam_factor", cluster_distance_beam_factor, "must be >= 0");
+  if (max_skipped_beams < 0) return badField("max_skipped_beams", max_skipped_beams, "must be >= 0");
+  if (min_cluster_points < 3)
+    return badField("min_cluster_points", min_cluster_points, "must be >= 3 (a circle needs 3 points)");
+  if (!positive(split_distance_m)) return badField("split_distance_m", split_distance_m, "must be > 0 (m)");
+  if (!positive(segment_min_length_m)) return badField("segment_min_length_m", segment_min_length_m, "must be > 0 (m)");
+  if (!positive(line_max_rms_m)) return badField("line_max_rms_m", line_max_rms_m, "must be > 0 (m)");
+  if (!(nonNegative(min_arc_sagitta_ratio) && min_arc_sagitta_ratio < 0.5))
+    return badField("min_arc_sagitta_ratio", min_arc_sagitta_ratio, "must be in [0, 0.5)");
+  if (!positive(max_circle_radius_m)) return badField("max_circle_radius_m", max_circle_radius_m, "must be > 0 (m)");
+  if (!(positive(min_circle_radius_m) && min_circle_radius_m < max_circle_radius_m))
+    return badField("min_circle_radius_m", min_circle_radius_m, "must be > 0 and below max_circle_radius_m (m)");
+  if (!positive(circle_max_rms_m)) return badField("circle_max_rms_m", circle_max_rms_m, "must be > 0 (m)");
+  if (!(positive(fallback_radius_m) && fallback_radius_m <= max_circle_radius_m))
+    return badField("fallback_radius_m", fallback_radius_m, "must be > 0 and at most max_circle_radius_m (m)");
+  if (!nonNegative(radius_margin_m)) return badField("radius_margin_m", radius_margin_m, "must be >= 0 (m)");
+  if (radius_window < 1) return badField("radius_window", radius_window, "must be >= 1");
+  if (!(std::isfinite(radius_quantile) && radius_quantile >= 0.0 && radius_quantile <= 1.0))
+    return badField("radius_quantile", radius_quantile, "must be in [0, 1]");
+  if (!positive(measurement_noise_m)) return badField("measurement_noise_m", measurement_noise_m, "must be > 0 (m)");
+  if (!positive(accel_noise_mps2)) return badField("accel_noise_mps2", accel_noise_mps2, "must be > 0 (m/s^2)");
+  if (!positive(turn_accel_noise_rps2))
+    return badField("turn_accel_noise_rps2", turn_accel_noise_rps2, "must be > 0 (rad/s^2)");
+  if (!positive(max_turn_rate_rps)) return badField("max_turn_rate_rps", max_turn_rate_rps, "must be > 0 (rad/s)");
+  if (!positive(init_speed_std_mps)) return badField("init_speed_std_mps", init_speed_std_mps, "must be > 0 (m/s)");
+  if (!positive(init_turn_rate_std_rps))
+    return badField("init_turn_rate_std_rps", init_turn_rate_std_rps, "must be > 0 (rad/s)");
+  if (!positive(gate_mahalanobis2)) return badField("gate_mahalanobis2", gate_mahalanobis2, "must be > 0");
+  if (!positive(gate_max_distance_m)) return badField("gate_max_distance_m", gate_max_distance_m, "must be > 0 (m)");
+  if (!nonNegative(maneuver_gate_m))
+    return badField("maneuver_gate_m", maneuver_gate_m, "must be >= 0 (m); 0 disables");
+  if (!nonNegative(maneuver_max_silence_s))
+    return badField("maneuver_max_silence_s", maneuver_max_silence_s, "must be >= 0 (s)");
+  if (confirm_hits < 1) return badField("confirm_hits", confirm_hits, "must be >= 1");
+  if (!positive(tentative_timeout_s)) return badField("tentative_timeout_s", tentative_timeout_s, "must be > 0 (s)");
+  if (!positive(deletion_timeout_s)) return badField("deletion_timeout_s", deletion_timeout_s, "must be > 0 (s)");
+  if (!positive(max_position_std_m)) return badField("max_position_std_m", max_position_std_m, "must be > 0 (m)");
+  if (!nonNegative(reacquire_window_s)) return badField("reacquire_window_s", reacquire_window_s, "must be >= 0 (s)");
+  if (!positive(reacquire_max_distance_m))
+    return badField("reacquire_max_distance_m", reacquire_max_distance_m, "must be > 0 (m)");
+  if (!positive(max_time_gap_s)) return badField("max_time_gap_s", max_time_gap_s, "must be > 0 (s)");
+  if (!nonNegative(static_speed_threshold_mps))
+    return badField("static_speed_threshold_mps", static_speed_threshold_mps, "must be >= 0 (m/s)");
+  return {};
+}
+
+const char* toString(TrackerStatus status) {
+  switch (status) {
+    case TrackerStatus::kOk:
+      return "ok";
+    case TrackerStatus::kRejected:
+      return "rejected";
+    case TrackerStatus::kReset:
+      return "reset";
+  }
+  return "unknown";
+}
+
+ObstacleTracker::ObstacleTracker(const TrackerConfig& config) : config_(config) {
+  const std::string why = config_.validate();
+  if (!why.empty()) throw TrackerConfigError(why);
+}
+
+void ObstacleTracker::reset() {
+  tracks_.clear();
+  lost_.clear();
+  scene_ = TrackedScene{};
+  detections_ = ScanDetections{};
+  has_stamp_ = false;
+  last_stamp_s_ = 0.0;
+}
+
+TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser_pose) {
+  TrackerResult result;
+  auto reject = [&](const std::string& why) {
+    result.status = TrackerStatus::kRejected;
+    result.message = "scan rejected: " + why;
+    result.scene = scene_;
+    return result;
+  };
+  const std::string scan_problem = checkScan(scan);
+  if (!scan_problem.empty()) return reject(scan_problem);
+  if (!laser_pose.isFinite()) {
+    std::ostringstream os;
+    os << "laser pose (" << laser_pose.x << ", " << laser_pose.y << ", " << laser_pose.theta << ") is not finite";
+    return reject(os.str());
+  }
+  if (has_stamp_) {
+    const double dt = scan.stamp_s - last_stamp_s_;
+    if (dt == 0.0) {
+      return reject("same stamp as the previous scan (" + std::to_string(scan.stamp_s) +
+                    " s); a measurement is used once");
+    }
+    if (dt < 0.0 || dt > config_.max_time_gap_s) {
+      std::ostringstream os;
+      os << "tracks reset: scan stamp " << scan.stamp_s << " s is " << std::abs(dt) << " s "
+         << (dt < 0.0 ? "before the previous scan (time went backwards, e.g. a looping bag)"
+                      : "after the previous scan (gap longer than max_time_gap_s)");
+      reset();
+      result.status = TrackerStatus::kReset;
+      result.message = os.str();
+    }
+  }
+
+  detections_ = detectObstacles(scan, laser_pose, config_);
+  result.ignored_beams = detections_.ignored_beams;
+  predictTracks(scan.stamp_s);
+  associateAndUpdate(detections_, scan.stamp_s);
+  pruneTracks(scan.stamp_s);
+  has_stamp_ = true;
+  last_stamp_s_ = scan.stamp_s;
+  buildScene(scan.stamp_s);
+  result.scene = scene_;
+  return result;
+}
+
+void ObstacleTracker::predictTracks(double stamp_s) {
+  if (!has_stamp_) return;
+  const double dt = stamp_s - last_stamp_s_;
+  for (Track& t : tracks_) {
+    t.updated_this_scan = false;
+    // One-hit tracks have no velocity: they stay at their first detection (the gate grows instead).
+    if (t.hits < 2) continue;
+    t.ekf.predict(dt, config_.accel_noise_mps2, config_.turn_accel_noise_rps2);
+    t.ekf.clampTurnRate(config_.max_turn_rate_rps);
+  }
+  lost_.erase(std::remove_if(lost_.begin(), lost_.end(),
+                             [&](const Track& t) { return stamp_s - t.last_hit_s > config_.reacquire_window_s; }),
+              lost_.end());
+  for (Track& t : lost_) t.ekf.predict(dt, config_.accel_noise_mps2, config_.turn_accel_noise_rps2);
+}
+
+Eigen::Matrix2d ObstacleTracker::measurementCovariance(const CircleDetection& detection) const {
+  // Fallback placements guess the depth of the centre: trust them less.
+  const double sigma = detection.free_fit ? config_.measurement_noise_m : 2.0 * config_.measurement_noise_m;
+  const double var = sigma * sigma + detection.fit_rms_m * detection.fit_rms_m;
+  return var * Eigen::Matrix2d::Identity();
+}
+
+double ObstacleTracker::associationCost(const Track& track, const Vec2& z, double stamp_s) const {
+  const double inf = std::numeric_limits<double>::infinity();
+  const Eigen::Matrix2d r = config_.measurement_noise_m * config_.measurement_noise_m * Eigen::Matrix2d::Identity();
+  if (track.hits < 2) {
+    const Vec2 nu = z - track.first_position;
+    if (nu.norm() > config_.gate_max_distance_m) return inf;
+    const double dt = stamp_s - track.born_s;
+    const double var = 2.0 * r(0, 0) + std::pow(config_.init_speed_std_mps * dt, 2);
+    return nu.squaredNorm() / var;
+  }
+  if ((z - track.ekf.position()).norm() > config_.gate_max_distance_m) return inf;
+  return track.ekf.mahalanobis2(z, r);
+}
+
+void ObstacleTracker::associateAndUpdate(const ScanDetections& detections, double stamp_s) {
+  const size_t nt = tracks_.size(), nd = detections.circles.size();
+  std::vector<int> track_to_det(nt, -1);
+  if (nt > 0 && nd > 0) {
+    Eigen::MatrixXd cost(nt, nd);
+    for (size_t i = 0; i < nt; ++i) {
+      for (size_t j = 0; j < nd; ++j) {
+        cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+            associationCost(tracks_[i], detections.circles[j].circle.center, stamp_s);
+      }
+    }
+    track_to_det = solveGatedAssignment(cost, config_.gate_mahalanobis2);
+  }
+  std::vector<bool> used(nd, false);
+  for (size_t i = 0; i < nt; ++i) {
+    if (track_to_det[i] < 0) continue;
+    used[track_to_det[i]] = true;
+    updateTrack(tracks_[i], detections.circles[track_to_det[i]], stamp_s);
+  }
+  // Second chance for recently seen tracks that found nothing in their gate: the obstacle manoeuvred.
+  std::vector<size_t> lost_tracks, free_dets;
+  for (size_t i = 0; i < nt; ++i) {
+    const Track& t = tracks_[i];
+    if (track_to_det[i] < 0 && t.hits >= 2 && stamp_s - t.last_hit_s <= config_.maneuver_max_silence_s) {
+      lost_tracks.push_back(i);
+    }
+  }
+  for (size_t j = 0; j < nd; ++j) {
+    if (!used[j]) free_dets.push_back(j);
+  }
+  if (config_.maneuver_gate_m > 0.0 && !lost_tracks.empty() && !free_dets.empty()) {
+    Eigen::MatrixXd cost(lost_tracks.size(), free_dets.size());
+    for (size_t a = 0; a < lost_tracks.size(); ++a) {
+      for (size_t b = 0; b < free_dets.size(); ++b) {
+        const double d =
+            (tracks_[lost_tracks[a]].ekf.position() - detections.circles[free_dets[b]].circle.center).norm();
+        cost(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) =
+            d <= config_.maneuver_gate_m ? d : std::numeric_limits<double>::infinity();
+      }
+    }
+    const std::vector<int> second = solveGatedAssignment(cost, 2.0 * config_.maneuver_gate_m);
+    for (size_t a = 0; a < lost_tracks.size(); ++a) {
+      if (second[a] < 0) continue;
+      const size_t j = free_dets[second[a]];
+      used[j] = true;
+      updateTrack(tracks_[lost_tracks[a]], detections.circles[j], stamp_s, true);
+    }
+  }
+  for (size_t j = 0; j < nd; ++j) {
+    if (used[j]) continue;
+    // A leftover piece of an obstacle that already has a track (a split cluster) must not start a second one.
+    const Vec2& c = detections.circles[j].circle.center;
+    const bool inside_existing = std::any_of(tracks_.begin(), tracks_.end(), [&](const Track& t) {
+      return t.hits >= 2 && (t.ekf.position() - c).norm() < std::max(t.radius, config_.fallback_radius_m);
+    });
+    if (!inside_existing) birthTrack(detections.circles[j], stamp_s);
+  }
+}
+
+void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver) {
+  // Radius: only free fits speak about it; keep a window and report a high quantile (short arcs scatter low).
+  if (detection.free_fit) {
+    track.radii.push_front(detection.circle.radius);
+    while (static_cast<int>(track.radii.size()) > config_.radius_window) track.radii.pop_back();
+  }
+  if (!track.radii.empty()) {
+    std::vector<double> sorted(track.radii.begin(), track.radii.end());
+    std::sort(sorted.begin(), sorted.end());
+    const size_t k = static_cast<size_t>(std::lround(config_.radius_quantile * static_cast<double>(sorted.size() - 1)));
+    track.radius = sorted[k];
+  }
+  // With a known radius, one short arc pins the centre better than a free fit of centre and radius.
+  CircleDetection measured = detection;
+  if (track.radii.size() >= 3 && detection.points.size() >= 3) {
+    if (const auto refit = fitCircleFixedRadius(detection.points, track.radius, detection.circle.center)) {
+      if ((refit->circle.center - detection.circle.center).norm() < track.radius) {
+        measured.circle.center = refit->circle.center;
+        measured.fit_rms_m = refit->rms_m;
+        measured.free_fit = true;
+      }
+    }
+  }
+  const Vec2 z = measured.circle.center;
+  const Eigen::Matrix2d r = measurementCovariance(measured);
+  if (track.hits == 1) {
+    // Second hit: velocity from the two detections (a CTRV filter cannot learn a heading from rest).
+    const double dt = stamp_s - track.born_s;
+    const Vec2 vel = (z - track.first_position) / dt;
+    const double speed = vel.norm();
+    const double speed_var = 2.0 * r(0, 0) / (dt * dt) + std::pow(config_.accel_noise_mps2 * dt, 2);
+    CtrvState x;
+    x << z.x(), z.y(), speed > 1e-9 ? std::atan2(vel.y(), vel.x()) : 0.0, speed, 0.0;
+    CtrvCovariance p = CtrvCovariance::Zero();
+    p(kCtrvX, kCtrvX) = r(0, 0);
+    p(kCtrvY, kCtrvY) = r(1, 1);
+    p(kCtrvHeading, kCtrvHeading) = std::min(kPi * kPi, speed_var / std::max(speed * speed, 1e-12));
+    p(kCtrvSpeed, kCtrvSpeed) = speed_var;
+    p(kCtrvTurnRate, kCtrvTurnRate) = std::pow(config_.init_turn_rate_std_rps, 2);
+    track.ekf = CtrvEkf(x, p);
+  } else {
+    if (maneuver) {
+      CtrvCovariance p = track.ekf.covariance();
+      const Vec2 miss = z - track.ekf.position();
+      p(kCtrvX, kCtrvX) += miss.x() * miss.x();
+      p(kCtrvY, kCtrvY) += miss.y() * miss.y();
+      p(kCtrvHeading, kCtrvHeading) += 0.25 * kPi * kPi;
+      p(kCtrvSpeed, kCtrvSpeed) += std::pow(config_.init_speed_std_mps, 2);
+      p(kCtrvTurnRate, kCtrvTurnRate) += std::pow(config_.init_turn_rate_std_rps, 2);
+      track.ekf = CtrvEkf(track.ekf.state(), p);
+    }
+    if (!track.ekf.update(z, r)) return;  // numerically unusable update: treat as a miss
+  }
+  track.ekf.clampTurnRate(config_.max_turn_rate_rps);
+  track.hits += 1;
+  track.last_hit_s = stamp_s;
+  track.updated_this_scan = true;
+  if (track.hits >= config_.confirm_hits) track.confirmed = true;
+  if (track.ekf.state()(kCtrvSpeed) >= config_.static_speed_threshold_mps) {
+    track.reported_heading = track.ekf.state()(kCtrvHeading);
+  }
+}
+
+void ObstacleTracker::birthTrack(const CircleDetection& detection, double stamp_s) {
+  Track t;
+  // Re-acquisition: the nearest remembered track whose coasted position could explain this detection
+  // lends its id (the filter restarts: its motion after a long occlusion is unknown).
+  const Eigen::Matrix2d r_gate =
+      config_.measurement_noise_m * config_.measurement_noise_m * Eigen::Matrix2d::Identity();
+  auto best = lost_.end();
+  double best_d = config_.reacquire_max_distance_m;
+  for (auto it = lost_.begin(); it != lost_.end(); ++it) {
+    const double d = (it->ekf.position() - detection.circle.center).norm();
+    if (d <= best_d && it->ekf.mahalanobis2(detection.circle.center, r_gate) <= config_.gate_mahalanobis2) {
+      best_d = d;
+      best = it;
+    }
+  }
+  if (best != lost_.end()) {
+    t.id = best->id;
+    lost_.erase(best);
+  } else {
+    t.id = next_id_++;
+  }
+  t.born_s = stamp_s;
+  t.last_hit_s = stamp_s;
+  t.hits = 1;
+  t.first_position = detection.circle.center;
+  CtrvState x;
+  x << detection.circle.center.x(), detection.circle.center.y(), 0.0, 0.0, 0.0;
+  CtrvCovariance p = CtrvCovariance::Zero();
+  const Eigen::Matrix2d r = measurementCovariance(detection);
+  p(kCtrvX, kCtrvX) = r(0, 0);
+  p(kCtrvY, kCtrvY) = r(1, 1);
+  p(kCtrvHeading, kCtrvHeading) = kPi * kPi;
+  p(kCtrvSpeed, kCtrvSpeed) = std::pow(config_.init_speed_std_mps, 2);
+  p(kCtrvTurnRate, kCtrvTurnRate) = std::pow(config_.init_turn_rate_std_rps, 2);
+  t.ekf = CtrvEkf(x, p);
+  if (detection.free_fit) t.radii.push_front(detection.circle.radius);
+  t.radius = detection.free_fit ? detection.circle.radius : config_.fallback_radius_m;
+  t.confirmed = config_.confirm_hits <= 1;
+  t.updated_this_scan = true;
+  tracks_.push_back(std::move(t));
+}
+
+void ObstacleTracker::pruneTracks(double stamp_s) {
+  auto dead = [&](const Track& t) {
+    const double silent = stamp_s - t.last_hit_s;
+    if (silent > (t.confirmed ? config_.deletion_timeout_s : config_.tentative_timeout_s)) return true;
+    const CtrvCovariance& p = t.ekf.covariance();
+    if (!t.ekf.state().allFinite() || !p.allFinite()) return true;
+    return std::sqrt(std::max(p(kCtrvX, kCtrvX), p(kCtrvY, kCtrvY))) > config_.max_position_std_m;
+  };
+  for (const Track& t : tracks_) {
+    if (t.confirmed && t.hits >= 2 && dead(t) && t.ekf.state().allFinite() && config_.reacquire_window_s > 0.0) {
+      lost_.push_back(t);
+    }
+  }
+  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(), dead), tracks_.end());
+  // Two tracks on one object (e.g. a coasting track and a fresh one after a missed association): keep the one
+  // with more evidence.
+  std::vector<bool> drop(tracks_.size(), false);
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    for (size_t j = i + 1; j < tracks_.size(); ++j) {
+      if (drop[i] || drop[j]) continue;
+      const Track& a = tracks_[i];
+      const Track& b = tracks_[j];
+      const Vec2 pa = a.hits < 2 ? a.first_position : a.ekf.position();
+      const Vec2 pb = b.hits < 2 ? b.first_position : b.ekf.position();
+      const double overlap = 0.5 * std::max({a.radius, b.radius, config_.fallback_radius_m});
+      if ((pa - pb).norm() >= overlap) continue;
+      const bool keep_a = a.confirmed != b.confirmed ? a.confirmed : a.hits >= b.hits;
+      drop[keep_a ? j : i] = true;
+    }
+  }
+  size_t k = 0;
+  tracks_.erase(std::remove_if(tracks_.begin(), tracks_.end(), [&](const Track&) { return drop[k++]; }), tracks_.end());
+}
+
+TrackedObstacle ObstacleTracker::toTrackedObstacle(const Track& track, double stamp_s) const {
+  TrackedObstacle o;
+  const CtrvState& x = track.ekf.state();
+  o.id = track.id;
+  o.center = x.head<2>();
+  o.radius = track.radius + config_.radius_margin_m;
+  o.speed = x(kCtrvSpeed);
+  o.turn_rate = x(kCtrvTurnRate);
+  o.is_static = o.speed < config_.static_speed_threshold_mps;
+  // Heading of a (nearly) still target is noise: report the last heading it had while moving.
+  o.heading = o.is_static ? track.reported_heading : x(kCtrvHeading);
+  o.covariance = track.ekf.covariance();
+  o.age_s = stamp_s - track.born_s;
+  o.hits = track.hits;
+  return o;
+}
+
+void ObstacleTracker::buildScene(double stamp_s) {
+  scene_.stamp_s = stamp_s;
+  scene_.obstacles.clear();
+  for (const Track& t : tracks_) {
+    if (t.confirmed && t.hits >= 2) scene_.obstacles.push_back(toTrackedObstacle(t, stamp_s));
+  }
+  scene_.segments = detections_.segments;
+}
+
+TrackedScene ObstacleTracker::predictedScene(double stamp_s) const {
+  if (!has_stamp_ || !std::isfinite(stamp_s) || stamp_s <= last_stamp_s_) return scene_;
+  TrackedScene out = scene_;
+  out.stamp_s = stamp_s;
+  const double dt = stamp_s - last_stamp_s_;
+  if (dt > config_.max_time_gap_s) {
+    // A scan that late resets the tracks (update()); predicting them that far gives meaningless (and, for
+    // absurd gaps, non-finite) states and covariances.
+    out.obstacles.clear();
+    return out;
+  }
+  size_t k = 0;
+  for (const Track& t : tracks_) {
+    if (!(t.confirmed && t.hits >= 2)) continue;
+    Track moved = t;
+    moved.ekf.predict(dt, config_.accel_noise_mps2, config_.turn_accel_noise_rps2);
+    out.obstacles[k++] = toTrackedObstacle(moved, stamp_s);
+  }
+  return out;
+}
+
+}  // namespace dqn_dovs

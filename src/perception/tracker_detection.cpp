@@ -1,0 +1,273 @@
+// Scan checking, clustering and circle/segment classification of the obstacle tracker.
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "dqn_dovs/perception/circle_fit.h"
+#include "dqn_dovs/perception/tracker.h"
+
+namespace dqn_dovs {
+namespace {
+
+struct Beam {
+  size_t index = 0;
+  double range = 0.0;
+  Vec2 local = Vec2::Zero();  // laser frame
+};
+
+bool validRange(const LaserScan2& scan, float r) {
+  return std::isfinite(r) && r >= scan.range_min && r < scan.range_max;
+}
+
+std::vector<Vec2> slice(const std::vector<Vec2>& pts, size_t first, size_t last) {
+  return std::vector<Vec2>(pts.begin() + static_cast<std::ptrdiff_t>(first),
+                           pts.begin() + static_cast<std::ptrdiff_t>(last) + 1);
+}
+
+/// Index ranges [first, last] (inclusive) of pieces of `pts` that each stay within split_distance_m of
+/// their chord (iterative end-point fit), with neighbouring pieces merged back when their union is straight.
+std::vector<std::pair<size_t, size_t>> splitAndMerge(const std::vector<Vec2>& pts, double split_distance_m) {
+  std::vector<std::pair<size_t, size_t>> pieces;
+  std::vector<std::pair<size_t, size_t>> stack{{0, pts.size() - 1}};
+  while (!stack.empty()) {
+    const auto [a, b] = stack.back();
+    stack.pop_back();
+    size_t worst = a;
+    double worst_d = 0.0;
+    if (b > a + 1) {
+      const Segment chord{pts[a], pts[b]};
+      for (size_t i = a + 1; i < b; ++i) {
+        const double d = pointSegmentDistance(pts[i], chord);
+        if (d > worst_d) {
+          worst_d = d;
+          worst = i;
+        }
+      }
+    }
+    if (worst_d > split_distance_m) {
+      // Push the right half first so that pieces come out in scan order.
+      stack.push_back({worst, b});
+      stack.push_back({a, worst});
+    } else {
+      pieces.push_back({a, b});
+    }
+  }
+  // Merge step: adjacent pieces whose union is one straight line. A total-least-squares line is used here,
+  // not the chord: noisy end points tilt a chord and would leave short spurious pieces inside a wall.
+  std::vector<std::pair<size_t, size_t>> merged;
+  for (const auto& piece : pieces) {
+    if (!merged.empty()) {
+      const auto line = fitLine(slice(pts, merged.back().first, piece.second));
+      if (line && line->max_dev_m <= split_distance_m) {
+        merged.back().second = piece.second;
+        continue;
+      }
+    }
+    merged.push_back(piece);
+  }
+  return merged;
+}
+
+/// Classifies one group of consecutive returns (fixed frame) that contains no long wall piece.
+/// next_to_wall: the group continues a wall of the same cluster.
+void classifyGroup(const std::vector<Vec2>& pts, const std::vector<std::pair<size_t, size_t>>& pieces,
+                   bool next_to_wall, const Vec2& laser_xy, const TrackerConfig& config, ScanDetections& out,
+                   int depth = 0) {
+  if (static_cast<int>(pts.size()) < config.min_cluster_points) return;
+  const auto line = fitLine(pts);
+  if (!line) return;
+  const double length = line->extent.length();
+  const bool straight = line->rms_m <= config.line_max_rms_m;
+  if (straight && length >= config.segment_min_length_m) {
+    out.segments.push_back(line->extent);
+    return;
+  }
+  // A straight remnant at the end of a wall (its corner, or the stretch beside a split point) is wall too.
+  const bool flat = straight && (line->max_dev_m < config.min_arc_sagitta_ratio * length ||
+                                 (next_to_wall && line->max_dev_m <= config.split_distance_m));
+  if (flat) {
+    // A short flat piece is a wall fragment (e.g. wall seen between two obstacles), never a moving object.
+    out.segments.push_back(line->extent);
+    return;
+  }
+  // Second start for the fit: the points' centroid pushed away from the laser by the fallback radius.
+  Vec2 centroid = Vec2::Zero();
+  for (const Vec2& p : pts) centroid += p;
+  centroid /= static_cast<double>(pts.size());
+  Vec2 away = centroid - laser_xy;
+  const double centroid_range = away.norm();
+  away = centroid_range > 1e-9 ? Vec2(away / centroid_range) : Vec2::UnitX();
+  Circle hint;
+  hint.center = centroid + config.fallback_radius_m * away;
+  hint.radius = config.fallback_radius_m;
+  const auto fit = fitCircle(pts, hint);
+  if (fit && fit->circle.radius >= config.min_circle_radius_m && fit->circle.radius <= config.max_circle_radius_m &&
+      fit->rms_m <= config.circle_max_rms_m && (fit->circle.center - laser_xy).norm() > centroid_range) {
+    out.circles.push_back({fit->circle, fit->rms_m, true, pts});
+    return;
+  }
+  if (depth < 3 && static_cast<int>(pts.size()) >= 2 * config.min_cluster_points) {
+    // Two objects touching in one cluster (e.g. two discs passing close): seen from the laser, the junction
+    // is a notch, the farthest point behind the chord of the group's ends. Split there and classify both sides.
+    const Vec2& a = pts.front();
+    const Vec2& b = pts.back();
+    const Vec2 chord = b - a;
+    size_t notch = 0;
+    double notch_depth = 0.0;
+    for (size_t i = static_cast<size_t>(config.min_cluster_points) - 1;
+         i + static_cast<size_t>(config.min_cluster_points) <= pts.size(); ++i) {
+      // Signed distance of the point behind the chord, positive away from the laser.
+      const Vec2 normal = Vec2(-chord.y(), chord.x()).normalized();
+      const double side = (a - laser_xy).dot(normal) >= 0.0 ? 1.0 : -1.0;
+      const double behind = side * (pts[i] - a).dot(normal);
+      if (behind > notch_depth) {
+        notch_depth = behind;
+        notch = i;
+      }
+    }
+    if (notch > 0 && notch_depth > config.split_distance_m) {
+      const std::vector<Vec2> left(pts.begin(), pts.begin() + static_cast<std::ptrdiff_t>(notch) + 1);
+      const std::vector<Vec2> right(pts.begin() + static_cast<std::ptrdiff_t>(notch), pts.end());
+      classifyGroup(left, {{0, left.size() - 1}}, next_to_wall, laser_xy, config, out, depth + 1);
+      classifyGroup(right, {{0, right.size() - 1}}, next_to_wall, laser_xy, config, out, depth + 1);
+      return;
+    }
+  }
+  if (length <= 2.0 * config.max_circle_radius_m) {
+    // Curved but too short or noisy for a free fit: a disc of at least the fallback radius behind the arc.
+    const double radius = std::max(config.fallback_radius_m, 0.5 * length);
+    const auto fixed = fitCircleFixedRadius(pts, radius, centroid + radius * away);
+    Circle c{centroid + radius * away, radius};
+    double rms = 0.0;
+    if (fixed && (fixed->circle.center - laser_xy).norm() > centroid_range) {
+      c = fixed->circle;
+      rms = fixed->rms_m;
+    }
+    out.circles.push_back({c, rms, false, pts});
+    return;
+  }
+  // Large and curved: not a disc obstacle; report its straight pieces.
+  for (const auto& [a, b] : pieces) {
+    if (b > a) out.segments.push_back({pts[a], pts[b]});
+  }
+}
+
+/// Classifies one cluster (fixed-frame points in scan order).
+void classifyCluster(const std::vector<Vec2>& pts, const Vec2& laser_xy, const TrackerConfig& config,
+                     ScanDetections& out) {
+  const auto pieces = splitAndMerge(pts, config.split_distance_m);
+  // Long straight pieces are walls; runs of the other pieces between them are classified as groups.
+  std::vector<bool> is_wall(pieces.size(), false);
+  for (size_t k = 0; k < pieces.size(); ++k) {
+    const auto [a, b] = pieces[k];
+    if (static_cast<int>(b - a + 1) < config.min_cluster_points) continue;
+    const auto line = fitLine(slice(pts, a, b));
+    if (line && line->rms_m <= config.line_max_rms_m && line->extent.length() >= config.segment_min_length_m) {
+      is_wall[k] = true;
+      out.segments.push_back(line->extent);
+    }
+  }
+  size_t k = 0;
+  while (k < pieces.size()) {
+    if (is_wall[k]) {
+      ++k;
+      continue;
+    }
+    const size_t k0 = k;
+    while (k < pieces.size() && !is_wall[k]) ++k;
+    // Pieces share their split points; leave out a point that belongs to a neighbouring wall.
+    size_t first = pieces[k0].first, last = pieces[k - 1].second;
+    if (k0 > 0 && first == pieces[k0 - 1].second) ++first;
+    if (k < pieces.size() && last == pieces[k].first && last > first) --last;
+    if (last < first) continue;
+    std::vector<std::pair<size_t, size_t>> local;
+    for (size_t j = k0; j < k; ++j) {
+      const size_t a = std::max(pieces[j].first, first), b = std::min(pieces[j].second, last);
+      if (b >= a) local.push_back({a - first, b - first});
+    }
+    const bool next_to_wall = k0 > 0 || k < pieces.size();
+    classifyGroup(slice(pts, first, last), local, next_to_wall, laser_xy, config, out);
+  }
+}
+
+}  // namespace
+
+std::string checkScan(const LaserScan2& scan) {
+  std::ostringstream os;
+  if (!std::isfinite(scan.stamp_s)) {
+    os << "scan stamp is " << scan.stamp_s;
+  } else if (scan.ranges.empty()) {
+    os << "scan has no beams";
+  } else if (!std::isfinite(scan.angle_increment) || scan.angle_increment == 0.0) {
+    os << "scan angle_increment is " << scan.angle_increment << " (must be finite and non-zero)";
+  } else if (!std::isfinite(scan.angle_min)) {
+    os << "scan angle_min is " << scan.angle_min;
+  } else if (!std::isfinite(scan.range_min) || !std::isfinite(scan.range_max) || scan.range_min < 0.0 ||
+             scan.range_max <= scan.range_min) {
+    os << "scan range limits [" << scan.range_min << ", " << scan.range_max
+       << "] are unusable (need finite 0 <= range_min < range_max)";
+  } else if (std::abs(scan.angle_increment) * static_cast<double>(scan.ranges.size() - 1) > kTwoPi + 1e-6) {
+    os << "scan of " << scan.ranges.size() << " beams at " << scan.angle_increment
+       << " rad spans more than a full turn";
+  }
+  return os.str();
+}
+
+ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config) {
+  ScanDetections out;
+  out.stamp_s = scan.stamp_s;
+  const size_t n = scan.ranges.size();
+  const double inc = std::abs(scan.angle_increment);
+  std::vector<Beam> beams;
+  beams.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    const float r = scan.ranges[i];
+    if (!validRange(scan, r)) continue;
+    const double a = scan.angleOf(i);
+    beams.push_back({i, static_cast<double>(r), Vec2(r * std::cos(a), r * std::sin(a))});
+  }
+  out.valid_beams = beams.size();
+  out.ignored_beams = n - beams.size();
+  if (beams.empty()) return out;
+
+  auto neighbours = [&](const Beam& p, const Beam& q, size_t index_gap) {
+    if (index_gap > static_cast<size_t>(config.max_skipped_beams) + 1) return false;
+    const double far = std::max(p.range, q.range);
+    const double threshold = config.cluster_distance_base_m +
+                             config.cluster_distance_beam_factor * far * inc * static_cast<double>(index_gap);
+    return (p.local - q.local).norm() <= threshold;
+  };
+
+  // Linear pass over valid beams, then close the circle for scans that cover a full turn.
+  std::vector<std::vector<size_t>> clusters;  // indices into `beams`
+  clusters.push_back({0});
+  for (size_t k = 1; k < beams.size(); ++k) {
+    if (neighbours(beams[k - 1], beams[k], beams[k].index - beams[k - 1].index)) {
+      clusters.back().push_back(k);
+    } else {
+      clusters.push_back({k});
+    }
+  }
+  const bool full_turn = inc * static_cast<double>(n) >= kTwoPi - 0.5 * inc;
+  if (full_turn && clusters.size() > 1) {
+    const Beam& last = beams[clusters.back().back()];
+    const Beam& first = beams[clusters.front().front()];
+    if (neighbours(last, first, first.index + n - last.index)) {
+      clusters.back().insert(clusters.back().end(), clusters.front().begin(), clusters.front().end());
+      clusters.erase(clusters.begin());
+    }
+  }
+
+  const Vec2 laser_xy = laser_pose.position();
+  std::vector<Vec2> pts;
+  for (const auto& cluster : clusters) {
+    if (static_cast<int>(cluster.size()) < config.min_cluster_points) continue;
+    ++out.clusters;
+    pts.clear();
+    for (size_t k : cluster) pts.push_back(laser_pose.toWorld(beams[k].local));
+    classifyCluster(pts, laser_xy, config, out);
+  }
+  return out;
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,107 @@
+#include "dqn_dovs/perception/tracker_metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "dqn_dovs/perception/hungarian.h"
+
+namespace dqn_dovs {
+namespace {
+
+double rootMeanSquare(const std::vector<double>& e) {
+  if (e.empty()) return std::numeric_limits<double>::quiet_NaN();
+  double s = 0.0;
+  for (double x : e) s += x * x;
+  return std::sqrt(s / static_cast<double>(e.size()));
+}
+
+double quantile(std::vector<double> e, double q) {
+  if (e.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(e.begin(), e.end());
+  const double pos = q * static_cast<double>(e.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(pos));
+  const size_t hi = std::min(lo + 1, e.size() - 1);
+  return e[lo] + (pos - static_cast<double>(lo)) * (e[hi] - e[lo]);
+}
+
+}  // namespace
+
+std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std::vector<MovingObstacle>& truths,
+                                            const std::vector<bool>& counts_for_missed, double period_s) {
+  ++scans_;
+  truth_minutes_ += static_cast<double>(truths.size()) * period_s / 60.0;
+  const size_t nt = truths.size(), no = scene.obstacles.size();
+  std::vector<int> truth_to_obs(nt, -1);
+  if (nt > 0 && no > 0) {
+    Eigen::MatrixXd cost(nt, no);
+    for (size_t i = 0; i < nt; ++i) {
+      for (size_t j = 0; j < no; ++j) {
+        const double d = (truths[i].center - scene.obstacles[j].center).norm();
+        cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+            std::isfinite(d) && d < config_.match_distance_m ? d : std::numeric_limits<double>::infinity();
+      }
+    }
+    // Every pair inside the gate is cheaper than two loose ends: maximum matching, then least total distance.
+    truth_to_obs = solveGatedAssignment(cost, 2.0 * config_.match_distance_m);
+  }
+  std::vector<bool> obs_matched(no, false);
+  for (size_t i = 0; i < nt; ++i) {
+    const bool should_see = counts_for_missed.empty() || (i < counts_for_missed.size() && counts_for_missed[i]);
+    if (should_see) ++should_see_;
+    const int j = truth_to_obs[i];
+    if (j < 0) {
+      if (should_see) ++missed_;
+      continue;
+    }
+    obs_matched[j] = true;
+    ++pairs_;
+    const TrackedObstacle& o = scene.obstacles[j];
+    const MovingObstacle& t = truths[i];
+    const auto last = last_id_.find(i);
+    if (last != last_id_.end() && last->second != o.id) {
+      ++switches_;
+      for (size_t q = 0; q < nt; ++q) {
+        if (q != i && (truths[q].center - t.center).norm() < config_.crowded_distance_m) {
+          ++crowded_switches_;
+          break;
+        }
+      }
+    }
+    last_id_[i] = o.id;
+    pos_err_.push_back((o.center - t.center).norm());
+    if (o.age_s < config_.min_track_age_s) continue;
+    if (t.is_static) {
+      static_speed_.push_back(o.speed);
+    } else if (t.speed >= config_.moving_speed_mps) {
+      speed_err_.push_back(o.speed - t.speed);
+      heading_err_deg_.push_back(std::abs(angleDiff(o.heading, t.heading)) * 180.0 / kPi);
+      turn_err_.push_back(o.turn_rate - t.turn_rate);
+    }
+  }
+  false_tracks_ += static_cast<size_t>(std::count(obs_matched.begin(), obs_matched.end(), false));
+  return truth_to_obs;
+}
+
+TrackingSummary TrackingEvaluator::summary() const {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  TrackingSummary s;
+  s.pos_rmse_m = rootMeanSquare(pos_err_);
+  s.speed_rmse_mps = rootMeanSquare(speed_err_);
+  s.heading_err_deg_median = quantile(heading_err_deg_, 0.5);
+  s.turn_rate_rmse_rps = rootMeanSquare(turn_err_);
+  s.id_switches_per_min = truth_minutes_ > 0.0 ? static_cast<double>(switches_) / truth_minutes_ : nan;
+  s.false_tracks_per_scan = scans_ > 0 ? static_cast<double>(false_tracks_) / static_cast<double>(scans_) : nan;
+  s.missed_rate = should_see_ > 0 ? static_cast<double>(missed_) / static_cast<double>(should_see_) : nan;
+  s.static_speed_mps_p95 = quantile(static_speed_, 0.95);
+  s.scans = scans_;
+  s.matched_pairs = pairs_;
+  s.id_switches = switches_;
+  s.id_switches_crowded = crowded_switches_;
+  std::vector<double> abs_speed(speed_err_.size());
+  std::transform(speed_err_.begin(), speed_err_.end(), abs_speed.begin(), [](double e) { return std::abs(e); });
+  s.speed_abs_err_median_mps = quantile(abs_speed, 0.5);
+  return s;
+}
+
+}  // namespace dqn_dovs

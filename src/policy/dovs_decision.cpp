@@ -1,0 +1,102 @@
+#include "dqn_dovs/policy/dovs_decision.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "dqn_dovs/dovs/state.h"
+
+namespace dqn_dovs {
+
+std::string staticObservation(const DovsDecision& dovs, const Pose2& robot_pose, const Twist2& twist,
+                              Observation& out) {
+  out = Observation();
+  out.robot_pose = robot_pose;
+  out.robot_twist = twist;
+  out.goal = robot_pose.position();
+  if (dovs.static_segments.empty() && dovs.static_discs.empty()) return {};
+  if (dovs.static_segments.size() % 4 != 0) return "dovs static_segments length is not a multiple of 4";
+  if (dovs.static_discs.size() % 3 != 0) return "dovs static_discs length is not a multiple of 3";
+  for (float x : dovs.static_segments) {
+    if (!std::isfinite(x)) return "dovs static_segments has NaN/inf";
+  }
+  for (float x : dovs.static_discs) {
+    if (!std::isfinite(x)) return "dovs static_discs has NaN/inf";
+  }
+  const auto& s = dovs.static_segments;
+  for (size_t i = 0; i + 3 < s.size(); i += 4)
+    out.segments.push_back(Segment{Vec2(s[i], s[i + 1]), Vec2(s[i + 2], s[i + 3])});
+  const auto& d = dovs.static_discs;
+  for (size_t i = 0; i + 2 < d.size(); i += 3) {
+    MovingObstacle m;
+    m.center = Vec2(d[i], d[i + 1]);
+    m.radius = d[i + 2];
+    m.speed = 0.0;
+    m.is_static = true;
+    out.obstacles.push_back(m);
+  }
+  return {};
+}
+
+Twist2 choiceVelocity(const DovsDecision& dovs, int choice) {
+  if (choice == kEscapeChoice) return {dovs.escape_v, dovs.escape_w};
+  if (choice < 0 || choice >= kNumActions) throw std::out_of_range("choiceVelocity: choice " + std::to_string(choice));
+  return {dovs.action_v[static_cast<size_t>(choice)], dovs.action_w[static_cast<size_t>(choice)]};
+}
+
+int chooseAction(const QNetwork& network, const DovsDecision& dovs, std::string& why) {
+  why.clear();
+  if (dovs.state.size() != static_cast<size_t>(QNetwork::kStateSize)) {
+    why = "dovs state has the wrong size";
+    return -1;
+  }
+  // The state must be normalised the way the network was trained (dovs_node builds it from its own robot/* and
+  // dovs/* parameters, which may differ from the planner's).
+  const std::vector<std::pair<std::string, float>> expected = StateNormalization{}.fields();
+  if (dovs.state_normalization.size() != expected.size()) {
+    why = "dovs state_normalization has " + std::to_string(dovs.state_normalization.size()) + " values, expected " +
+          std::to_string(expected.size());
+    return -1;
+  }
+  std::vector<std::pair<std::string, float>> used = expected;
+  for (size_t i = 0; i < used.size(); ++i) used[i].second = dovs.state_normalization[i];
+  if (const std::string mismatch = network.normalizationMismatch(used, 1e-4f); !mismatch.empty()) {
+    why =
+        "planner error: the dovs states are normalised differently from the model's training (check robot/* and "
+        "dovs/obstacle_range of dovs_node): " +
+        mismatch;
+    return -1;
+  }
+  // An action whose velocity is NaN/inf cannot be commanded (clipping it into the feasible set would turn it
+  // into a silent stop while the planner reports itself active): it is never chosen.
+  if (dovs.escape) {
+    // Boxed in: the shield's escape velocity, not the network's choice.
+    if (!std::isfinite(dovs.escape_v) || !std::isfinite(dovs.escape_w)) {
+      why = "planner error: the shield's escape velocity is NaN/inf";
+      return -1;
+    }
+    return kEscapeChoice;
+  }
+  QNetwork::ActionMask mask;
+  int non_finite = -1;
+  for (size_t i = 0; i < mask.size(); ++i) {
+    const bool finite = std::isfinite(dovs.action_v[i]) && std::isfinite(dovs.action_w[i]);
+    if (dovs.action_valid[i] && !finite && non_finite < 0) non_finite = static_cast<int>(i);
+    mask[i] = dovs.action_valid[i] && finite;
+  }
+  const Eigen::Map<const Eigen::VectorXf> state(dovs.state.data(), static_cast<Eigen::Index>(dovs.state.size()));
+  int a = -1;
+  try {
+    a = network.selectAction(state, mask);
+  } catch (const std::exception& e) {
+    why = std::string("planner error: ") + e.what();
+    return -1;
+  }
+  if (a < 0) {
+    why = non_finite < 0 ? std::string("planner error: every action is masked")
+                         : "planner error: every action is masked or has a NaN/inf velocity (action " +
+                               std::to_string(non_finite) + ")";
+  }
+  return a;
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,40 @@
+// Conversions between ROS messages and the ROS-free core types, with input checking.
+#pragma once
+
+#include <geometry_msgs/Pose.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <sensor_msgs/LaserScan.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/TrackedObstacleArray.h"
+#include "dqn_dovs/common/types.h"
+
+namespace dqn_dovs {
+
+/// Checks a LaserScan and converts it. Returns an empty string on success, otherwise why the scan is
+/// unusable (the caller drops it and warns). Individual NaN/inf/out-of-range beams are not errors: they
+/// are kept (the tracker ignores them) and counted in `invalid_beams`.
+std::string laserScanFromMsg(const sensor_msgs::LaserScan& msg, LaserScan2& out, size_t* invalid_beams = nullptr);
+
+/// Fills a LaserScan message (frame and stamp set by the caller).
+void laserScanToMsg(const LaserScan2& scan, sensor_msgs::LaserScan& msg);
+
+/// Planar pose of a transform (yaw only). Returns false when the transform has NaN/inf.
+bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out);
+geometry_msgs::Pose poseToMsg(const Pose2& p);
+
+TrackedObstacleArray trackedSceneToMsg(const TrackedScene& scene);
+TrackedObstacleArray movingObstaclesToMsg(const std::vector<MovingObstacle>& obstacles,
+                                          const std::vector<Segment>& segments);
+/// Inverse of trackedSceneToMsg; returns why a message is unusable (NaN fields, non-positive radius), else "".
+std::string observationObstaclesFromMsg(const TrackedObstacleArray& msg, std::vector<MovingObstacle>& obstacles,
+                                        std::vector<Segment>& segments);
+
+/// Cylinders, id labels and velocity arrows for rviz (namespace `ns`); deletes stale markers first.
+visualization_msgs::MarkerArray obstacleMarkers(const TrackedObstacleArray& msg, const std::string& ns, float r,
+                                                float g, float b);
+
+}  // namespace dqn_dovs

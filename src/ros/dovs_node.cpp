@@ -1,0 +1,139 @@
+#include "dovs_node.h"
+
+#include <cv_bridge/cv_bridge.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/image_encodings.h>
+#include <tf2/exceptions.h>
+#include <tf2_geometry_msgs/tf2_geometry_msgs.h>
+
+#include <cmath>
+
+#include "conversions.h"
+#include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/render/dovs_render.h"
+#include "pipeline_steps.h"
+#include "ros_params.h"
+
+namespace dqn_dovs {
+
+DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh),
+      pnh_(pnh),
+      limits_(loadRobotLimits(pnh)),
+      builder_(limits_, loadDovsConfig(pnh)),
+      tf_listener_(tf_buffer_) {
+  fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
+  base_frame_ = param<std::string>(pnh_, "base_frame", "base_footprint");
+  if (fixed_frame_.empty() || base_frame_.empty()) throw ParameterError("fixed_frame and base_frame must not be empty");
+  max_input_age_s_ = paramInRange(pnh_, "max_input_age", 0.5, 0.05, 5.0);
+  tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.05, 0.0, 1.0);
+  image_size_px_ = static_cast<int>(paramInRange(pnh_, "image_size", 400, 100, 2000));
+  checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
+  normalization_ = stateNormalization(limits_, builder_.config());
+  shield_ = loadActionShieldConfig(pnh_);
+
+  dovs_pub_ = nh_.advertise<Dovs>("dovs", 5);
+  image_pub_ = nh_.advertise<sensor_msgs::Image>("dovs/image", 2);
+  obstacles_sub_ = nh_.subscribe("obstacles", 5, &DovsNode::onObstacles, this, ros::TransportHints().tcpNoDelay());
+  odom_sub_ = nh_.subscribe("odom", 10, &DovsNode::onOdom, this, ros::TransportHints().tcpNoDelay());
+  goal_sub_ = nh_.subscribe("move_base_simple/goal", 2, &DovsNode::onGoal, this);
+  action_sub_ = nh_.subscribe("planner/action", 2, &DovsNode::onChosenAction, this);
+  ROS_INFO("dovs: robot frame '%s' in '%s', %d trajectories, horizon %.1f s", base_frame_.c_str(), fixed_frame_.c_str(),
+           builder_.config().num_trajectories, builder_.config().time_horizon_s);
+}
+
+void DovsNode::onOdom(const nav_msgs::Odometry::ConstPtr& msg) {
+  if (!std::isfinite(msg->twist.twist.linear.x) || !std::isfinite(msg->twist.twist.angular.z)) {
+    ROS_WARN_THROTTLE(2.0, "dovs: odom twist has NaN/inf; ignored");
+    return;
+  }
+  last_odom_ = *msg;
+  have_odom_ = true;
+}
+
+void DovsNode::onChosenAction(const std_msgs::Int8::ConstPtr& msg) {
+  // 0-7 an action; 8 (the shield's escape) and -1 mark none of the 8 in the image.
+  chosen_action_ = msg->data >= 0 && msg->data < kNumActions ? msg->data : -1;
+}
+
+void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
+  if (!std::isfinite(msg->pose.position.x) || !std::isfinite(msg->pose.position.y)) {
+    ROS_ERROR("dovs: goal ignored: its position has NaN/inf");
+    return;
+  }
+  if (msg->header.frame_id.empty()) {
+    ROS_ERROR("dovs: goal ignored: empty header.frame_id");
+    return;
+  }
+  geometry_msgs::PoseStamped in_fixed;
+  try {
+    // Latest transform: a goal is a place, not an instant.
+    geometry_msgs::PoseStamped latest = *msg;
+    latest.header.stamp = ros::Time(0);
+    in_fixed = tf_buffer_.transform(latest, fixed_frame_, ros::Duration(0.2));
+  } catch (const tf2::TransformException& e) {
+    ROS_ERROR("dovs: goal ignored: no transform from '%s' to '%s': %s", msg->header.frame_id.c_str(),
+              fixed_frame_.c_str(), e.what());
+    return;
+  }
+  goal_ = Vec2(in_fixed.pose.position.x, in_fixed.pose.position.y);
+  ROS_INFO("dovs: goal (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
+}
+
+void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
+  if (msg->header.frame_id != fixed_frame_) {
+    ROS_WARN_THROTTLE(2.0, "dovs: obstacles in frame '%s', expected the fixed frame '%s'; dropped",
+                      msg->header.frame_id.c_str(), fixed_frame_.c_str());
+    return;
+  }
+  if (!have_odom_) {
+    ROS_WARN_THROTTLE(2.0, "dovs: no odom yet; cannot build the velocity space");
+    return;
+  }
+  const double odom_age = (msg->header.stamp - last_odom_.header.stamp).toSec();
+  if (std::abs(odom_age) > max_input_age_s_) {
+    ROS_WARN_THROTTLE(2.0, "dovs: odom is %.2f s away from the obstacles' stamp (limit %.2f s); not publishing",
+                      odom_age, max_input_age_s_);
+    return;
+  }
+  geometry_msgs::TransformStamped tf;
+  try {
+    tf = tf_buffer_.lookupTransform(fixed_frame_, base_frame_, msg->header.stamp, ros::Duration(tf_timeout_s_));
+  } catch (const tf2::TransformException& e) {
+    ROS_WARN_THROTTLE(2.0, "dovs: no transform %s <- %s at the obstacles' stamp: %s", fixed_frame_.c_str(),
+                      base_frame_.c_str(), e.what());
+    return;
+  }
+  Pose2 robot_pose;
+  if (!poseFromTransform(tf.transform, robot_pose)) {
+    ROS_WARN_THROTTLE(2.0, "dovs: robot transform has NaN/inf; not publishing");
+    return;
+  }
+  const Twist2 odom_twist{last_odom_.twist.twist.linear.x, last_odom_.twist.twist.angular.z};
+  if (!limits_.feasible(odom_twist, 0.05 * limits_.v_max)) {
+    ROS_WARN_THROTTLE(2.0, "dovs: odom velocity (%.2f m/s, %.2f rad/s) is outside the robot limits; clipped",
+                      odom_twist.v, odom_twist.w);
+  }
+  DovsStep step;
+  try {
+    const std::string obstacle_error = buildDovsStep(*msg, robot_pose, odom_twist, goal_, limits_, normalization_,
+                                                     shield_, base_frame_, builder_, dovs_, step);
+    if (!obstacle_error.empty()) {
+      ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());
+      return;
+    }
+  } catch (const std::exception& e) {
+    ROS_ERROR_THROTTLE(2.0, "dovs: cannot build the velocity space: %s", e.what());
+    return;
+  }
+  const Dovs& out = step.msg;
+  dovs_pub_.publish(out);
+
+  if (image_pub_.getNumSubscribers() > 0) {
+    const cv::Mat image = renderDovs(dovs_, step.actions, step.observation.robot_twist, chosen_action_, image_size_px_);
+    cv_bridge::CvImage bridge(out.header, sensor_msgs::image_encodings::BGR8, image);
+    image_pub_.publish(bridge.toImageMsg());
+  }
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,39 @@
+// ROS wrapper of the ObstacleTracker: LaserScan + tf -> TrackedObstacleArray (+ rviz markers).
+#pragma once
+
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <string>
+
+#include "dqn_dovs/perception/tracker.h"
+
+namespace dqn_dovs {
+
+class ObstacleTrackerNode {
+ public:
+  /// Reads and validates parameters (throws ParameterError naming the culprit), then subscribes.
+  ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+ private:
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string fixed_frame_;
+  double tf_timeout_s_ = 0.1;
+  bool publish_markers_ = true;
+  std::unique_ptr<ObstacleTracker> tracker_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::Subscriber scan_sub_;
+  ros::Publisher obstacles_pub_, markers_pub_;
+  ros::Time last_stamp_;
+};
+
+/// Reads `tracker/*` parameters (config/tracker.yaml) over the defaults and validates them.
+TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh);
+
+}  // namespace dqn_dovs

@@ -1,0 +1,125 @@
+#include "pipeline_steps.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "conversions.h"
+
+namespace dqn_dovs {
+
+std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
+                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note) {
+  reset_note.clear();
+  const TrackerResult result = tracker.update(scan, laser_pose);
+  if (result.status == TrackerStatus::kRejected) return result.message.empty() ? "rejected" : result.message;
+  if (result.status == TrackerStatus::kReset) reset_note = result.message;
+  out = trackedSceneToMsg(result.scene);
+  out.header.stamp = stamp;
+  out.header.frame_id = fixed_frame;
+  return {};
+}
+
+std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
+                          const std::optional<Vec2>& goal, const RobotLimits& limits,
+                          const StateNormalization& normalization, const ActionShieldConfig& shield,
+                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out) {
+  Observation& obs = out.observation;
+  obs.robot_pose = robot_pose;
+  obs.stamp_s = obstacles.header.stamp.toSec();
+  obs.robot_twist = limits.clipToFeasible(odom_twist);
+  obs.goal = goal.value_or(obs.robot_pose.position());
+  const std::string obstacle_error = observationObstaclesFromMsg(obstacles, obs.obstacles, obs.segments);
+  if (!obstacle_error.empty()) return obstacle_error;
+
+  builder.build(obs, dovs);
+  out.actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
+  const ActionSet& actions = out.actions;
+  // Without a goal there is no goal line: the shield chooses among the window actions only.
+  ActionSet choosable = actions;
+  if (!goal) {
+    for (size_t i = static_cast<size_t>(kActionGoalHigh); i < choosable.valid.size(); ++i) choosable.valid[i] = false;
+  }
+  const ShieldedMask shielded = shieldActions(choosable, dovs, obs, shield);
+  out.shield_level = shielded.level;
+
+  Dovs& m = out.msg;
+  m = Dovs();
+  m.header.stamp = obstacles.header.stamp;
+  m.header.frame_id = base_frame;
+  m.has_goal = goal.has_value();
+  m.v_max = limits.v_max;
+  m.w_max = limits.w_max;
+  m.dv = limits.dv();
+  m.dw = limits.dw();
+  m.v = obs.robot_twist.v;
+  m.w = obs.robot_twist.w;
+  switch (actions.goal_line.kind) {
+    case GoalLine::Kind::kNone:
+      m.goal_line_kind = Dovs::GOAL_NONE;
+      break;
+    case GoalLine::Kind::kArc:
+      m.goal_line_kind = Dovs::GOAL_ARC;
+      break;
+    case GoalLine::Kind::kTurnInPlace:
+      m.goal_line_kind = Dovs::GOAL_TURN_IN_PLACE;
+      break;
+  }
+  m.goal_curvature = actions.goal_line.curvature_1pm;
+  m.goal_turn_sign = actions.goal_line.turn_sign;
+  for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
+    m.action_v[i] = actions.velocities[i].v;
+    m.action_w[i] = actions.velocities[i].w;
+    m.action_valid[i] = shielded.mask[i];
+  }
+  m.escape = shielded.has_escape;
+  m.escape_v = shielded.has_escape ? shielded.escape.v : 0.0;
+  m.escape_w = shielded.has_escape ? shielded.escape.w : 0.0;
+  m.escape_tier = static_cast<uint8_t>(shielded.has_escape ? shielded.escape_tier : EscapeTier::kFree);
+  if (shield.statics.enabled) {
+    const StaticScene statics(obs, limits, shield.statics);
+    m.static_frame = obstacles.header.frame_id;
+    m.static_segments = statics.flatSegments(obs.robot_pose);
+    m.static_discs = statics.flatDiscs(obs.robot_pose);
+  }
+  const int n = dovs.numTrajectories();
+  m.trajectory_curvature.reserve(static_cast<size_t>(n));
+  m.interval_begin.reserve(static_cast<size_t>(n) + 1);
+  for (int i = 0; i < n; ++i) {
+    const Trajectory& t = dovs.trajectory(i);
+    m.trajectory_curvature.push_back(static_cast<float>(t.curvature_1pm));
+    m.trajectory_pure_rotation.push_back(t.pure_rotation);
+    m.trajectory_v_top.push_back(static_cast<float>(t.v_top_mps));
+    m.trajectory_w_top.push_back(static_cast<float>(t.w_top_rps));
+    m.interval_begin.push_back(static_cast<uint32_t>(m.interval_lo.size()));
+    for (const SpeedInterval& s : dovs.unsafeIntervals(i)) {
+      m.interval_lo.push_back(static_cast<float>(s.lo_mps));
+      m.interval_hi.push_back(static_cast<float>(s.hi_mps));
+    }
+  }
+  m.interval_begin.push_back(static_cast<uint32_t>(m.interval_lo.size()));
+  m.grid_rows = m.grid_cols = static_cast<uint16_t>(dovs.gridSize());
+  const StateVector state = buildState(dovs, obs, normalization);
+  m.state.assign(state.data(), state.data() + state.size());
+  for (const auto& field : normalization.fields()) m.state_normalization.push_back(field.second);
+  return {};
+}
+
+std::string staticObservationFromDovs(const Dovs& dovs, const std::string& fixed_frame, const Pose2& robot_pose,
+                                      const Twist2& twist, Observation& out) {
+  if (!dovs.static_segments.empty() || !dovs.static_discs.empty()) {
+    if (dovs.static_frame != fixed_frame) {
+      out = Observation();
+      return "dovs static geometry is in frame '" + dovs.static_frame + "', the planner's fixed_frame is '" +
+             fixed_frame + "'";
+    }
+  }
+  return staticObservation(dovsDecisionFromMessage(dovs), robot_pose, twist, out);
+}
+
+Twist2 choiceVelocity(const Dovs& dovs, int choice) { return choiceVelocity(dovsDecisionFromMessage(dovs), choice); }
+
+int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why) {
+  return chooseAction(network, dovsDecisionFromMessage(dovs), why);
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,62 @@
+// The per-message work of obstacle_tracker_node, dovs_node and planner_node, once their inputs are gathered
+// (scan converted, transforms looked up). The nodes and the offline bag replay (bag_replay.h) call the same
+// functions, so a replayed bag makes exactly the decisions the running pipeline makes.
+#pragma once
+
+#include <ros/time.h>
+
+#include <optional>
+#include <string>
+
+#include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/TrackedObstacleArray.h"
+#include "dqn_dovs/dovs/actions.h"
+#include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/perception/tracker.h"
+#include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/policy/dovs_decision.h"
+#include "dqn_dovs/policy/qnetwork.h"
+
+namespace dqn_dovs {
+
+/// obstacle_tracker_node's step after the scan check and the laser pose lookup: one tracker update.
+/// Returns why the scan was not used (the tracks are untouched, nothing is published), else "" with `out`
+/// filled (stamp = the scan's, frame = fixed_frame). `reset_note` gets the reason when the tracks were
+/// dropped first (time went backwards or jumped), else it is cleared.
+std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
+                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note);
+
+/// Everything dovs_node derives from one obstacles message.
+struct DovsStep {
+  Observation observation;  ///< robot pose, clipped velocity, goal and obstacles (fixed frame)
+  ActionSet actions;
+  ShieldLevel shield_level = ShieldLevel::kDisabled;
+  Dovs msg;  ///< ready to publish (stamp = the obstacles' stamp, frame = base frame)
+};
+
+/// dovs_node's step after the odom and transform checks: builds the observation (the odom velocity clipped
+/// into the feasible set; without a goal, the goal is the robot's own position), the velocity space, the
+/// actions and the Dovs message, whose action_valid is the mask the network chooses under: the validity mask
+/// narrowed by the action shield (action_shield.h; the shield's level goes into `out.shield_level`). Returns why the
+/// obstacles were dropped (NaN fields, non-positive radius), else "". Throws (DovsError, ActionError, StateError) when
+/// the core rejects the observation.
+std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
+                          const std::optional<Vec2>& goal, const RobotLimits& limits,
+                          const StateNormalization& normalization, const ActionShieldConfig& shield,
+                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out);
+
+/// planner_node's choice for one Dovs message: the core's chooseAction (policy/dovs_decision.h) on the message's
+/// decision fields.
+int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why);
+
+/// The velocity a choice of chooseAction commands (core choiceVelocity). Throws std::out_of_range for non-choices.
+Twist2 choiceVelocity(const Dovs& dovs, int choice);
+
+/// The static geometry a Dovs message carries (static_frame), as an observation seen from `robot_pose` (the
+/// robot now, in the same frame) moving at `twist`. Returns why it cannot be used ("" when fine): a frame other
+/// than `fixed_frame`, then the core's staticObservation checks (lengths not a multiple of 4 / 3, NaN/inf values).
+std::string staticObservationFromDovs(const Dovs& dovs, const std::string& fixed_frame, const Pose2& robot_pose,
+                                      const Twist2& twist, Observation& out);
+
+}  // namespace dqn_dovs

@@ -1,0 +1,316 @@
+#include "planner_node.h"
+
+#include <geometry_msgs/Twist.h>
+#include <geometry_msgs/TwistStamped.h>
+#include <std_msgs/Float64.h>
+#include <std_msgs/Int8.h>
+#include <tf2/exceptions.h>
+#include <tf2_geometry_msgs/tf2_geometry_msgs.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "conversions.h"
+#include "dqn_dovs/dovs/state.h"
+#include "pipeline_steps.h"
+#include "ros_params.h"
+
+namespace dqn_dovs {
+
+namespace {
+// Supervisor messages to the ROS log; a throttled key logs at most once per its interval.
+class LogSink {
+ public:
+  void operator()(SupervisorLog level, const std::string& key, const std::string& text, double throttle_s) {
+    const double now = ros::WallTime::now().toSec();
+    if (throttle_s > 0.0) {
+      auto it = last_.find(key);
+      if (it != last_.end() && now - it->second < throttle_s) return;
+      last_[key] = now;
+    }
+    if (level == SupervisorLog::kWarn) {
+      ROS_WARN("planner: %s", text.c_str());
+    } else {
+      ROS_INFO("planner: %s", text.c_str());
+    }
+  }
+
+ private:
+  std::map<std::string, double> last_;
+};
+
+// The supervisor's parameters over its defaults; SupervisorConfig::validate holds the ranges (and names the field).
+SupervisorConfig supervisorConfig(const ros::NodeHandle& pnh, const RobotLimits& limits) {
+  SupervisorConfig c;
+  c.limits = limits;
+  c.max_input_age_s = param<double>(pnh, "max_input_age", c.max_input_age_s);
+  c.goal_tolerance_m = param<double>(pnh, "goal_tolerance", c.goal_tolerance_m);
+  c.goal_speed_mps = param<double>(pnh, "goal_speed", c.goal_speed_mps);
+  c.ramp_rate_hz = param<double>(pnh, "ramp_rate", c.ramp_rate_hz);
+  c.deadline_fraction = param<double>(pnh, "deadline_fraction", c.deadline_fraction);
+  if (const std::string e = c.validate(); !e.empty()) throw ParameterError(pnh.resolveName("") + ": " + e);
+  return c;
+}
+}  // namespace
+
+PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh),
+      pnh_(pnh),
+      limits_(loadRobotLimits(pnh)),
+      supervisor_(supervisorConfig(pnh, limits_), LogSink()),
+      tf_listener_(tf_buffer_) {
+  fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
+  base_frame_ = param<std::string>(pnh_, "base_frame", "base_footprint");
+  if (fixed_frame_.empty() || base_frame_.empty()) throw ParameterError("fixed_frame and base_frame must not be empty");
+  tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.05, 0.0, 1.0);
+  scan_max_nan_fraction_ = paramInRange(pnh_, "scan_max_nan_fraction", 0.5, 0.0, 1.0);
+  hooks_.robot_pose = [this](double wait_s) { return robotPose(wait_s); };
+  hooks_.space_fault = [this]() -> std::string {
+    if (!last_dovs_) return "dovs is stale or missing";
+    if (!last_dovs_->has_goal) return "dovs has no goal yet";
+    if (last_dovs_->state.size() != static_cast<size_t>(QNetwork::kStateSize)) return "dovs state has the wrong size";
+    return {};
+  };
+  hooks_.choose = [this](const Pose2& pose) { return choose(pose); };
+  checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
+  const std::string model_path = param<std::string>(pnh_, "model_path", "");
+  if (model_path.empty()) throw ParameterError("parameter '" + pnh_.resolveName("model_path") + "' is not set");
+  {
+    // The loader names the field that is wrong inside a weight file; what is wrong with the path itself is
+    // said here (a directory, for one, would otherwise surface as a bare stream error).
+    std::error_code ec;
+    const auto status = std::filesystem::status(model_path, ec);
+    const std::string culprit = "model file '" + model_path + "' (parameter '" + pnh_.resolveName("model_path") + "')";
+    if (!std::filesystem::exists(status)) throw ParameterError(culprit + " does not exist");
+    if (std::filesystem::is_directory(status)) throw ParameterError(culprit + " is a directory, not a weight file");
+    if (!std::filesystem::is_regular_file(status)) throw ParameterError(culprit + " is not a regular file");
+    if (access(model_path.c_str(), R_OK) != 0) throw ParameterError(culprit + " is not readable");
+  }
+  statics_ = loadStaticSafetyConfig(pnh_);
+  network_ = std::make_unique<QNetwork>(QNetwork::load(model_path));  // throws WeightFileError naming the field
+  // At start, against the robot's limits (and any dovs/* given to the planner); each Dovs message carries the
+  // normalisation dovs_node really used, checked again before the network runs (chooseAction).
+  const StateNormalization expected = stateNormalization(limits_, loadDovsConfig(pnh_));
+  const std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
+  if (!mismatch.empty()) {
+    throw ParameterError("model '" + model_path + "' was trained with another state normalisation: " + mismatch);
+  }
+
+  cmd_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 5);
+  cmd_stamped_pub_ = nh_.advertise<geometry_msgs::TwistStamped>("planner/cmd_vel_stamped", 50);
+  status_pub_ = nh_.advertise<PlannerStatus>("planner/status", 5, true);
+  action_pub_ = nh_.advertise<std_msgs::Int8>("planner/action", 5);
+  latency_pub_ = nh_.advertise<std_msgs::Float64>("planner/latency", 20);
+  dovs_sub_ = nh_.subscribe("dovs", 2, &PlannerNode::onDovs, this, ros::TransportHints().tcpNoDelay());
+  odom_sub_ = nh_.subscribe("odom", 10, &PlannerNode::onOdom, this, ros::TransportHints().tcpNoDelay());
+  scan_sub_ = nh_.subscribe("scan", 2, &PlannerNode::onScan, this, ros::TransportHints().tcpNoDelay());
+  goal_sub_ = nh_.subscribe("move_base_simple/goal", 2, &PlannerNode::onGoal, this);
+  cancel_sub_ = nh_.subscribe("planner/cancel", 2, &PlannerNode::onCancel, this);
+  decide_timer_ = nh_.createTimer(ros::Duration(limits_.dt), &PlannerNode::onDecide, this);
+  ramp_timer_ = nh_.createTimer(ros::Duration(1.0 / supervisor_.config().ramp_rate_hz), &PlannerNode::onRamp, this);
+  ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz", model_path.c_str(),
+           network_->metadata().substr(0, 80).c_str(), limits_.dt, supervisor_.config().ramp_rate_hz);
+  publishStatus(ros::Time::now(), 0.0);
+}
+
+void PlannerNode::onDovs(const Dovs::ConstPtr& msg) {
+  last_dovs_ = msg;
+  // Choose the action as soon as the velocity space arrives: the control timer then applies it without
+  // running the network, and planner/latency reports how old the scan behind the choice is.
+  supervisor_.space(msg->header.stamp.toSec());
+  if (supervisor_.hasGoal() && supervisor_.state() != GoalState::kReached && msg->has_goal) {
+    std::string why;
+    actionForLastDovs(why);
+    if (latency_pub_.getNumSubscribers() > 0) {
+      std_msgs::Float64 latency;
+      latency.data = (ros::Time::now() - msg->header.stamp).toSec();
+      latency_pub_.publish(latency);
+    }
+  }
+}
+
+int PlannerNode::actionForLastDovs(std::string& why) {
+  if (chosen_for_ != last_dovs_) {
+    chosen_action_ = chooseAction(*network_, *last_dovs_, chosen_why_);
+    chosen_for_ = last_dovs_;
+  }
+  why = chosen_why_;
+  return chosen_action_;
+}
+
+void PlannerNode::onOdom(const nav_msgs::Odometry::ConstPtr& msg) {
+  std::string fault;
+  if (!std::isfinite(msg->twist.twist.linear.x) || !std::isfinite(msg->twist.twist.angular.z)) {
+    fault = "odom twist has NaN/inf";
+  } else if (msg->header.stamp.isZero()) {
+    fault = "odom has no stamp";
+  }
+  supervisor_.odom(msg->header.stamp.toSec(), fault);
+}
+
+std::string PlannerNode::scanFault(const sensor_msgs::LaserScan& msg) {
+  LaserScan2 scan;
+  const std::string malformed = laserScanFromMsg(msg, scan);
+  if (!malformed.empty()) return malformed;
+  if (msg.header.stamp.isZero()) return "scan has no stamp";
+  const size_t nan =
+      static_cast<size_t>(std::count_if(msg.ranges.begin(), msg.ranges.end(), [](float r) { return std::isnan(r); }));
+  if (static_cast<double>(nan) > scan_max_nan_fraction_ * static_cast<double>(msg.ranges.size())) {
+    std::ostringstream os;
+    os << nan << " of " << msg.ranges.size()
+       << " beams are NaN (parameter scan_max_nan_fraction = " << scan_max_nan_fraction_ << ")";
+    return os.str();
+  }
+  std::string tf_error;
+  if (!tf_buffer_.canTransform(fixed_frame_, msg.header.frame_id, ros::Time(0), &tf_error)) {
+    return "scan frame '" + msg.header.frame_id + "' has no transform to '" + fixed_frame_ + "'";
+  }
+  return {};
+}
+
+void PlannerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  supervisor_.scan(msg->header.stamp.toSec(), scanFault(*msg));
+}
+
+void PlannerNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
+  if (!std::isfinite(msg->pose.position.x) || !std::isfinite(msg->pose.position.y)) {
+    supervisor_.rejectGoal("goal rejected: its position has NaN/inf");
+    return;
+  }
+  geometry_msgs::PoseStamped in_fixed;
+  try {
+    geometry_msgs::PoseStamped latest = *msg;
+    latest.header.stamp = ros::Time(0);
+    in_fixed = tf_buffer_.transform(latest, fixed_frame_, ros::Duration(0.2));
+  } catch (const tf2::TransformException& e) {
+    supervisor_.rejectGoal("goal rejected: no transform from '" + msg->header.frame_id + "' to '" + fixed_frame_ +
+                           "': " + e.what());
+    return;
+  }
+  const Vec2 goal(in_fixed.pose.position.x, in_fixed.pose.position.y);
+  supervisor_.newGoal(goal);
+  ROS_INFO("planner: new goal (%.2f, %.2f) in '%s'", goal.x(), goal.y(), fixed_frame_.c_str());
+}
+
+void PlannerNode::onCancel(const std_msgs::Empty::ConstPtr&) { supervisor_.cancel(); }
+
+RobotPoseLookup PlannerNode::robotPose(double wait_s) {
+  RobotPoseLookup out;
+  geometry_msgs::TransformStamped tf;
+  try {
+    tf = tf_buffer_.lookupTransform(fixed_frame_, base_frame_, ros::Time(0), ros::Duration(wait_s));
+  } catch (const tf2::TransformException& e) {
+    out.error = std::string("no transform ") + fixed_frame_ + " <- " + base_frame_ + ": " + e.what();
+    return out;
+  }
+  out.stamp_s = tf.header.stamp.toSec();
+  if (!poseFromTransform(tf.transform, out.pose)) {
+    out.pose.x = std::numeric_limits<double>::quiet_NaN();  // refused by the supervisor after the stamp checks
+  }
+  return out;
+}
+
+void PlannerNode::checkClock(const ros::Time& now) {
+  if (supervisor_.checkClock(now.toSec()) == ClockJump::kBackward) {
+    // The supervisor forgot its inputs; the velocity space and the transforms received so far are stamped in the
+    // new clock's future too (the transform listener drops its buffer on the jump as well).
+    last_dovs_.reset();
+    chosen_for_.reset();
+    tf_buffer_.clear();
+  }
+}
+
+Choice PlannerNode::choose(const Pose2& pose) {
+  Choice c;
+  const Dovs& d = *last_dovs_;
+  const int a = actionForLastDovs(c.why);
+  if (a < 0) return c;
+  c.action = a;
+  c.target = limits_.clipToFeasible(choiceVelocity(d, a));
+  if (statics_.enabled) {
+    // The last line: the target's braking trajectory, from where the robot is now at the speed last sent, must
+    // keep clear of the static geometry the Dovs carries; otherwise the nearest velocity whose does.
+    const Twist2 current = supervisor_.command();
+    Observation now_seen;
+    const std::string bad = staticObservationFromDovs(d, fixed_frame_, pose, current, now_seen);
+    if (!bad.empty()) {
+      c.why = bad;
+      return c;
+    }
+    const StaticScene scene(now_seen, limits_, statics_);
+    const Twist2 safe = staticSafeCommand(scene, current, c.target, limits_, statics_);
+    if (safe.v != c.target.v || safe.w != c.target.w) {
+      ++static_corrections_;
+      std::ostringstream os;
+      os.precision(3);
+      os << "choice " << a << " (" << c.target.v << " m/s, " << c.target.w
+         << " rad/s) would brake into static geometry; sent (" << safe.v << ", " << safe.w << ")";
+      static_last_ = os.str();
+      ROS_WARN_THROTTLE(1.0, "planner: static safety: %s (%u so far)", static_last_.c_str(), static_corrections_);
+      c.target = safe;
+    }
+  }
+  return c;
+}
+
+void PlannerNode::onDecide(const ros::TimerEvent& event) {
+  const ros::Time now = ros::Time::now();
+  checkClock(now);
+  std::optional<double> lateness;
+  if (!event.current_expected.isZero() && !event.last_expected.isZero()) {
+    lateness = (event.current_real - event.current_expected).toSec();
+  }
+  const std::optional<double> goal_distance = supervisor_.controlPeriod(now.toSec(), lateness, hooks_, tf_timeout_s_);
+  std_msgs::Int8 a;
+  a.data = static_cast<int8_t>(supervisor_.action());
+  action_pub_.publish(a);
+  publishStatus(now, goal_distance.value_or(-1.0));
+}
+
+void PlannerNode::onRamp(const ros::TimerEvent&) {
+  const ros::Time now = ros::Time::now();
+  checkClock(now);
+  const RampCommand r = supervisor_.ramp(now.toSec(), hooks_);
+  if (!r.publish) return;
+  geometry_msgs::Twist t;
+  t.linear.x = r.command.v;
+  t.angular.z = r.command.w;
+  cmd_pub_.publish(t);
+  if (cmd_stamped_pub_.getNumSubscribers() > 0) {
+    geometry_msgs::TwistStamped ts;
+    ts.header.seq = ++stamped_seq_;  // consecutive: a gap tells the listener a command was lost
+    ts.header.stamp = now;
+    ts.header.frame_id = base_frame_;
+    ts.twist = t;
+    cmd_stamped_pub_.publish(ts);
+  }
+}
+
+void PlannerNode::publishStatus(const ros::Time& now, double goal_distance) {
+  PlannerStatus s;
+  s.header.stamp = now;
+  s.header.frame_id = fixed_frame_;
+  s.state = static_cast<uint8_t>(supervisor_.state());
+  s.reason = supervisor_.reason().empty() ? goalStateName(supervisor_.state()) : supervisor_.reason();
+  s.action = static_cast<int8_t>(supervisor_.action());
+  s.goal_distance = goal_distance;
+  s.v = supervisor_.command().v;
+  s.w = supervisor_.command().w;
+  const SafetyEnvelope& envelope = supervisor_.envelope();
+  s.envelope_checks = static_cast<uint32_t>(envelope.checked());
+  s.envelope_corrections = static_cast<uint32_t>(envelope.corrected());
+  s.envelope_last = envelope.lastCorrection();
+  s.static_corrections = static_corrections_;
+  s.static_last = static_last_;
+  s.control_periods = supervisor_.controlPeriods();
+  s.deadline_misses = supervisor_.deadlineMisses();
+  s.max_period_lateness = supervisor_.maxLateness_s();
+  status_pub_.publish(s);
+}
+
+}  // namespace dqn_dovs

@@ -1,0 +1,81 @@
+// ROS adapter of the DQN-DOVS planner: Dovs -> one of the 8 actions per control period -> cmd_vel ramp. The goal
+// life cycle, the watchdog that stops the robot on stale or bad input, missing tf, a clock jump or a planner error,
+// the ramp and the safety envelope every cmd_vel passes through live in the ROS-free Supervisor
+// (include/dqn_dovs/supervision/supervisor.h); this class turns messages, tf and timers into its calls.
+#pragma once
+
+#include <geometry_msgs/PoseStamped.h>
+#include <nav_msgs/Odometry.h>
+#include <ros/ros.h>
+#include <sensor_msgs/LaserScan.h>
+#include <std_msgs/Empty.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/PlannerStatus.h"
+#include "dqn_dovs/common/robot_model.h"
+#include "dqn_dovs/policy/qnetwork.h"
+#include "dqn_dovs/policy/static_safety.h"
+#include "dqn_dovs/supervision/safety_envelope.h"
+#include "dqn_dovs/supervision/supervisor.h"
+
+namespace dqn_dovs {
+
+class PlannerNode {
+ public:
+  /// Loads the model and validates parameters; throws (ParameterError, WeightFileError) naming the culprit.
+  PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+ private:
+  void onDovs(const Dovs::ConstPtr& msg);
+  void onOdom(const nav_msgs::Odometry::ConstPtr& msg);
+  void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
+  void onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg);
+  void onCancel(const std_msgs::Empty::ConstPtr& msg);
+  void onDecide(const ros::TimerEvent& event);  // once per control period
+  void onRamp(const ros::TimerEvent& event);    // >= 20 Hz command ramp
+  /// The supervisor's clock check; after a backward jump the last velocity space and the tf buffer are dropped.
+  void checkClock(const ros::Time& now);
+  /// The robot in the fixed frame from tf, waiting up to wait_s (the supervisor checks its age and finiteness).
+  RobotPoseLookup robotPose(double wait_s);
+  /// The decision for the robot at `pose`: the network's action or the shield's escape from the last Dovs, then
+  /// the static last line against the geometry the Dovs carries.
+  Choice choose(const Pose2& pose);
+  /// Why a scan is unusable for driving ("" when usable): malformed, wrong size, too many NaN beams, a frame
+  /// tf does not know.
+  std::string scanFault(const sensor_msgs::LaserScan& msg);
+  /// The network's action for last_dovs_ (computed once per message); -1 with `why` when there is none.
+  int actionForLastDovs(std::string& why);
+  void publishStatus(const ros::Time& now, double goal_distance);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string fixed_frame_, base_frame_;
+  RobotLimits limits_;
+  StaticSafetyConfig statics_;
+  uint32_t static_corrections_ = 0;
+  std::string static_last_;
+  double tf_timeout_s_ = 0.05, scan_max_nan_fraction_ = 0.5;
+  std::unique_ptr<QNetwork> network_;
+  // Goal life cycle, input watchdog, clock-jump latch, ramp through the safety envelope, deadlines (ROS-free).
+  Supervisor supervisor_;
+  DecisionHooks hooks_;
+
+  Dovs::ConstPtr last_dovs_;
+  Dovs::ConstPtr chosen_for_;  // the message chosen_action_ / chosen_why_ belong to
+  int chosen_action_ = -1;
+  std::string chosen_why_;
+  uint32_t stamped_seq_ = 0;  // planner/cmd_vel_stamped sequence
+
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_;
+  ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_;
+  ros::Timer decide_timer_, ramp_timer_;
+};
+
+}  // namespace dqn_dovs

@@ -1,0 +1,61 @@
+// Parameter loading shared by the nodes: one place that reads, checks and reports.
+#pragma once
+
+#include <ros/ros.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "dqn_dovs/common/robot_model.h"
+#include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/policy/static_safety.h"
+
+namespace dqn_dovs {
+
+/// Thrown when a node's parameter is missing a valid value; the message names the parameter and the reason.
+class ParameterError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Reads `name` from the private handle, falling back to `fallback`; numbers must be finite.
+template <typename T>
+T param(const ros::NodeHandle& pnh, const std::string& name, const T& fallback) {
+  T value = fallback;
+  if (pnh.hasParam(name) && !pnh.getParam(name, value)) {
+    throw ParameterError("parameter '" + pnh.resolveName(name) + "' has the wrong type");
+  }
+  if constexpr (std::is_floating_point_v<T>) {
+    if (!std::isfinite(value)) throw ParameterError("parameter '" + pnh.resolveName(name) + "' is not finite");
+  }
+  return value;
+}
+
+/// Reads a number and checks lo <= value <= hi.
+double paramInRange(const ros::NodeHandle& pnh, const std::string& name, double fallback, double lo, double hi);
+
+/// Reads the robot limits from `robot/*` (config/robot.yaml) and validates them.
+RobotLimits loadRobotLimits(const ros::NodeHandle& pnh);
+
+/// Reads the static braking rule from `static_safety/*` (config/static_safety.yaml, loaded by dovs_node and
+/// planner_node) and validates it.
+StaticSafetyConfig loadStaticSafetyConfig(const ros::NodeHandle& pnh);
+
+/// Reads `dovs/*` parameters (config/dovs.yaml, loaded by dovs_node and planner_node) over the defaults and
+/// validates them.
+DovsConfig loadDovsConfig(const ros::NodeHandle& pnh);
+
+/// Reads every action shield parameter (shieldParameterNames(): `action_shield/*` of config/dovs.yaml and
+/// `static_safety/*` of config/static_safety.yaml) over the defaults and validates them.
+ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh);
+
+}  // namespace dqn_dovs
+
+namespace dqn_dovs {
+/// When `robot_description` is on the parameter server, checks that its footprint radius equals
+/// limits.radius (throws ParameterError naming both values otherwise). Returns false when there is none.
+bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits, const std::string& base_frame,
+                           const std::string& laser_frame);
+}  // namespace dqn_dovs

@@ -1,0 +1,211 @@
+#include "dqn_dovs/sim/lidar.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace dqn_dovs::sim {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string bad(const char* field, double value, const std::string& why) {
+  std::ostringstream os;
+  os << "lidar parameter '" << field << "' = " << value << ": " << why;
+  return os.str();
+}
+
+// Distance to the inside of the axis-aligned square |x|, |y| <= half from a point strictly inside it.
+inline double rayRoomFromInside(const Vec2& o, const Vec2& d, double half) {
+  double t = kInf;
+  if (d.x() > 0.0)
+    t = (half - o.x()) / d.x();
+  else if (d.x() < 0.0)
+    t = (-half - o.x()) / d.x();
+  if (d.y() > 0.0)
+    t = std::min(t, (half - o.y()) / d.y());
+  else if (d.y() < 0.0)
+    t = std::min(t, (-half - o.y()) / d.y());
+  return t;
+}
+
+}  // namespace
+
+std::string LidarConfig::validate() const {
+  if (!(std::isfinite(fov_rad) && fov_rad > 0.0 && fov_rad <= kTwoPi + 1e-9)) {
+    return bad("fov_rad", fov_rad, "must be in (0, 2 pi] rad");
+  }
+  if (beams < 1 || beams > 100000) return bad("beams", beams, "must be in [1, 100000]");
+  if (!fullCircle() && beams < 2) return bad("beams", beams, "a partial field of view needs at least 2 beams");
+  if (!(std::isfinite(range_min_m) && range_min_m >= 0.0)) {
+    return bad("range_min_m", range_min_m, "must be finite and >= 0 m");
+  }
+  if (!(std::isfinite(range_max_m) && range_max_m > range_min_m)) {
+    return bad("range_max_m", range_max_m, "must be finite and > range_min_m");
+  }
+  if (!(std::isfinite(noise_std_m) && noise_std_m >= 0.0)) {
+    return bad("noise_std_m", noise_std_m, "must be finite and >= 0 m");
+  }
+  if (!(std::isfinite(noise_std_fraction) && noise_std_fraction >= 0.0 && noise_std_fraction < 1.0)) {
+    return bad("noise_std_fraction", noise_std_fraction, "must be in [0, 1)");
+  }
+  if (!mount.isFinite()) return bad("mount", mount.x + mount.y + mount.theta, "mount pose must be finite");
+  return {};
+}
+
+double LidarConfig::angleIncrement_rad() const {
+  if (fullCircle()) return kTwoPi / static_cast<double>(beams);
+  return beams > 1 ? fov_rad / static_cast<double>(beams - 1) : 0.0;
+}
+
+LidarConfig LidarConfig::simProfile() {
+  LidarConfig c;
+  c.fov_rad = kTwoPi;
+  c.beams = 720;
+  c.range_min_m = 0.05;
+  c.range_max_m = 10.0;
+  c.noise_std_m = 0.01;
+  c.noise_std_fraction = 0.0;
+  return c;
+}
+
+LidarConfig LidarConfig::hokuyoProfile() {
+  LidarConfig c;
+  c.fov_rad = kPi;
+  c.beams = 513;  // 180 deg / (360 / 1024 deg) = 512 steps -> 513 beams
+  c.range_min_m = 0.02;
+  c.range_max_m = 5.6;
+  c.noise_std_m = 0.005;
+  c.noise_std_fraction = 0.005;
+  return c;
+}
+
+Lidar::Lidar(const LidarConfig& config, uint64_t seed) : config_(config), rng_(seed) {
+  const std::string error = config_.validate();
+  if (!error.empty()) throw SimConfigError(error);
+  const double amin = config_.angleMin_rad(), inc = config_.angleIncrement_rad();
+  beam_dirs_local_.resize(static_cast<size_t>(config_.beams));
+  for (size_t i = 0; i < beam_dirs_local_.size(); ++i) {
+    const double a = amin + static_cast<double>(i) * inc;
+    beam_dirs_local_[i] = Vec2(std::cos(a), std::sin(a));
+  }
+}
+
+void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vector<Vec2>& dirs_world,
+                    std::vector<double>& ranges) const {
+  const size_t n = beam_dirs_local_.size();
+  ranges.assign(n, kInf);
+  if (!laser_pose.isFinite()) return;  // a broken pose sees nothing rather than garbage
+  const Vec2 o = laser_pose.position();
+  const double c = std::cos(laser_pose.theta), s = std::sin(laser_pose.theta);
+  dirs_world.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Vec2& d = beam_dirs_local_[i];
+    dirs_world[i] = Vec2(c * d.x() - s * d.y(), s * d.x() + c * d.y());
+  }
+
+  const double half = scene.room_half_size_m;
+  if (half > 0.0) {
+    if (std::abs(o.x()) < half && std::abs(o.y()) < half) {
+      for (size_t i = 0; i < n; ++i) ranges[i] = rayRoomFromInside(o, dirs_world[i], half);
+    } else {
+      // Outside the room (only a misplaced robot can be there): fall back to the four wall segments.
+      const Segment walls[4] = {{Vec2(-half, -half), Vec2(half, -half)},
+                                {Vec2(half, -half), Vec2(half, half)},
+                                {Vec2(half, half), Vec2(-half, half)},
+                                {Vec2(-half, half), Vec2(-half, -half)}};
+      for (size_t i = 0; i < n; ++i) {
+        for (const Segment& w : walls) {
+          const std::optional<double> t = raySegment(o, dirs_world[i], w);
+          if (t && *t < ranges[i]) ranges[i] = *t;
+        }
+      }
+    }
+  }
+
+  for (const Segment& seg : scene.segments) {
+    for (size_t i = 0; i < n; ++i) {
+      const std::optional<double> t = raySegment(o, dirs_world[i], seg);
+      if (t && *t < ranges[i]) ranges[i] = *t;
+    }
+  }
+
+  const double amin = config_.angleMin_rad(), inc = config_.angleIncrement_rad();
+  const double yaw = laser_pose.theta;
+  const long last = static_cast<long>(n) - 1;
+  for (const Circle& disc : scene.discs) {
+    if (!(disc.center.allFinite() && std::isfinite(disc.radius) && disc.radius > 0.0)) continue;
+    const Vec2 rel = disc.center - o;
+    const double dist = rel.norm();
+    if (dist <= disc.radius) {
+      // The laser is inside the disc: every beam is blocked at once.
+      std::fill(ranges.begin(), ranges.end(), 0.0);
+      return;
+    }
+    // Only the beams inside the disc's angular span [bearing - half_span, bearing + half_span] can hit it.
+    const double half_span = std::asin(disc.radius / dist);
+    double bearing = std::fmod(std::atan2(rel.y(), rel.x()) - yaw - amin, kTwoPi);
+    if (bearing < 0.0) bearing += kTwoPi;
+    for (const double shift : {-kTwoPi, 0.0, kTwoPi}) {
+      const double lo = bearing + shift - half_span, hi = bearing + shift + half_span;
+      if (inc <= 0.0) {
+        if (lo <= 0.0 && hi >= 0.0) {
+          const std::optional<double> t = rayCircle(o, dirs_world[0], disc);
+          if (t && *t < ranges[0]) ranges[0] = *t;
+        }
+        continue;
+      }
+      // One extra beam on each side guards against rounding at the span's edges; rayCircle decides exactly.
+      const long i0 = std::max(0L, static_cast<long>(std::floor(lo / inc)) - 1);
+      const long i1 = std::min(last, static_cast<long>(std::ceil(hi / inc)) + 1);
+      for (long i = i0; i <= i1; ++i) {
+        const std::optional<double> t = rayCircle(o, dirs_world[static_cast<size_t>(i)], disc);
+        if (t && *t < ranges[static_cast<size_t>(i)]) ranges[static_cast<size_t>(i)] = *t;
+      }
+    }
+  }
+}
+
+std::vector<double> Lidar::trueRanges(const Pose2& laser_pose, const LidarScene& scene) const {
+  std::vector<Vec2> dirs;
+  std::vector<double> ranges;
+  castAll(laser_pose, scene, dirs, ranges);
+  return ranges;
+}
+
+LaserScan2 Lidar::scan(const Pose2& laser_pose, const LidarScene& scene, double stamp_s) {
+  LaserScan2 out;
+  scanInto(laser_pose, scene, stamp_s, out);
+  return out;
+}
+
+void Lidar::scanInto(const Pose2& laser_pose, const LidarScene& scene, double stamp_s, LaserScan2& out) {
+  castAll(laser_pose, scene, dirs_world_, work_);
+  out.stamp_s = stamp_s;
+  out.angle_min = config_.angleMin_rad();
+  out.angle_increment = config_.angleIncrement_rad();
+  out.range_min = config_.range_min_m;
+  out.range_max = config_.range_max_m;
+  out.ranges.resize(work_.size());
+  const double rmin = config_.range_min_m, rmax = config_.range_max_m;
+  const bool noisy = config_.noise_std_m > 0.0 || config_.noise_std_fraction > 0.0;
+  for (size_t i = 0; i < work_.size(); ++i) {
+    const double r = work_[i];
+    double value = 0.0;
+    if (!(r <= rmax)) {
+      value = kInf;
+    } else if (r < rmin) {
+      value = -kInf;
+    } else {
+      value = r;
+      if (noisy) {
+        const double sigma = std::max(config_.noise_std_m, config_.noise_std_fraction * r);
+        value = std::clamp(r + sigma * rng_.normal(), rmin, rmax);
+      }
+    }
+    out.ranges[i] = static_cast<float>(value);
+  }
+}
+
+}  // namespace dqn_dovs::sim

@@ -1,0 +1,368 @@
+#include "dqn_dovs/sim/world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace dqn_dovs::sim {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Keeps the lidar's noise stream unrelated to any other stream seeded from the same user seed.
+constexpr uint64_t kLidarStreamTag = 0x6C69646172ULL;
+// A single step is never cut into more sub-steps than this, whatever the speeds (guards absurd inputs).
+constexpr int kMaxSubsteps = 100000;
+
+std::string bad(const char* field, double value, const std::string& why) {
+  std::ostringstream os;
+  os << "world parameter '" << field << "' = " << value << ": " << why;
+  return os.str();
+}
+
+// Signed distance of a disc centre past the border line of one wall: >= 0 means the disc is at (or over) the
+// line where it must turn around. Walls: 0 = +x, 1 = -x, 2 = +y, 3 = -y.
+inline double pastBorder(const Vec2& c, int wall, double limit) {
+  const double coord = wall < 2 ? c.x() : c.y();
+  const double sign = (wall % 2 == 0) ? 1.0 : -1.0;
+  return sign * coord - limit;
+}
+
+// Component of the direction of travel along wall's outward normal.
+inline double outwardComponent(double heading, double speed, int wall) {
+  const double d = wall < 2 ? std::cos(heading) : std::sin(heading);
+  const double sign = (wall % 2 == 0) ? 1.0 : -1.0;
+  return sign * d * (speed < 0.0 ? -1.0 : 1.0);
+}
+
+void checkScenario(const Scenario& s) {
+  auto fail = [&](const std::string& why) { throw ScenarioError("scenario '" + s.name + "': " + why); };
+  const double half = s.room_half_size_m;
+  if (!(std::isfinite(half) && half > 0.0)) fail("room_half_size_m must be finite and > 0");
+  if (!s.robot_start.isFinite()) fail("robot start pose is not finite");
+  if (!s.goal.allFinite()) fail("goal is not finite");
+  if (!(std::abs(s.robot_start.x) < half && std::abs(s.robot_start.y) < half)) {
+    std::ostringstream os;
+    os << "robot start (" << s.robot_start.x << ", " << s.robot_start.y << ") is outside the room (walls at +-" << half
+       << " m)";
+    fail(os.str());
+  }
+  for (size_t i = 0; i < s.obstacles.size(); ++i) {
+    const MovingObstacle& o = s.obstacles[i];
+    if (!(o.center.allFinite() && std::isfinite(o.heading) && std::isfinite(o.speed) && std::isfinite(o.turn_rate))) {
+      fail("obstacle " + std::to_string(i) + " has a non-finite centre, heading, speed or turn rate");
+    }
+    if (!(std::isfinite(o.radius) && o.radius > 0.0)) {
+      fail("obstacle " + std::to_string(i) + " radius must be finite and > 0");
+    }
+  }
+  for (size_t i = 0; i < s.static_segments.size(); ++i) {
+    if (!(s.static_segments[i].a.allFinite() && s.static_segments[i].b.allFinite())) {
+      fail("static segment " + std::to_string(i) + " is not finite");
+    }
+  }
+}
+
+const WorldConfig& validated(const WorldConfig& config) {
+  const std::string error = config.validate();
+  if (!error.empty()) throw SimConfigError(error);
+  return config;
+}
+
+}  // namespace
+
+std::string WorldConfig::validate() const {
+  const std::string robot_error = robot.validate();
+  if (!robot_error.empty()) return "world parameter 'robot': " + robot_error;
+  if (!(std::isfinite(physics_step_s) && physics_step_s > 0.0 && physics_step_s <= 1.0)) {
+    return bad("physics_step_s", physics_step_s, "must be in (0, 1] s");
+  }
+  if (!(std::isfinite(max_substep_travel_m) && max_substep_travel_m > 0.0)) {
+    return bad("max_substep_travel_m", max_substep_travel_m, "must be finite and > 0 m");
+  }
+  const std::string lidar_error = lidar.validate();
+  if (!lidar_error.empty()) return "world parameter 'lidar': " + lidar_error;
+  if (!(std::isfinite(border_turn_rate_rps) && border_turn_rate_rps > 0.0)) {
+    return bad("border_turn_rate_rps", border_turn_rate_rps, "must be finite and > 0 rad/s");
+  }
+  if (!(std::isfinite(border_margin_m) && border_margin_m >= 0.0)) {
+    return bad("border_margin_m", border_margin_m, "must be finite and >= 0 m");
+  }
+  return {};
+}
+
+World::World(const Scenario& scenario, const WorldConfig& config, uint64_t seed)
+    : config_(validated(config)), lidar_(config.lidar, mixSeed(seed ^ kLidarStreamTag)) {
+  reset(scenario, seed);
+}
+
+void World::reset(const Scenario& scenario, uint64_t seed) {
+  checkScenario(scenario);
+  scenario_ = scenario;
+  lidar_.reseed(mixSeed(seed ^ kLidarStreamTag));
+  time_s_ = 0.0;
+  robot_pose_ = scenario.robot_start;
+  robot_pose_.theta = normalizeAngle(robot_pose_.theta);
+  robot_twist_ = {};
+  robot_stopped_ = false;
+  collision_ = {};
+  obstacles_.clear();
+  obstacles_.reserve(scenario.obstacles.size());
+  for (const MovingObstacle& m : scenario.obstacles) {
+    SimObstacle o;
+    o.body = m;
+    if (o.body.is_static) {
+      o.body.speed = 0.0;
+      o.body.turn_rate = 0.0;
+    }
+    o.turn_direction = o.body.turn_rate < 0.0 ? -1.0 : 1.0;
+    obstacles_.push_back(o);
+  }
+  const double h = scenario.room_half_size_m;
+  walls_ = {
+      {Vec2(-h, -h), Vec2(h, -h)}, {Vec2(h, -h), Vec2(h, h)}, {Vec2(h, h), Vec2(-h, h)}, {Vec2(-h, h), Vec2(-h, -h)}};
+  walls_.insert(walls_.end(), scenario.static_segments.begin(), scenario.static_segments.end());
+  lidar_scene_.room_half_size_m = h;
+  lidar_scene_.segments = scenario.static_segments;
+  lidar_scene_.discs.clear();
+  checkCollision();  // a start pose inside an obstacle is a collision at t = 0
+  if (collided() && config_.stop_on_collision) robot_stopped_ = true;
+}
+
+double World::borderEventTime(const SimObstacle& o, double dt_s) const {
+  const MovingObstacle& b = o.body;
+  const double limit = scenario_.room_half_size_m - config_.border_margin_m - b.radius;
+  const Pose2 p0{b.center.x(), b.center.y(), b.heading};
+  const Pose2 p1 = integrateUnicycle(p0, b.speed, b.turn_rate, dt_s);
+  double best = -1.0;
+  for (int wall = 0; wall < 4; ++wall) {
+    const double f0 = pastBorder(p0.position(), wall, limit);
+    const double f1 = pastBorder(p1.position(), wall, limit);
+    double t = -1.0;
+    if (f0 >= 0.0) {
+      // Already at the line (it just turned there, or started there): only motion out of the room counts.
+      if (outwardComponent(p0.theta, b.speed, wall) > 0.0 && b.speed != 0.0) {
+        t = 0.0;
+      } else if (f1 >= 0.0 && outwardComponent(p1.theta, b.speed, wall) > 0.0 && b.speed != 0.0) {
+        t = dt_s;  // curved back outward while still past the line; sub-steps are short enough for this
+      }
+    } else if (f1 >= 0.0) {
+      // Crossing inside this interval: bisect to the last instant still inside the line.
+      double lo = 0.0, hi = dt_s;
+      for (int it = 0; it < 40; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        const Pose2 pm = integrateUnicycle(p0, b.speed, b.turn_rate, mid);
+        (pastBorder(pm.position(), wall, limit) >= 0.0 ? hi : lo) = mid;
+      }
+      t = lo;
+    }
+    if (t >= 0.0 && (best < 0.0 || t < best)) best = t;
+  }
+  return best;
+}
+
+void World::startBorderTurn(SimObstacle& o) const {
+  MovingObstacle& b = o.body;
+  const double limit = scenario_.room_half_size_m - config_.border_margin_m - b.radius;
+  o.motion = ObstacleMotion::kTurningAtBorder;
+  o.turn_direction = b.turn_rate < 0.0 ? -1.0 : 1.0;
+  o.turn_remaining_rad = kPi;
+  o.border_turns += 1;
+  // In a corner the reversed heading can still point out through the other wall, which would trigger another
+  // turn at once and trap the obstacle; there it turns to face the room centre instead.
+  const double reversed = normalizeAngle(b.heading + kPi);
+  bool reversed_escapes = true;
+  for (int wall = 0; wall < 4; ++wall) {
+    if (pastBorder(b.center, wall, limit) >= -1e-6 && outwardComponent(reversed, b.speed, wall) > 1e-9) {
+      reversed_escapes = false;
+    }
+  }
+  if (!reversed_escapes) {
+    const double to_centre = std::atan2(-b.center.y(), -b.center.x());
+    const double diff = angleDiff(b.speed < 0.0 ? normalizeAngle(to_centre + kPi) : to_centre, b.heading);
+    o.turn_direction = diff < 0.0 ? -1.0 : 1.0;
+    o.turn_remaining_rad = std::abs(diff);
+  }
+}
+
+void World::advanceObstacle(SimObstacle& o, double dt_s) const {
+  MovingObstacle& b = o.body;
+  if (b.is_static || (b.speed == 0.0 && b.turn_rate == 0.0)) return;
+  double left = dt_s;
+  // Each pass either finishes the interval or ends a phase; a handful of phases per sub-step is the most a
+  // real motion can produce, the cap only protects against degenerate inputs.
+  for (int phase = 0; phase < 8 && left > 0.0; ++phase) {
+    if (o.motion == ObstacleMotion::kTurningAtBorder) {
+      const double rate = config_.border_turn_rate_rps;
+      if (rate * left < o.turn_remaining_rad) {
+        b.heading = normalizeAngle(b.heading + o.turn_direction * rate * left);
+        o.turn_remaining_rad -= rate * left;
+        return;
+      }
+      b.heading = normalizeAngle(b.heading + o.turn_direction * o.turn_remaining_rad);
+      left -= o.turn_remaining_rad / rate;
+      o.turn_remaining_rad = 0.0;
+      o.motion = ObstacleMotion::kMoving;
+      continue;
+    }
+    const double t_event = borderEventTime(o, left);
+    const double t_move = t_event >= 0.0 ? t_event : left;
+    const Pose2 p = integrateUnicycle({b.center.x(), b.center.y(), b.heading}, b.speed, b.turn_rate, t_move);
+    b.center = p.position();
+    b.heading = p.theta;
+    left -= t_move;
+    if (t_event < 0.0) return;
+    startBorderTurn(o);
+  }
+}
+
+bool World::checkCollision() {
+  const Vec2 p = robot_pose_.position();
+  const double r = config_.robot.radius;
+  for (size_t i = 0; i < obstacles_.size(); ++i) {
+    const MovingObstacle& b = obstacles_[i].body;
+    if ((b.center - p).norm() < r + b.radius) {
+      if (!collided()) {
+        const bool still = b.is_static || (b.speed == 0.0 && b.turn_rate == 0.0);
+        collision_ = {CollisionInfo::Kind::kObstacle, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), still};
+      }
+      return true;
+    }
+  }
+  for (size_t i = 0; i < walls_.size(); ++i) {
+    if (pointSegmentDistance(p, walls_[i]) < r) {
+      if (!collided())
+        collision_ = {CollisionInfo::Kind::kWall, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), true};
+      return true;
+    }
+  }
+  // A robot centre outside the room (possible only after tunnelling through a wall) is also a collision.
+  const double h = scenario_.room_half_size_m;
+  if (!(std::abs(p.x()) < h && std::abs(p.y()) < h)) {
+    if (!collided()) collision_ = {CollisionInfo::Kind::kWall, 0, time_s_, std::abs(robot_twist_.v), true};
+    return true;
+  }
+  return false;
+}
+
+void World::step(const Twist2& cmd, double dt_s) {
+  if (!(std::isfinite(dt_s) && dt_s >= 0.0)) {
+    std::ostringstream os;
+    os << "World::step: dt_s = " << dt_s << " must be finite and >= 0 s";
+    throw SimConfigError(os.str());
+  }
+  if (dt_s == 0.0) return;
+  const Twist2 command = robot_stopped_ ? Twist2{} : cmd;
+  if (!config_.ramp_velocity) {
+    robot_twist_ = robot_stopped_ ? Twist2{} : applyAccelerationLimits(robot_twist_, command, config_.robot, dt_s);
+  }
+
+  double fastest_obstacle = 0.0;
+  for (const SimObstacle& o : obstacles_) fastest_obstacle = std::max(fastest_obstacle, std::abs(o.body.speed));
+  const double robot_speed =
+      config_.ramp_velocity ? std::max(std::abs(robot_twist_.v), std::abs(command.v)) : std::abs(robot_twist_.v);
+  const double relative_speed = std::min(robot_speed, config_.robot.v_max) + fastest_obstacle;
+  double h = config_.physics_step_s;
+  if (relative_speed > 0.0) h = std::min(h, config_.max_substep_travel_m / relative_speed);
+  const int n = static_cast<int>(std::min<double>(kMaxSubsteps, std::max(1.0, std::ceil(dt_s / h - 1e-9))));
+  const double sub_dt = dt_s / n;
+
+  for (int k = 0; k < n; ++k) {
+    if (config_.ramp_velocity && !robot_stopped_) {
+      robot_twist_ = applyAccelerationLimits(robot_twist_, command, config_.robot, sub_dt);
+    }
+    const Pose2 previous = robot_pose_;
+    robot_pose_ = integrateUnicycle(robot_pose_, robot_twist_.v, robot_twist_.w, sub_dt);
+    for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
+    time_s_ += sub_dt;
+    if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
+      robot_pose_ = previous;
+      robot_twist_ = {};
+      robot_stopped_ = true;
+    }
+  }
+}
+
+// Holonomic mode: the robot translates at a fixed-frame velocity instead of following the unicycle model. The
+// sub-stepping and collision handling mirror step() so that both modes are judged by the same physics.
+void World::stepHolonomic(const Vec2& velocity, double dt_s) {
+  if (!(std::isfinite(dt_s) && dt_s >= 0.0)) {
+    std::ostringstream os;
+    os << "World::stepHolonomic: dt_s = " << dt_s << " must be finite and >= 0 s";
+    throw SimConfigError(os.str());
+  }
+  if (dt_s == 0.0) return;
+  Vec2 u = velocity.allFinite()
+               ? velocity
+               : Vec2(robot_twist_.v * std::cos(robot_pose_.theta), robot_twist_.v * std::sin(robot_pose_.theta));
+  if (robot_stopped_) u.setZero();
+  const double speed = u.norm();
+  if (speed > config_.robot.v_max) u *= config_.robot.v_max / speed;
+  const double held_speed = std::min(speed, config_.robot.v_max);
+  if (held_speed > 1e-9) robot_pose_.theta = std::atan2(u.y(), u.x());
+  robot_twist_ = Twist2{held_speed, 0.0};
+
+  double fastest_obstacle = 0.0;
+  for (const SimObstacle& o : obstacles_) fastest_obstacle = std::max(fastest_obstacle, std::abs(o.body.speed));
+  double h = config_.physics_step_s;
+  const double relative_speed = held_speed + fastest_obstacle;
+  if (relative_speed > 0.0) h = std::min(h, config_.max_substep_travel_m / relative_speed);
+  const int n = static_cast<int>(std::min<double>(kMaxSubsteps, std::max(1.0, std::ceil(dt_s / h - 1e-9))));
+  const double sub_dt = dt_s / n;
+  for (int k = 0; k < n; ++k) {
+    const Pose2 previous = robot_pose_;
+    if (!robot_stopped_) {
+      robot_pose_.x += u.x() * sub_dt;
+      robot_pose_.y += u.y() * sub_dt;
+    }
+    for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
+    time_s_ += sub_dt;
+    if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
+      robot_pose_ = previous;
+      robot_twist_ = {};
+      robot_stopped_ = true;
+    }
+  }
+}
+
+std::vector<MovingObstacle> World::groundTruthObstacles() const {
+  std::vector<MovingObstacle> out;
+  out.reserve(obstacles_.size());
+  for (const SimObstacle& o : obstacles_) {
+    MovingObstacle m = o.body;
+    if (o.motion == ObstacleMotion::kTurningAtBorder) {
+      m.speed = 0.0;
+      m.turn_rate = o.turn_direction * config_.border_turn_rate_rps;
+    }
+    out.push_back(m);
+  }
+  return out;
+}
+
+double World::minClearance_m() const {
+  const Vec2 p = robot_pose_.position();
+  const double r = config_.robot.radius;
+  double best = kInf;
+  for (const SimObstacle& o : obstacles_) best = std::min(best, (o.body.center - p).norm() - o.body.radius - r);
+  // The room walls as a signed distance, so that a robot that went through a wall reads as overlapping.
+  const double h = scenario_.room_half_size_m;
+  best = std::min(best, std::min(h - std::abs(p.x()), h - std::abs(p.y())) - r);
+  for (size_t i = 4; i < walls_.size(); ++i) best = std::min(best, pointSegmentDistance(p, walls_[i]) - r);
+  return best;
+}
+
+void World::scanInto(LaserScan2& out) {
+  lidar_scene_.discs.resize(obstacles_.size());
+  for (size_t i = 0; i < obstacles_.size(); ++i) {
+    lidar_scene_.discs[i] = Circle{obstacles_[i].body.center, obstacles_[i].body.radius};
+  }
+  lidar_.scanInto(laserPose(), lidar_scene_, time_s_, out);
+}
+
+LaserScan2 World::scan() {
+  LaserScan2 out;
+  scanInto(out);
+  return out;
+}
+
+}  // namespace dqn_dovs::sim

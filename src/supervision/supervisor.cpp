@@ -1,0 +1,275 @@
+#include "dqn_dovs/supervision/supervisor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace dqn_dovs {
+
+const char* goalStateName(GoalState s) {
+  switch (s) {
+    case GoalState::kIdle:
+      return "idle";
+    case GoalState::kActive:
+      return "active";
+    case GoalState::kReached:
+      return "reached";
+    case GoalState::kStopped:
+      return "stopped";
+  }
+  return "unknown";
+}
+
+std::string SupervisorConfig::validate() const {
+  std::ostringstream os;
+  auto in = [](double x, double lo, double hi) { return std::isfinite(x) && x >= lo && x <= hi; };
+  if (const std::string e = limits.validate(); !e.empty()) {
+    os << "robot: " << e;
+  } else if (!in(max_input_age_s, 0.05, 5.0)) {
+    os << "max_input_age = " << max_input_age_s << " s is outside [0.05, 5]";
+  } else if (!in(goal_tolerance_m, 0.01, 2.0)) {
+    os << "goal_tolerance = " << goal_tolerance_m << " m is outside [0.01, 2]";
+  } else if (!in(goal_speed_mps, 0.01, limits.v_max)) {
+    os << "goal_speed = " << goal_speed_mps << " m/s is outside [0.01, v_max]";
+  } else if (!in(ramp_rate_hz, 20.0, 500.0)) {
+    os << "ramp_rate = " << ramp_rate_hz << " Hz is outside [20, 500]";
+  } else if (!in(deadline_fraction, 0.05, 10.0)) {
+    os << "deadline_fraction = " << deadline_fraction << " is outside [0.05, 10]";
+  }
+  return os.str();
+}
+
+namespace {
+const SupervisorConfig& checked(const SupervisorConfig& c) {
+  if (const std::string e = c.validate(); !e.empty()) throw std::invalid_argument("supervisor: " + e);
+  return c;
+}
+}  // namespace
+
+Supervisor::Supervisor(const SupervisorConfig& config, SupervisorLogSink log)
+    : config_(checked(config)), log_(std::move(log)), envelope_(config.limits, kMaxRampStepS) {}
+
+void Supervisor::log(SupervisorLog level, const std::string& key, const std::string& text, double throttle_s) const {
+  if (log_) log_(level, key, text, throttle_s);
+}
+
+void Supervisor::newGoal(const Vec2& goal) {
+  goal_ = goal;  // a new goal cancels the previous one
+  state_ = GoalState::kActive;
+  reason_.clear();
+}
+
+void Supervisor::rejectGoal(const std::string& reason) {
+  goal_.reset();
+  stop(reason);
+}
+
+void Supervisor::cancel() {
+  goal_.reset();
+  stop("goal cancelled");
+}
+
+void Supervisor::stop(const std::string& reason) {
+  target_ = Twist2{};
+  action_ = -1;
+  if (state_ != GoalState::kStopped || reason_ != reason) log(SupervisorLog::kWarn, "stop", "stopping: " + reason);
+  state_ = GoalState::kStopped;
+  reason_ = reason;
+}
+
+void Supervisor::halt(const std::string& reason) {
+  target_ = Twist2{};
+  action_ = -1;
+  if (state_ != GoalState::kStopped || reason_ != reason) {
+    log(SupervisorLog::kWarn, "halt", reason + "; decelerating to zero", 1.0);
+  }
+  state_ = GoalState::kStopped;
+  reason_ = reason;
+}
+
+void Supervisor::scan(double stamp_s, const std::string& fault) {
+  if (!fault.empty()) {
+    // A scan the robot cannot see with: stop now rather than when the last good scan grows stale.
+    scan_fault_ = fault;
+    if (goal_ && state_ == GoalState::kActive) halt("scan rejected: " + fault);
+    return;
+  }
+  scan_fault_.clear();
+  last_scan_s_ = stamp_s;
+  have_scan_ = true;
+}
+
+void Supervisor::odom(double stamp_s, const std::string& fault) {
+  if (!fault.empty()) {
+    odom_fault_ = fault;
+    return;
+  }
+  odom_fault_.clear();
+  last_odom_s_ = stamp_s;
+  have_odom_ = true;
+}
+
+void Supervisor::space(double stamp_s) {
+  last_space_s_ = stamp_s;
+  have_space_ = true;
+}
+
+ClockJump Supervisor::checkClock(double now_s) {
+  ClockJump jump = ClockJump::kNone;
+  if (last_clock_s_ && now_s != 0.0) {
+    const double step = now_s - *last_clock_s_;
+    if (step < -kBackwardJumpS || step > config_.max_input_age_s) {
+      std::ostringstream os;
+      os.precision(3);
+      os << "clock jumped " << (step < 0.0 ? "backwards" : "forwards") << " by " << std::abs(step)
+         << " s (or the node was stalled that long); stopping until at rest with fresh input";
+      clock_fault_ = os.str();
+      log(SupervisorLog::kWarn, "clock", clock_fault_);
+      jump = step < 0.0 ? ClockJump::kBackward : ClockJump::kForward;
+      if (step < 0.0) {
+        // Everything received so far is stamped in the new clock's future: forget it, and wait for input
+        // stamped after the jump.
+        have_scan_ = have_odom_ = have_space_ = false;
+      }
+    }
+  }
+  if (now_s != 0.0) last_clock_s_ = now_s;
+  return jump;
+}
+
+std::string Supervisor::inputFault(double now_s, const DecisionHooks& hooks, double tf_wait_s, Pose2* pose) {
+  const double max_age = config_.max_input_age_s;
+  auto age = [&](double t) { return now_s - t; };
+  auto fault = [&]() -> std::string {
+    if (!scan_fault_.empty()) return "scan rejected: " + scan_fault_;
+    if (!have_scan_ || age(last_scan_s_) > max_age) return "scan is stale or missing";
+    if (age(last_scan_s_) < -max_age) return "scan is stamped in the future (clock jumped back?)";
+    if (!odom_fault_.empty()) return "odom rejected: " + odom_fault_;
+    if (!have_odom_ || age(last_odom_s_) > max_age) return "odom is stale or missing";
+    if (age(last_odom_s_) < -max_age) return "odom is stamped in the future (clock jumped back?)";
+    if (!have_space_ || age(last_space_s_) > max_age) return "dovs is stale or missing";
+    if (age(last_space_s_) < -max_age) return "dovs is stamped in the future (time jumped back?)";
+    if (!hooks.robot_pose) return "no robot pose lookup";
+    const RobotPoseLookup p = hooks.robot_pose(tf_wait_s);
+    if (!p.error.empty()) return p.error;
+    if (age(p.stamp_s) > max_age) return "robot transform is stale";
+    if (age(p.stamp_s) < -max_age) return "robot transform is stamped in the future";
+    if (!p.pose.position().allFinite() || !std::isfinite(p.pose.theta)) return "robot transform has NaN/inf";
+    if (pose) *pose = p.pose;
+    return {};
+  };
+  const std::string why = fault();
+  if (!clock_fault_.empty()) {
+    const bool at_rest = command_.v == 0.0 && command_.w == 0.0;
+    if (!why.empty() || !at_rest) return clock_fault_;
+    log(SupervisorLog::kInfo, "clock", "at rest after the clock jump and the inputs are fresh again");
+    clock_fault_.clear();
+  }
+  return why;
+}
+
+std::string Supervisor::decide(double now_s, const DecisionHooks& hooks, double tf_wait_s,
+                               std::optional<double>& goal_distance) {
+  Pose2 pose;
+  const std::string fault = inputFault(now_s, hooks, tf_wait_s, &pose);
+  if (!fault.empty()) return fault;
+  goal_distance = (pose.position() - *goal_).norm();
+  if (hooks.space_fault) {
+    if (const std::string why = hooks.space_fault(); !why.empty()) return why;
+  }
+  if (*goal_distance < config_.goal_tolerance_m) {
+    // On the goal: brake to a stop within the limits and hold.
+    target_ = Twist2{};
+    action_ = -1;
+    if (std::abs(command_.v) < config_.goal_speed_mps && state_ == GoalState::kActive) {
+      state_ = GoalState::kReached;
+      reason_ = "goal reached";
+      std::ostringstream os;
+      os.precision(3);
+      os << "goal reached (" << *goal_distance << " m)";
+      log(SupervisorLog::kInfo, "goal", os.str());
+    }
+    return {};
+  }
+  if (!hooks.choose) return "no decision";
+  const Choice c = hooks.choose(pose);
+  if (!c.why.empty()) return c.why;
+  action_ = c.action;
+  target_ = c.target;
+  return {};
+}
+
+std::optional<double> Supervisor::controlPeriod(double now_s, std::optional<double> lateness_s,
+                                                const DecisionHooks& hooks, double tf_wait_s) {
+  if (lateness_s && clock_fault_.empty()) {
+    // Deadline: the decision of this period started late by more than deadline_fraction of the period.
+    ++control_periods_;
+    max_lateness_s_ = std::max(max_lateness_s_, *lateness_s);
+    if (*lateness_s > config_.deadline_fraction * config_.limits.dt) {
+      ++deadline_misses_;
+      std::ostringstream os;
+      os.precision(3);
+      os << "control period started " << *lateness_s << " s late (" << deadline_misses_ << " of " << control_periods_
+         << " periods late so far)";
+      log(SupervisorLog::kWarn, "deadline", os.str(), 5.0);
+    }
+  }
+  std::optional<double> goal_distance;
+  if (!goal_ || state_ == GoalState::kIdle) {
+    target_ = Twist2{};
+  } else if (state_ == GoalState::kReached) {
+    target_ = Twist2{};  // hold on the goal until a new goal comes
+  } else if (state_ == GoalState::kActive || state_ == GoalState::kStopped) {
+    const std::string why = decide(now_s, hooks, tf_wait_s, goal_distance);
+    if (!why.empty()) {
+      halt(why);
+    } else if (state_ == GoalState::kStopped) {
+      log(SupervisorLog::kInfo, "resume", "inputs are fresh again; resuming");
+      state_ = GoalState::kActive;
+      reason_.clear();
+    }
+  }
+  return goal_distance;
+}
+
+RampCommand Supervisor::ramp(double now_s, const DecisionHooks& hooks) {
+  // The watchdog runs at the ramp rate: a fault stops the ramp's climb within one ramp step, not at the next
+  // control period.
+  if (goal_ && state_ == GoalState::kActive) {
+    const std::string why = inputFault(now_s, hooks, 0.0, nullptr);
+    if (!why.empty()) halt(why);
+  }
+  // The time this command may take credit for: the node clock since the last published command (0 when the
+  // clock went backwards), capped.
+  const double dt =
+      !last_publish_s_ ? 1.0 / config_.ramp_rate_hz : std::clamp(now_s - *last_publish_s_, 0.0, kMaxRampStepS);
+  const Twist2 next = applyAccelerationLimits(envelope_.last(), target_, config_.limits, dt);
+  const bool still = next.v == 0.0 && next.w == 0.0;
+  idle_zero_messages_ = still ? idle_zero_messages_ + 1 : 0;
+  RampCommand out;
+  // Keep publishing while moving or active; once stopped and idle, send a few zeros and go quiet so that other
+  // sources (teleop) can drive the base.
+  if (state_ == GoalState::kActive || !still || idle_zero_messages_ <= 10) {
+    // The safety envelope: the last check before the command leaves (feasible, within the acceleration limits of
+    // the previous command over the real elapsed time, finite); a violation is corrected.
+    const EnvelopeResult checked = envelope_.filter(next, dt);
+    if (checked.modified()) {
+      std::ostringstream os;
+      os << "cmd_vel outside the safety envelope (" << envelope_.corrected()
+         << " so far): " << envelope_.lastCorrection();
+      log(SupervisorLog::kWarn, "envelope", os.str(), 1.0);
+    }
+    command_ = checked.command;
+    last_publish_s_ = now_s;
+    out.publish = true;
+    out.command = command_;
+    out.corrected = checked.modified();
+  } else {
+    command_ = next;
+    out.command = command_;
+  }
+  return out;
+}
+
+}  // namespace dqn_dovs

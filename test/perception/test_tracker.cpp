@@ -1,0 +1,424 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <random>
+#include <set>
+
+#include "dqn_dovs/perception/tracker.h"
+#include "dqn_dovs/perception/tracker_metrics.h"
+#include "tracker_test_helpers.h"
+
+using namespace dqn_dovs;
+using dqn_dovs::test::roomWalls;
+using dqn_dovs::test::SyntheticLidar;
+using dqn_dovs::test::syntheticScan;
+
+namespace {
+
+constexpr double kScanPeriod = 0.1;
+
+/// A disc on its own exact CTRV motion.
+struct TrueDisc {
+  Pose2 start;
+  double v = 0.0, w = 0.0, radius = 0.2;
+  Pose2 at(double t) const { return integrateUnicycle(start, v, w, t); }
+};
+
+/// The laser drives a circle at 0.5 m/s while spinning its scan head: any leak of its own motion would show.
+Pose2 movingLaser(double t) {
+  const Pose2 base = integrateUnicycle({-1.0, -2.0, 0.0}, 0.5, 0.25, t);
+  return {base.x, base.y, normalizeAngle(base.theta + 0.7 * t)};
+}
+
+struct RunStats {
+  std::vector<double> pos_err, speed_err, heading_err, turn_err;
+  std::set<int> ids_per_disc[4];
+  int extra_tracks = 0;
+  TrackingEvaluator evaluator;
+};
+
+/// Feeds `duration_s` of synthetic scans of `discs` (and `walls`) to the tracker; collects errors for tracks
+/// older than 1 s. `visible(k, t)` can hide disc k (occlusion).
+RunStats runScenario(ObstacleTracker& tracker, const std::vector<TrueDisc>& discs, const std::vector<Segment>& walls,
+                     double duration_s, const std::function<Pose2(double)>& laser,
+                     const std::function<bool(size_t, double)>& visible = nullptr, unsigned seed = 1) {
+  std::mt19937 rng(seed);
+  SyntheticLidar lidar;
+  RunStats stats;
+  for (double t = 0.0; t <= duration_s + 1e-9; t += kScanPeriod) {
+    std::vector<Circle> circles;
+    for (size_t k = 0; k < discs.size(); ++k) {
+      if (!visible || visible(k, t)) circles.push_back({discs[k].at(t).position(), discs[k].radius});
+    }
+    const Pose2 lp = laser(t);
+    const TrackerResult r = tracker.update(syntheticScan(lidar, lp, circles, walls, t, rng), lp);
+    EXPECT_EQ(r.status, TrackerStatus::kOk) << r.message;
+    std::vector<MovingObstacle> truths;
+    for (const TrueDisc& d : discs) {
+      const Pose2 p = d.at(t);
+      MovingObstacle m;
+      m.center = p.position();
+      m.heading = p.theta;
+      m.speed = d.v;
+      m.turn_rate = d.w;
+      m.is_static = d.v == 0.0;
+      truths.push_back(m);
+    }
+    // One-to-one matching (the benchmark's): a track near two discs counts for one of them only.
+    const std::vector<int> match = stats.evaluator.addScan(r.scene, truths, {}, kScanPeriod);
+    int matched = 0;
+    for (size_t k = 0; k < discs.size(); ++k) {
+      if (match[k] < 0) continue;
+      const TrackedObstacle* o = &r.scene.obstacles[match[k]];
+      ++matched;
+      stats.ids_per_disc[k].insert(o->id);
+      if (o->age_s < 1.0) continue;
+      stats.pos_err.push_back((o->center - truths[k].center).norm());
+      stats.speed_err.push_back(o->speed - discs[k].v);
+      if (discs[k].v > 0.1) stats.heading_err.push_back(std::abs(angleDiff(o->heading, truths[k].heading)));
+      stats.turn_err.push_back(o->turn_rate - discs[k].w);
+    }
+    stats.extra_tracks = std::max(stats.extra_tracks, static_cast<int>(r.scene.obstacles.size()) - matched);
+  }
+  return stats;
+}
+
+double rms(const std::vector<double>& e) {
+  double s = 0.0;
+  for (double x : e) s += x * x;
+  return e.empty() ? std::numeric_limits<double>::quiet_NaN() : std::sqrt(s / e.size());
+}
+
+double median(std::vector<double> e) {
+  if (e.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+  return e[e.size() / 2];
+}
+
+double percentile(std::vector<double> e, double q) {
+  if (e.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(e.begin(), e.end());
+  return e[static_cast<size_t>(std::lround(q * (e.size() - 1)))];
+}
+
+LaserScan2 simpleScan(double stamp, size_t beams = 360, float range = 3.0f) {
+  LaserScan2 s;
+  s.stamp_s = stamp;
+  s.angle_min = -kPi;
+  s.angle_increment = kTwoPi / static_cast<double>(beams);
+  s.range_min = 0.05;
+  s.range_max = 10.0;
+  s.ranges.assign(beams, range);
+  return s;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+// Detection
+// ---------------------------------------------------------------------------------------------------------
+
+TEST(TrackerDetection, DiscBecomesCircleWithCentreBehindArc) {
+  std::mt19937 rng(2);
+  const Pose2 laser{0.5, -0.3, 0.4};
+  const Circle disc{{2.5, 0.7}, 0.2};
+  const auto scan = syntheticScan(SyntheticLidar{}, laser, {disc}, {}, 0.0, rng);
+  const ScanDetections d = detectObstacles(scan, laser, TrackerConfig{});
+  ASSERT_EQ(d.circles.size(), 1u);
+  EXPECT_TRUE(d.segments.empty());
+  EXPECT_LT((d.circles[0].circle.center - disc.center).norm(), 0.03);
+  EXPECT_NEAR(d.circles[0].circle.radius, 0.2, 0.05);
+  EXPECT_TRUE(d.circles[0].free_fit);
+  EXPECT_EQ(d.valid_beams + d.ignored_beams, scan.ranges.size());
+}
+
+TEST(TrackerDetection, WallsStaySegmentsNeverCircles) {
+  std::mt19937 rng(4);
+  // A room plus a free-standing wall piece, seen from many poses: never a circle.
+  std::vector<Segment> walls = roomWalls(4.0);
+  walls.push_back({{1.0, 1.0}, {2.5, 1.0}});
+  for (int k = 0; k < 40; ++k) {
+    const Pose2 laser{-2.0 + 0.1 * k, -1.0 + 0.05 * k, 0.3 * k};
+    double clearance = 1e9;
+    for (const Segment& w : walls) clearance = std::min(clearance, pointSegmentDistance(laser.position(), w));
+    if (clearance < 0.3) continue;  // the robot cannot stand on a wall
+    const auto d = detectObstacles(syntheticScan(SyntheticLidar{}, laser, {}, walls, 0.0, rng), laser, TrackerConfig{});
+    EXPECT_TRUE(d.circles.empty()) << "pose " << k << ": wall turned into a circle at ("
+                                   << (d.circles.empty() ? 0.0 : d.circles[0].circle.center.x()) << ", "
+                                   << (d.circles.empty() ? 0.0 : d.circles[0].circle.center.y()) << ")";
+    EXPECT_GE(d.segments.size(), 4u);
+    for (const Segment& s : d.segments) {
+      double best = 1e9;
+      for (const Segment& w : walls)
+        best = std::min(best, std::max(pointSegmentDistance(s.a, w), pointSegmentDistance(s.b, w)));
+      EXPECT_LT(best, 0.05) << "a reported segment lies off every wall";
+    }
+  }
+}
+
+TEST(TrackerDetection, DiscNextToWallIsSeparated) {
+  std::mt19937 rng(6);
+  const Pose2 laser{0.0, 0.0, 0.0};
+  const Circle disc{{2.0, 0.8}, 0.2};
+  const std::vector<Segment> walls{{{-1.0, 1.1}, {4.0, 1.1}}};  // 10 cm gap behind the disc
+  const auto d =
+      detectObstacles(syntheticScan(SyntheticLidar{}, laser, {disc}, walls, 0.0, rng), laser, TrackerConfig{});
+  ASSERT_EQ(d.circles.size(), 1u);
+  EXPECT_LT((d.circles[0].circle.center - disc.center).norm(), 0.05);
+  EXPECT_FALSE(d.segments.empty());
+}
+
+TEST(TrackerDetection, NonFiniteBeamsAreSkippedNotClustered) {
+  std::mt19937 rng(8);
+  const Pose2 laser{0.0, 0.0, 0.0};
+  auto scan = syntheticScan(SyntheticLidar{}, laser, {Circle{{2.0, 0.0}, 0.2}}, {}, 0.0, rng);
+  for (size_t i = 0; i < scan.ranges.size(); i += 7) scan.ranges[i] = std::numeric_limits<float>::quiet_NaN();
+  scan.ranges[100] = -std::numeric_limits<float>::infinity();
+  scan.ranges[101] = 0.01f;  // below range_min
+  scan.ranges[102] = 50.0f;  // beyond range_max
+  const auto d = detectObstacles(scan, laser, TrackerConfig{});
+  ASSERT_EQ(d.circles.size(), 1u);
+  EXPECT_LT((d.circles[0].circle.center - Vec2(2.0, 0.0)).norm(), 0.05);
+  EXPECT_GT(d.ignored_beams, scan.ranges.size() / 7);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Tracking
+// ---------------------------------------------------------------------------------------------------------
+
+TEST(Tracker, StraightLineWithMovingRotatingLaser) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  const std::vector<TrueDisc> discs{{{-2.5, 1.5, -0.3}, 0.8, 0.0}};
+  const RunStats s = runScenario(tracker, discs, {}, 5.0, movingLaser);
+  ASSERT_GT(s.pos_err.size(), 30u);
+  EXPECT_LT(rms(s.pos_err), 0.05);
+  EXPECT_LT(rms(s.speed_err), 0.10);
+  EXPECT_LT(median(s.heading_err), 10.0 * kPi / 180.0);
+  EXPECT_LT(rms(s.turn_err), 0.15);
+  EXPECT_EQ(s.ids_per_disc[0].size(), 1u);
+  EXPECT_EQ(s.extra_tracks, 0);
+}
+
+TEST(Tracker, TurningDiscTurnRateAndHeading) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  const std::vector<TrueDisc> discs{{{1.0, 0.0, kPi / 2}, 0.7, 0.5}};
+  const RunStats s = runScenario(tracker, discs, {}, 8.0, movingLaser);
+  ASSERT_GT(s.pos_err.size(), 50u);
+  EXPECT_LT(rms(s.pos_err), 0.05);
+  EXPECT_LT(rms(s.speed_err), 0.10);
+  EXPECT_LT(median(s.heading_err), 10.0 * kPi / 180.0);
+  EXPECT_LT(rms(s.turn_err), 0.15);
+  EXPECT_EQ(s.ids_per_disc[0].size(), 1u);
+}
+
+TEST(Tracker, CrossingPathsKeepTheirIds) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  // Two discs cross at right angles through (0, 1), 0.6 s apart; the closest approach of their centres is
+  // 0.47 m, a 7 cm gap between their surfaces, so they often form one cluster.
+  const std::vector<TrueDisc> discs{{{-2.0, 1.0, 0.0}, 0.8, 0.0}, {{0.0, -2.1, kPi / 2}, 1.0, 0.0}};
+  const RunStats s = runScenario(tracker, discs, {}, 5.0, [](double) { return Pose2{-2.5, -2.5, 0.3}; });
+  EXPECT_EQ(s.ids_per_disc[0].size(), 1u);
+  EXPECT_EQ(s.ids_per_disc[1].size(), 1u);
+  EXPECT_NE(*s.ids_per_disc[0].begin(), *s.ids_per_disc[1].begin());
+  EXPECT_EQ(s.evaluator.summary().id_switches, 0u);
+  EXPECT_EQ(s.extra_tracks, 0);
+  EXPECT_LT(rms(s.speed_err), 0.15);
+}
+
+TEST(Tracker, OcclusionIsBridgedByPrediction) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  const std::vector<TrueDisc> discs{{{-2.0, 1.0, 0.1}, 0.6, 0.0}};
+  const auto hidden = [](size_t, double t) { return !(t > 2.0 && t < 2.5); };
+  const RunStats s = runScenario(tracker, discs, {}, 4.0, movingLaser, hidden);
+  EXPECT_EQ(s.ids_per_disc[0].size(), 1u) << "the track was lost during a 0.5 s occlusion";
+  // During the occlusion the reported (predicted) position keeps following the disc.
+  EXPECT_LT(percentile(s.pos_err, 1.0), 0.15);
+}
+
+TEST(Tracker, StaticDiscsStayStaticWhileLaserDrives) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  std::vector<TrueDisc> discs{{{1.0, 1.0, 0.0}}, {{-1.5, 0.5, 0.0}}, {{2.0, -1.0, 0.0}}};
+  std::mt19937 rng(12);
+  SyntheticLidar lidar;
+  std::vector<double> speeds;
+  int static_flags = 0, reports = 0;
+  for (double t = 0.0; t <= 10.0; t += kScanPeriod) {
+    std::vector<Circle> circles;
+    for (const auto& d : discs) circles.push_back({d.start.position(), d.radius});
+    const Pose2 lp = movingLaser(t);
+    const auto r = tracker.update(syntheticScan(lidar, lp, circles, roomWalls(4.0), t, rng), lp);
+    for (const auto& o : r.scene.obstacles) {
+      if (o.age_s < 1.0) continue;
+      speeds.push_back(o.speed);
+      ++reports;
+      static_flags += o.is_static ? 1 : 0;
+    }
+    EXPECT_LE(r.scene.obstacles.size(), discs.size()) << "phantom track at t = " << t;
+  }
+  ASSERT_GT(reports, 150);
+  EXPECT_LT(percentile(speeds, 0.95), 0.05);
+  EXPECT_GE(static_flags, reports * 98 / 100);
+}
+
+TEST(Tracker, WallNeverBecomesATrack) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  std::vector<Segment> walls = roomWalls(4.0);
+  walls.push_back({{-1.0, 2.0}, {1.5, 2.0}});
+  walls.push_back({{2.0, -3.0}, {2.0, -2.4}});  // a short stub
+  std::mt19937 rng(13);
+  for (double t = 0.0; t <= 10.0; t += kScanPeriod) {
+    const Pose2 lp = movingLaser(t);
+    const auto r = tracker.update(syntheticScan(SyntheticLidar{}, lp, {}, walls, t, rng), lp);
+    EXPECT_TRUE(r.scene.obstacles.empty()) << "wall turned into a track at t = " << t;
+    EXPECT_GE(r.scene.segments.size(), 4u);
+  }
+}
+
+TEST(Tracker, PredictedSceneMovesForward) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  const std::vector<TrueDisc> discs{{{-2.0, 0.0, 0.0}, 1.0, 0.0}};
+  runScenario(tracker, discs, {}, 3.0, [](double) { return Pose2{0.0, -2.0, 0.0}; });
+  ASSERT_EQ(tracker.scene().obstacles.size(), 1u);
+  const double t0 = tracker.scene().stamp_s;
+  const TrackedScene later = tracker.predictedScene(t0 + 0.5);
+  ASSERT_EQ(later.obstacles.size(), 1u);
+  EXPECT_NEAR(later.obstacles[0].center.x() - tracker.scene().obstacles[0].center.x(), 0.5, 0.07);
+  EXPECT_DOUBLE_EQ(later.stamp_s, t0 + 0.5);
+  EXPECT_EQ(tracker.predictedScene(t0 - 1.0).stamp_s, t0);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Bad input
+// ---------------------------------------------------------------------------------------------------------
+
+class TrackerBadInput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // Establish one confirmed moving track.
+    runScenario(tracker_, {{{-2.0, 0.0, 0.0}, 0.5, 0.0}}, {}, 1.0, [](double) { return Pose2{0.0, -2.0, 0.0}; });
+    ASSERT_EQ(tracker_.scene().obstacles.size(), 1u);
+    before_ = tracker_.scene();
+  }
+  void expectRejectedUntouched(const LaserScan2& scan, const Pose2& pose, const std::string& words) {
+    const TrackerResult r = tracker_.update(scan, pose);
+    EXPECT_EQ(r.status, TrackerStatus::kRejected);
+    EXPECT_NE(r.message.find(words), std::string::npos) << "message: " << r.message;
+    ASSERT_EQ(tracker_.scene().obstacles.size(), 1u);
+    EXPECT_EQ(tracker_.scene().obstacles[0].id, before_.obstacles[0].id);
+    EXPECT_EQ(tracker_.scene().obstacles[0].hits, before_.obstacles[0].hits);
+    EXPECT_EQ(tracker_.scene().stamp_s, before_.stamp_s);
+  }
+  ObstacleTracker tracker_{TrackerConfig{}};
+  TrackedScene before_;
+};
+
+TEST_F(TrackerBadInput, EmptyScan) {
+  LaserScan2 s = simpleScan(2.0);
+  s.ranges.clear();
+  expectRejectedUntouched(s, {}, "no beams");
+}
+
+TEST_F(TrackerBadInput, ZeroOrNaNAngleIncrement) {
+  LaserScan2 s = simpleScan(2.0);
+  s.angle_increment = 0.0;
+  expectRejectedUntouched(s, {}, "angle_increment");
+  s.angle_increment = std::nan("");
+  expectRejectedUntouched(s, {}, "angle_increment");
+}
+
+TEST_F(TrackerBadInput, BadRangeLimitsStampAndSpan) {
+  LaserScan2 s = simpleScan(2.0);
+  s.range_max = 0.0;
+  expectRejectedUntouched(s, {}, "range limits");
+  s = simpleScan(2.0);
+  s.range_min = std::numeric_limits<double>::infinity();
+  expectRejectedUntouched(s, {}, "range limits");
+  s = simpleScan(std::nan(""));
+  expectRejectedUntouched(s, {}, "stamp");
+  s = simpleScan(2.0);
+  s.angle_increment = 0.1;  // 360 beams x 0.1 rad: far more than a turn
+  expectRejectedUntouched(s, {}, "full turn");
+}
+
+TEST_F(TrackerBadInput, NaNPose) {
+  expectRejectedUntouched(simpleScan(2.0), {std::nan(""), 0.0, 0.0}, "laser pose");
+  expectRejectedUntouched(simpleScan(2.0), {0.0, 0.0, std::numeric_limits<double>::infinity()}, "laser pose");
+}
+
+TEST_F(TrackerBadInput, DuplicateStampIsNotUsedTwice) {
+  expectRejectedUntouched(simpleScan(before_.stamp_s), {}, "same stamp");
+}
+
+TEST_F(TrackerBadInput, TimeBackwardsResetsWithReason) {
+  const TrackerResult r = tracker_.update(simpleScan(0.2, 360, std::numeric_limits<float>::infinity()), {});
+  EXPECT_EQ(r.status, TrackerStatus::kReset);
+  EXPECT_NE(r.message.find("backwards"), std::string::npos) << r.message;
+  EXPECT_TRUE(r.scene.obstacles.empty());
+  EXPECT_EQ(tracker_.trackCount(), 0u);
+  // The scan that caused the reset is used: time continues from it.
+  EXPECT_EQ(tracker_.update(simpleScan(0.3, 360, std::numeric_limits<float>::infinity()), {}).status,
+            TrackerStatus::kOk);
+}
+
+TEST_F(TrackerBadInput, LargeForwardJumpResets) {
+  const TrackerResult r =
+      tracker_.update(simpleScan(before_.stamp_s + 5.0, 360, std::numeric_limits<float>::infinity()), {});
+  EXPECT_EQ(r.status, TrackerStatus::kReset);
+  EXPECT_NE(r.message.find("max_time_gap_s"), std::string::npos) << r.message;
+  EXPECT_TRUE(r.scene.obstacles.empty());
+}
+
+TEST_F(TrackerBadInput, AllInvalidBeamsCoastTracksWithoutPhantoms) {
+  LaserScan2 s = simpleScan(before_.stamp_s + 0.1);
+  for (size_t i = 0; i < s.ranges.size(); ++i) {
+    s.ranges[i] = (i % 2) ? std::numeric_limits<float>::quiet_NaN() : std::numeric_limits<float>::infinity();
+  }
+  const TrackerResult r = tracker_.update(s, {});
+  EXPECT_EQ(r.status, TrackerStatus::kOk);
+  EXPECT_EQ(r.ignored_beams, s.ranges.size());
+  ASSERT_EQ(r.scene.obstacles.size(), 1u);  // coasting, predicted forward
+  EXPECT_GT(r.scene.obstacles[0].center.x(), before_.obstacles[0].center.x());
+  // Keep sending empty scans: the track is deleted after the timeout, and nothing new appears.
+  for (int k = 2; k <= 12; ++k) {
+    s.stamp_s = before_.stamp_s + 0.1 * k;
+    tracker_.update(s, {});
+  }
+  EXPECT_TRUE(tracker_.scene().obstacles.empty());
+  EXPECT_EQ(tracker_.trackCount(), 0u);
+}
+
+TEST_F(TrackerBadInput, FlickeringNoiseMakesNoConfirmedTrack) {
+  // Isolated random returns (rain, dust) never repeat at the same place: no confirmed track may appear.
+  ObstacleTracker fresh{TrackerConfig{}};
+  std::mt19937 rng(21);
+  std::uniform_int_distribution<int> beam(0, 359);
+  std::uniform_real_distribution<double> range(0.5, 6.0);
+  for (int k = 0; k < 100; ++k) {
+    LaserScan2 s = simpleScan(0.1 * k, 360, std::numeric_limits<float>::infinity());
+    for (int j = 0; j < 12; ++j) s.ranges[beam(rng)] = static_cast<float>(range(rng));
+    const auto r = fresh.update(s, {});
+    EXPECT_TRUE(r.scene.obstacles.empty()) << "phantom track at scan " << k;
+  }
+}
+
+TEST(TrackerConfigTest, ValidateNamesTheField) {
+  EXPECT_EQ(TrackerConfig{}.validate(), "");
+  TrackerConfig c;
+  c.gate_mahalanobis2 = std::nan("");
+  EXPECT_NE(c.validate().find("gate_mahalanobis2"), std::string::npos);
+  c = TrackerConfig{};
+  c.min_cluster_points = 2;
+  EXPECT_NE(c.validate().find("min_cluster_points"), std::string::npos);
+  c = TrackerConfig{};
+  c.fallback_radius_m = 1.0;
+  EXPECT_NE(c.validate().find("fallback_radius_m"), std::string::npos);
+  try {
+    ObstacleTracker t{c};
+    FAIL() << "no exception";
+  } catch (const TrackerConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("fallback_radius_m"), std::string::npos);
+  }
+}

@@ -1,0 +1,77 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "dqn_dovs/perception/tracker_metrics.h"
+
+using namespace dqn_dovs;
+
+namespace {
+
+MovingObstacle truth(double x, double y, double speed, double heading = 0.0) {
+  MovingObstacle m;
+  m.center = {x, y};
+  m.speed = speed;
+  m.heading = heading;
+  m.is_static = speed == 0.0;
+  return m;
+}
+
+TrackedObstacle track(int id, double x, double y, double speed, double age_s, double heading = 0.0) {
+  TrackedObstacle o;
+  o.id = id;
+  o.center = {x, y};
+  o.speed = speed;
+  o.heading = heading;
+  o.age_s = age_s;
+  return o;
+}
+
+}  // namespace
+
+TEST(TrackingMetrics, ErrorsSwitchesFalseAndMissed) {
+  TrackingEvaluator ev;
+  TrackedScene s;
+  // Scan 1: truth 0 matched by id 7 (young: position only); truth 1 static, matched by id 8; one false track.
+  s.obstacles = {track(7, 0.03, 0.04, 0.5, 0.5), track(8, 2.0, 0.0, 0.02, 2.0), track(9, 5.0, 5.0, 0.0, 3.0)};
+  auto m = ev.addScan(s, {truth(0, 0, 0.6), truth(2, 0, 0.0)}, {}, 0.1);
+  EXPECT_EQ(m, (std::vector<int>{0, 1}));
+  // Scan 2: truth 0 now matched by id 10 (a switch), old enough for motion errors; truth 1 missed.
+  s.obstacles = {track(10, 0.0, 0.0, 0.7, 1.5, 0.1)};
+  m = ev.addScan(s, {truth(0, 0, 0.6), truth(2, 0, 0.0)}, {true, true}, 0.1);
+  EXPECT_EQ(m, (std::vector<int>{0, -1}));
+  const TrackingSummary r = ev.summary();
+  EXPECT_EQ(r.scans, 2u);
+  EXPECT_EQ(r.id_switches, 1u);
+  EXPECT_NEAR(r.pos_rmse_m, std::sqrt((0.05 * 0.05 + 0.0 + 0.0) / 3.0), 1e-12);
+  EXPECT_NEAR(r.speed_rmse_mps, 0.1, 1e-12);
+  EXPECT_NEAR(r.heading_err_deg_median, 0.1 * 180.0 / kPi, 1e-9);
+  EXPECT_NEAR(r.static_speed_mps_p95, 0.02, 1e-12);
+  EXPECT_NEAR(r.false_tracks_per_scan, 0.5, 1e-12);
+  EXPECT_NEAR(r.missed_rate, 1.0 / 4.0, 1e-12);
+  // 1 switch over 2 truths x 2 scans x 0.1 s = 0.4 s = 1/150 min.
+  EXPECT_NEAR(r.id_switches_per_min, 150.0, 1e-9);
+}
+
+TEST(TrackingMetrics, OneToOneMatchingAndGate) {
+  TrackingEvaluator ev;
+  TrackedScene s;
+  // One track between two truths may be matched to one of them only; a track 0.6 m away is not a match.
+  s.obstacles = {track(1, 0.2, 0.0, 0.0, 2.0), track(2, 3.6, 0.0, 0.0, 2.0)};
+  const auto m = ev.addScan(s, {truth(0, 0, 0.0), truth(0.45, 0, 0.0), truth(3.0, 0.0, 0.0)}, {}, 0.1);
+  EXPECT_EQ(std::count(m.begin(), m.end(), 0), 1);
+  EXPECT_EQ(m[2], -1);
+  EXPECT_NEAR(ev.summary().false_tracks_per_scan, 1.0, 1e-12);
+}
+
+TEST(TrackingMetrics, EpisodesDoNotShareIds) {
+  TrackingEvaluator ev;
+  TrackedScene s;
+  s.obstacles = {track(0, 0.0, 0.0, 0.0, 2.0)};
+  ev.addScan(s, {truth(0, 0, 0.0)}, {}, 0.1);
+  ev.beginEpisode();
+  s.obstacles = {track(5, 0.0, 0.0, 0.0, 2.0)};
+  ev.addScan(s, {truth(0, 0, 0.0)}, {}, 0.1);
+  EXPECT_EQ(ev.summary().id_switches, 0u);
+}
