@@ -107,10 +107,10 @@ struct Worker {
   std::unique_ptr<Episode> episode;
 };
 
-EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, const EvalScenario& s,
-                     bool keep_paths) {
-  Planner& planner = *w.planners[method_index];
-  Episode& ep = *w.episode;
+}  // namespace
+
+EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& method, const EvalScenario& s,
+                         bool keep_paths) {
   planner.reset();
   ep.reset(s.scenario, s.seed);
   EpisodeRecord r;
@@ -140,6 +140,7 @@ EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, 
       decision.note = "planner error";
     }
     r.last_decision = decision.note;
+    r.actions.push_back(decision.action);
     ep.stepDecision(decision);  // holonomic baselines move the robot holonomically
     recordObstacles();
   }
@@ -156,8 +157,6 @@ EpisodeRecord runOne(Worker& w, size_t method_index, const std::string& method, 
   if (keep_paths) r.robot_path = ep.trajectory();
   return r;
 }
-
-}  // namespace
 
 std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::vector<EvalScenario>& scenarios,
                                          const EvalProgress& progress) {
@@ -193,7 +192,7 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
       const bool keep = std::find(config.keep_paths.begin(), config.keep_paths.end(),
                                   std::make_pair(s.obstacles, s.episode)) != config.keep_paths.end();
       try {
-        EpisodeRecord r = runOne(w, mi, config.methods[mi], s, keep);
+        EpisodeRecord r = runEpisode(*w.planners[mi], *w.episode, config.methods[mi], s, keep);
         std::lock_guard<std::mutex> lock(mutex);
         records[mi * scenarios.size() + si] = std::move(r);
         ++done;

@@ -18,6 +18,7 @@
 
 #include "dqn_dovs/common/random.h"
 #include "dqn_dovs/evaluation/episode.h"
+#include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
 
@@ -185,6 +186,27 @@ class VecEnv {
     return d;
   }
 
+  /// The evaluation path on environment `i`'s current episode: the named planner (makePlanner, with this
+  /// environment's shield) runs the same scenario with the same sensor noise in a fresh Episode, as dqn_dovs_eval
+  /// runs it. Returns {"actions": the planner's action per decision (-1: not one of the 8, e.g. the escape),
+  /// "outcome": int, "steps": int}.
+  py::dict plannerEpisode(int i, const std::string& method, const std::string& model_path) const {
+    if (i < 0 || i >= numEnvs()) throw std::invalid_argument("planner_episode: no environment " + std::to_string(i));
+    const Env& env = *envs_[static_cast<size_t>(i)];
+    EpisodeRecord r;
+    {
+      py::gil_scoped_release release;
+      std::unique_ptr<Planner> planner = makePlanner(method, model_path, &shield_);
+      Episode episode(env.episode.config());
+      r = runEpisode(*planner, episode, method, env.current);
+    }
+    py::dict d;
+    d["actions"] = r.actions;
+    d["outcome"] = static_cast<int>(r.outcome);
+    d["steps"] = r.steps;
+    return d;
+  }
+
   int numEnvs() const { return static_cast<int>(envs_.size()); }
   int threads() const { return threads_; }
 
@@ -193,6 +215,8 @@ class VecEnv {
     explicit Env(const EpisodeConfig& c) : episode(c) {}
     Episode episode;
     uint64_t episodes = 0;
+    // The current episode's scenario and sensor-noise seed (what planner_episode replays).
+    EvalScenario current;
     // The shield's escape for the state the agent acts on next (set by copyMask).
     bool has_escape = false;
     Twist2 escape;
@@ -205,7 +229,9 @@ class VecEnv {
     // episodes teach nothing, so the next scenario of the sequence is drawn instead.
     for (int attempt = 0; attempt < 100; ++attempt) {
       const uint64_t s = sim::mixSeed(seed_ ^ sim::mixSeed(i * 0x100000001B3ULL + env.episodes++));
-      env.episode.reset(sim::generateScenario(generator_, s), sim::mixSeed(s));
+      env.current.scenario = sim::generateScenario(generator_, s);
+      env.current.seed = sim::mixSeed(s);
+      env.episode.reset(env.current.scenario, env.current.seed);
       if (!env.episode.done()) return;
     }
     throw std::runtime_error("100 scenarios in a row ended before their first step: check the stage settings");
@@ -274,6 +300,10 @@ PYBIND11_MODULE(_core, m) {
       .def("reset", &VecEnv::reset)
       .def("step", &VecEnv::step, py::arg("actions"))
       .def("normalization", &VecEnv::normalization)
+      .def("planner_episode", &VecEnv::plannerEpisode, py::arg("env_index"), py::arg("method"),
+           py::arg("model_path") = std::string(),
+           "The evaluation path (dqn_dovs_eval's Episode + planner) on an environment's current episode: "
+           "{'actions', 'outcome', 'steps'}.")
       .def_property_readonly("num_envs", &VecEnv::numEnvs)
       .def_property_readonly("threads", &VecEnv::threads);
 }

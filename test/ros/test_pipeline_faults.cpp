@@ -11,260 +11,31 @@
 // missing input is when it becomes stale (its last message + max_input_age); of everything else, the first
 // faulty message. The last case checks the whole published command stream (planner/cmd_vel_stamped, which
 // carries the publish stamps the planner's safety envelope used) against the envelope.
-#include <geometry_msgs/PoseStamped.h>
-#include <geometry_msgs/Twist.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <gtest/gtest.h>
-#include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
-#include <rosgraph_msgs/Clock.h>
-#include <sensor_msgs/LaserScan.h>
-#include <tf2_ros/transform_broadcaster.h>
 
-#include <atomic>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <iomanip>
 #include <iostream>
-#include <limits>
-#include <mutex>
-#include <sstream>
-#include <thread>
+#include <string>
 #include <vector>
 
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
-#include "dqn_dovs/common/geometry.h"
+#include "fake_robot.h"
 
 namespace {
 
 using dqn_dovs::PlannerStatus;
+using namespace dqn_dovs::test;
 
-// config/robot.yaml and config/planner.yaml (the .test loads them into the nodes).
-constexpr double kVMax = 0.7, kWMax = 3.14159, kAv = 0.5, kAw = 2.0, kMaxInputAge = 0.5;
-constexpr double kMaxRampStep = 0.1;  // planner_node: the longest step one command may take credit for
 // Commands received this soon after the fault may have left the planner before it saw the fault.
 constexpr double kGrace = 0.03;
-
-double wallNow() { return ros::WallTime::now().toSec(); }
-
-struct Cmd {
-  double wall;  // receipt (wall clock, s)
-  double v, w;
-};
-
-struct Stamped {
-  ros::Time stamp;
-  uint32_t seq;
-  double v, w;
-};
-
-struct StatusAt {
-  double wall;
-  PlannerStatus msg;
-};
-
-enum class ScanFault { kNone, kNaN, kInfField, kEmpty, kWrongSize, kUnknownFrame };
-
-/// The robot, its sensors and the clock.
-class World {
- public:
-  std::atomic<int> scan_fault{static_cast<int>(ScanFault::kNone)};
-  std::atomic<bool> send_tf{true}, stale_odom{false};
-
-  explicit World(ros::NodeHandle& nh)
-      : clock_pub_(nh.advertise<rosgraph_msgs::Clock>("/clock", 20)),
-        scan_pub_(nh.advertise<sensor_msgs::LaserScan>("scan", 5)),
-        odom_pub_(nh.advertise<nav_msgs::Odometry>("odom", 10)),
-        cmd_sub_(nh.subscribe("cmd_vel", 2000, &World::onCmd, this)),
-        stamped_sub_(nh.subscribe("planner/cmd_vel_stamped", 5000, &World::onStamped, this)),
-        wall0_(wallNow()) {}
-
-  void startClock() {
-    clock_thread_ = std::thread([this] {
-      ros::WallRate rate(200.0);
-      while (running_ && ros::ok()) {
-        rosgraph_msgs::Clock c;
-        c.clock = ros::Time(simNow());
-        clock_pub_.publish(c);
-        rate.sleep();
-      }
-    });
-  }
-  void startRobot() {
-    robot_thread_ = std::thread([this] { loop(); });
-  }
-  void stop() {
-    running_ = false;
-    if (clock_thread_.joinable()) clock_thread_.join();
-    if (robot_thread_.joinable()) robot_thread_.join();
-  }
-
-  /// Simulated time: 1:1 with the wall clock, plus the jumps injected so far.
-  double simNow() {
-    std::lock_guard<std::mutex> l(clock_mutex_);
-    return kBase + (wallNow() - wall0_) + offset_;
-  }
-  /// Makes the clock jump by `s` seconds; returns the wall time of the jump.
-  double jump(double s) {
-    std::lock_guard<std::mutex> l(clock_mutex_);
-    offset_ += s;
-    return wallNow();
-  }
-
-  dqn_dovs::Pose2 pose() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return pose_;
-  }
-  std::vector<Cmd> commands() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return commands_;
-  }
-  Cmd lastCommand() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return commands_.empty() ? Cmd{0.0, 0.0, 0.0} : commands_.back();
-  }
-  std::vector<Stamped> stamped() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return stamped_;
-  }
-  /// Wall time of the first faulty scan / stale odom published since the fault was switched on (0: none yet).
-  double firstFaultyScanWall() { return first_bad_scan_wall_.load(); }
-  double firstStaleOdomWall() { return first_stale_odom_wall_.load(); }
-  double lastTfWall() { return last_tf_wall_.load(); }
-  void armFaultClocks() {
-    first_bad_scan_wall_ = 0.0;
-    first_stale_odom_wall_ = 0.0;
-  }
-  size_t subscribersReady() { return scan_pub_.getNumSubscribers() >= 2 && odom_pub_.getNumSubscribers() >= 2; }
-
- private:
-  static constexpr double kBase = 1000.0;  // s; far from 0, so the backwards jump stays positive
-
-  void onCmd(const geometry_msgs::Twist::ConstPtr& m) {
-    std::lock_guard<std::mutex> l(mutex_);
-    commands_.push_back({wallNow(), m->linear.x, m->angular.z});
-    v_ = m->linear.x;
-    w_ = m->angular.z;
-  }
-  void onStamped(const geometry_msgs::TwistStamped::ConstPtr& m) {
-    std::lock_guard<std::mutex> l(mutex_);
-    stamped_.push_back({m->header.stamp, m->header.seq, m->twist.linear.x, m->twist.angular.z});
-  }
-
-  sensor_msgs::LaserScan scan(const ros::Time& stamp, ScanFault fault) {
-    sensor_msgs::LaserScan s;
-    s.header.stamp = stamp;
-    s.header.frame_id = "laser";
-    const int beams = 360;
-    s.angle_min = static_cast<float>(-M_PI);
-    s.angle_increment = static_cast<float>(2.0 * M_PI / beams);
-    s.angle_max = static_cast<float>(s.angle_min + (beams - 1) * s.angle_increment);
-    s.range_min = 0.05f;
-    s.range_max = 10.0f;
-    s.scan_time = 0.1f;
-    s.ranges.assign(beams, std::numeric_limits<float>::infinity());  // open space: no return
-    switch (fault) {
-      case ScanFault::kNone:
-        break;
-      case ScanFault::kNaN:
-        s.ranges.assign(beams, std::numeric_limits<float>::quiet_NaN());
-        break;
-      case ScanFault::kInfField:
-        s.angle_increment = std::numeric_limits<float>::infinity();
-        break;
-      case ScanFault::kEmpty:
-        s.ranges.clear();
-        break;
-      case ScanFault::kWrongSize:
-        s.ranges.resize(100);
-        break;
-      case ScanFault::kUnknownFrame:
-        s.header.frame_id = "no_such_laser";
-        break;
-    }
-    return s;
-  }
-
-  void loop() {
-    const double period = 0.05;
-    ros::WallRate rate(1.0 / period);
-    int tick = 0;
-    double last = wallNow();
-    while (running_ && ros::ok()) {
-      const double now_wall = wallNow();
-      const ros::Time stamp(simNow());
-      double v, w;
-      dqn_dovs::Pose2 p;
-      {
-        std::lock_guard<std::mutex> l(mutex_);
-        pose_ = dqn_dovs::integrateUnicycle(pose_, v_, w_, now_wall - last);
-        p = pose_;
-        v = v_;
-        w = w_;
-      }
-      last = now_wall;
-      std::vector<geometry_msgs::TransformStamped> tfs;
-      if (send_tf) {
-        geometry_msgs::TransformStamped t;
-        t.header.stamp = stamp;
-        t.header.frame_id = "odom";
-        t.child_frame_id = "base_footprint";
-        t.transform.translation.x = p.x;
-        t.transform.translation.y = p.y;
-        t.transform.rotation.z = std::sin(p.theta / 2.0);
-        t.transform.rotation.w = std::cos(p.theta / 2.0);
-        tfs.push_back(t);
-      }
-      geometry_msgs::TransformStamped laser;
-      laser.header.stamp = stamp;
-      laser.header.frame_id = "base_footprint";
-      laser.child_frame_id = "laser";
-      laser.transform.rotation.w = 1.0;
-      tfs.push_back(laser);
-      tf_.sendTransform(tfs);
-      if (send_tf) last_tf_wall_ = now_wall;
-
-      nav_msgs::Odometry o;
-      o.header.stamp = stale_odom ? stamp - ros::Duration(1.5) : stamp;
-      o.header.frame_id = "odom";
-      o.child_frame_id = "base_footprint";
-      o.pose.pose.position.x = p.x;
-      o.pose.pose.position.y = p.y;
-      o.pose.pose.orientation.z = std::sin(p.theta / 2.0);
-      o.pose.pose.orientation.w = std::cos(p.theta / 2.0);
-      o.twist.twist.linear.x = v;
-      o.twist.twist.angular.z = w;
-      odom_pub_.publish(o);
-      if (stale_odom && first_stale_odom_wall_ == 0.0) first_stale_odom_wall_ = now_wall;
-
-      if (tick % 2 == 0) {
-        const auto fault = static_cast<ScanFault>(scan_fault.load());
-        scan_pub_.publish(scan(stamp, fault));
-        if (fault != ScanFault::kNone && first_bad_scan_wall_ == 0.0) first_bad_scan_wall_ = now_wall;
-      }
-      ++tick;
-      rate.sleep();
-    }
-  }
-
-  ros::Publisher clock_pub_, scan_pub_, odom_pub_;
-  ros::Subscriber cmd_sub_, stamped_sub_;
-  tf2_ros::TransformBroadcaster tf_;
-  std::thread clock_thread_, robot_thread_;
-  std::atomic<bool> running_{true};
-  std::mutex clock_mutex_;
-  double wall0_, offset_ = 0.0;
-  std::mutex mutex_;
-  dqn_dovs::Pose2 pose_{0.0, 0.0, 0.0};
-  double v_ = 0.0, w_ = 0.0;
-  std::vector<Cmd> commands_;
-  std::vector<Stamped> stamped_;
-  std::atomic<double> first_bad_scan_wall_{0.0}, first_stale_odom_wall_{0.0}, last_tf_wall_{0.0};
-};
 
 /// One measured stop, for the summary (and bench/results/faults.json).
 struct StopFigure {
@@ -278,70 +49,27 @@ struct StopFigure {
 class PipelineFaults : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    nh_ = new ros::NodeHandle;
-    world_ = new World(*nh_);
-    world_->startClock();
-    goal_pub_ = new ros::Publisher(nh_->advertise<geometry_msgs::PoseStamped>("move_base_simple/goal", 2));
-    status_sub_ = new ros::Subscriber(nh_->subscribe("planner/status", 200, &PipelineFaults::onStatus));
-    obstacles_sub_ = new ros::Subscriber(nh_->subscribe("obstacles", 50, &PipelineFaults::onObstacles));
-    dovs_sub_ = new ros::Subscriber(nh_->subscribe("dovs", 50, &PipelineFaults::onDovs));
-    spinner_ = new ros::AsyncSpinner(3);
-    spinner_->start();
-    world_->startRobot();
-    waitFor([] { return world_->subscribersReady() && goal_pub_->getNumSubscribers() >= 2 && haveStatus(); }, 60.0);
+    h_ = new RobotHarness(FakeRobotOptions{}, /*sim_clock=*/true, /*spinner_threads=*/3);
+    obstacles_ = new TopicLog<dqn_dovs::TrackedObstacleArray>(h_->nh, "obstacles", 50, 1);
+    dovs_ = new TopicLog<dqn_dovs::Dovs>(h_->nh, "dovs", 50, 1);
+    stamped_ = new TopicLog<geometry_msgs::TwistStamped>(h_->nh, "planner/cmd_vel_stamped", 5000);
+    h_->robot.start();
+    h_->waitUntilReady(2, 60.0);
   }
   static void TearDownTestSuite() {
     writeFigures();
-    world_->stop();
-    spinner_->stop();
-    delete spinner_;
-    delete dovs_sub_;
-    delete obstacles_sub_;
-    delete status_sub_;
-    delete goal_pub_;
-    delete world_;
-    delete nh_;
+    h_->stop();
+    delete stamped_;
+    delete dovs_;
+    delete obstacles_;
+    delete h_;
   }
 
-  static bool haveStatus() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return !statuses_.empty();
-  }
-  static void onStatus(const PlannerStatus::ConstPtr& m) {
-    std::lock_guard<std::mutex> l(mutex_);
-    statuses_.push_back({wallNow(), *m});
-  }
-  static void onObstacles(const dqn_dovs::TrackedObstacleArray::ConstPtr&) { last_obstacles_wall_ = wallNow(); }
-  static void onDovs(const dqn_dovs::Dovs::ConstPtr&) { last_dovs_wall_ = wallNow(); }
-  static PlannerStatus lastStatus() {
-    std::lock_guard<std::mutex> l(mutex_);
-    return statuses_.empty() ? PlannerStatus() : statuses_.back().msg;
-  }
-
-  static bool waitFor(const std::function<bool()>& condition, double timeout_s) {
-    const double deadline = wallNow() + timeout_s;
-    while (ros::ok() && wallNow() < deadline) {
-      if (condition()) return true;
-      ros::WallDuration(0.005).sleep();
-    }
-    return condition();
-  }
+  static FakeRobot& robot() { return h_->robot; }
+  static PlannerStatus lastStatus() { return h_->lastStatus(); }
 
   /// A fresh goal 5 m ahead; waits until the robot drives at >= 0.4 m/s.
-  static void driveUntilMoving() {
-    const dqn_dovs::Pose2 p = world_->pose();
-    geometry_msgs::PoseStamped g;
-    g.header.stamp = ros::Time(world_->simNow());
-    g.header.frame_id = "odom";
-    g.pose.position.x = p.x + 5.0 * std::cos(p.theta);
-    g.pose.position.y = p.y + 5.0 * std::sin(p.theta);
-    g.pose.orientation.w = 1.0;
-    goal_pub_->publish(g);
-    const bool moving =
-        waitFor([] { return lastStatus().state == PlannerStatus::ACTIVE && world_->lastCommand().v >= 0.4; }, 25.0);
-    ASSERT_TRUE(moving) << "the pipeline does not drive: state " << int(lastStatus().state) << " ("
-                        << lastStatus().reason << "), last v " << world_->lastCommand().v;
-  }
+  static void driveUntilMoving() { h_->driveUntilMoving(5.0, 0.4, 25.0); }
 
   /// Measures the stop after a fault at `fault_wall` (wall clock): time to the first zero command, braking
   /// only, planner/status STOPPED naming one of `culprits`.
@@ -351,13 +79,13 @@ class PipelineFaults : public ::testing::Test {
     f.fault = name;
     const bool zero = waitFor(
         [&] {
-          const Cmd c = world_->lastCommand();
+          const Command c = robot().lastCommand();
           return c.wall > fault_wall && c.v == 0.0 && c.w == 0.0;
         },
         8.0);
-    EXPECT_TRUE(zero) << name << ": cmd_vel never reached zero; last v " << world_->lastCommand().v << ", status '"
+    EXPECT_TRUE(zero) << name << ": cmd_vel never reached zero; last v " << robot().lastCommand().v << ", status '"
                       << lastStatus().reason << "'";
-    const std::vector<Cmd> cmds = world_->commands();
+    const std::vector<Command> cmds = robot().commands();
     // The command in force at the fault, and the first zero after it.
     size_t i0 = 0;
     for (size_t i = 0; i < cmds.size(); ++i) {
@@ -385,53 +113,47 @@ class PipelineFaults : public ::testing::Test {
                                    << " rad/s took too long";
     EXPECT_GE(f.v, 0.35) << name << ": the robot was not moving at the fault; the case proves nothing";
     // planner/status: STOPPED with the culprit named, after the fault.
-    {
-      std::lock_guard<std::mutex> l(mutex_);
-      for (const StatusAt& s : statuses_) {
-        if (s.wall < fault_wall || s.msg.state != PlannerStatus::STOPPED) continue;
-        for (const std::string& c : culprits) {
-          if (s.msg.reason.find(c) != std::string::npos) f.reason = s.msg.reason;
-        }
-        if (!f.reason.empty()) break;
+    for (const auto& s : h_->status.entries()) {
+      if (s.wall < fault_wall || s.msg.state != PlannerStatus::STOPPED) continue;
+      for (const std::string& c : culprits) {
+        if (s.msg.reason.find(c) != std::string::npos) f.reason = s.msg.reason;
       }
+      if (!f.reason.empty()) break;
     }
     EXPECT_FALSE(f.reason.empty()) << name << ": planner/status never said STOPPED naming '" << culprits.front()
                                    << "'; last reason '" << lastStatus().reason << "'";
     if (expect_hold) {
       // It stays stopped while the fault lasts.
       ros::WallDuration(0.4).sleep();
-      const Cmd c = world_->lastCommand();
+      const Command c = robot().lastCommand();
       EXPECT_EQ(c.v, 0.0) << name;
       EXPECT_EQ(c.w, 0.0) << name;
     }
     std::cout << "[fault] " << std::left << std::setw(22) << name << " v " << std::fixed << std::setprecision(3) << f.v
               << " m/s, w " << f.w << " rad/s: zero after " << f.stop_s << " s (bound " << f.bound_s
               << " s); status: " << f.reason << std::endl;
-    {
-      std::lock_guard<std::mutex> l(mutex_);
-      figures_.push_back(f);
-    }
+    figures_.push_back(f);
     return f;
   }
 
   /// The fault is gone: every node is still up and publishing, and the robot drives again.
   static void expectRecovery(const std::string& name) {
     const double t = wallNow();
-    EXPECT_TRUE(waitFor([&] { return last_obstacles_wall_.load() > t && last_dovs_wall_.load() > t; }, 5.0))
+    EXPECT_TRUE(waitFor([&] { return obstacles_->lastWall() > t && dovs_->lastWall() > t; }, 5.0))
         << name << ": the tracker or dovs_node stopped publishing";
     EXPECT_TRUE(
-        waitFor([] { return lastStatus().state == PlannerStatus::ACTIVE && world_->lastCommand().v > 0.05; }, 10.0))
+        waitFor([] { return lastStatus().state == PlannerStatus::ACTIVE && robot().lastCommand().v > 0.05; }, 10.0))
         << name << ": the planner does not drive again: '" << lastStatus().reason << "'";
   }
 
   static void scanCase(const std::string& name, ScanFault fault, const std::vector<std::string>& culprits) {
     driveUntilMoving();
     if (HasFatalFailure()) return;
-    world_->armFaultClocks();
-    world_->scan_fault = static_cast<int>(fault);
-    ASSERT_TRUE(waitFor([] { return world_->firstFaultyScanWall() > 0.0; }, 1.0));
-    expectStop(name, world_->firstFaultyScanWall(), culprits);
-    world_->scan_fault = static_cast<int>(ScanFault::kNone);
+    robot().armFaultClocks();
+    robot().scan_fault = fault;
+    ASSERT_TRUE(waitFor([] { return robot().firstFaultyScanWall() > 0.0; }, 1.0));
+    expectStop(name, robot().firstFaultyScanWall(), culprits);
+    robot().scan_fault = ScanFault::kNone;
     expectRecovery(name);
   }
 
@@ -456,29 +178,12 @@ class PipelineFaults : public ::testing::Test {
     out << "  ]\n}\n";
   }
 
-  static ros::NodeHandle* nh_;
-  static World* world_;
-  static ros::Publisher* goal_pub_;
-  static ros::Subscriber *status_sub_, *obstacles_sub_, *dovs_sub_;
-  static ros::AsyncSpinner* spinner_;
-  static std::mutex mutex_;
-  static std::vector<StatusAt> statuses_;
-  static std::vector<StopFigure> figures_;
-  static std::atomic<double> last_obstacles_wall_, last_dovs_wall_;
+  static inline RobotHarness* h_ = nullptr;
+  static inline TopicLog<dqn_dovs::TrackedObstacleArray>* obstacles_ = nullptr;
+  static inline TopicLog<dqn_dovs::Dovs>* dovs_ = nullptr;
+  static inline TopicLog<geometry_msgs::TwistStamped>* stamped_ = nullptr;
+  static inline std::vector<StopFigure> figures_;
 };
-
-ros::NodeHandle* PipelineFaults::nh_ = nullptr;
-World* PipelineFaults::world_ = nullptr;
-ros::Publisher* PipelineFaults::goal_pub_ = nullptr;
-ros::Subscriber* PipelineFaults::status_sub_ = nullptr;
-ros::Subscriber* PipelineFaults::obstacles_sub_ = nullptr;
-ros::Subscriber* PipelineFaults::dovs_sub_ = nullptr;
-ros::AsyncSpinner* PipelineFaults::spinner_ = nullptr;
-std::mutex PipelineFaults::mutex_;
-std::vector<StatusAt> PipelineFaults::statuses_;
-std::vector<StopFigure> PipelineFaults::figures_;
-std::atomic<double> PipelineFaults::last_obstacles_wall_{0.0};
-std::atomic<double> PipelineFaults::last_dovs_wall_{0.0};
 
 // The harness: fed properly, the pipeline drives (without this every "it stopped" below could be vacuous).
 TEST_F(PipelineFaults, DrivesWhenFed) {
@@ -506,7 +211,7 @@ TEST_F(PipelineFaults, ScanInUnknownFrameStopsTheRobot) {
 TEST_F(PipelineFaults, ClockJumpingBackwardsStopsTheRobotThenItResumes) {
   driveUntilMoving();
   if (HasFatalFailure()) return;
-  const double at = world_->jump(-30.0);
+  const double at = h_->clock->jump(-30.0);
   expectStop("clock jumps back 30 s", at, {"clock jumped backwards"}, false);
   expectRecovery("clock jumps back 30 s");
 }
@@ -514,7 +219,7 @@ TEST_F(PipelineFaults, ClockJumpingBackwardsStopsTheRobotThenItResumes) {
 TEST_F(PipelineFaults, ClockJumpingForwardsStopsTheRobotThenItResumes) {
   driveUntilMoving();
   if (HasFatalFailure()) return;
-  const double at = world_->jump(30.0);
+  const double at = h_->clock->jump(30.0);
   expectStop("clock jumps ahead 30 s", at, {"clock jumped forwards"}, false);
   expectRecovery("clock jumps ahead 30 s");
 }
@@ -524,11 +229,11 @@ TEST_F(PipelineFaults, ClockJumpingForwardsStopsTheRobotThenItResumes) {
 TEST_F(PipelineFaults, MissingRobotTransformStopsTheRobot) {
   driveUntilMoving();
   if (HasFatalFailure()) return;
-  world_->send_tf = false;
+  robot().feed_tf = false;
   ros::WallDuration(0.06).sleep();
-  const double stale_at = world_->lastTfWall() + kMaxInputAge;
+  const double stale_at = robot().lastTfWall() + kMaxInputAge;
   expectStop("tf missing", stale_at, {"transform", "dovs"});
-  world_->send_tf = true;
+  robot().feed_tf = true;
   expectRecovery("tf missing");
 }
 
@@ -536,11 +241,11 @@ TEST_F(PipelineFaults, MissingRobotTransformStopsTheRobot) {
 TEST_F(PipelineFaults, OdomWithStaleStampsStopsTheRobot) {
   driveUntilMoving();
   if (HasFatalFailure()) return;
-  world_->armFaultClocks();
-  world_->stale_odom = true;
-  ASSERT_TRUE(waitFor([] { return world_->firstStaleOdomWall() > 0.0; }, 1.0));
-  expectStop("odom stale stamps", world_->firstStaleOdomWall(), {"odom"});
-  world_->stale_odom = false;
+  robot().armFaultClocks();
+  robot().odom_lag_s = 1.5;
+  ASSERT_TRUE(waitFor([] { return robot().firstLaggedOdomWall() > 0.0; }, 1.0));
+  expectStop("odom stale stamps", robot().firstLaggedOdomWall(), {"odom"});
+  robot().odom_lag_s = 0.0;
   expectRecovery("odom stale stamps");
 }
 
@@ -549,7 +254,15 @@ TEST_F(PipelineFaults, OdomWithStaleStampsStopsTheRobot) {
 // previous command (dt = the stamps' difference, 0 when the clock went back, capped at 0.1 s). The envelope
 // never had to correct the planner's own ramp.
 TEST_F(PipelineFaults, PublishedStreamStaysInsideTheSafetyEnvelope) {
-  const std::vector<Stamped> s = world_->stamped();
+  struct Stamped {
+    ros::Time stamp;
+    uint32_t seq;
+    double v, w;
+  };
+  std::vector<Stamped> s;
+  for (const auto& e : stamped_->entries()) {
+    s.push_back({e.msg.header.stamp, e.msg.header.seq, e.msg.twist.linear.x, e.msg.twist.angular.z});
+  }
   ASSERT_GT(s.size(), 500u) << "too few stamped commands to judge";
   size_t pairs = 0, gaps = 0, outside = 0;
   for (size_t i = 0; i < s.size(); ++i) {
@@ -582,10 +295,4 @@ TEST_F(PipelineFaults, PublishedStreamStaysInsideTheSafetyEnvelope) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_pipeline_faults");
-  const int result = RUN_ALL_TESTS();
-  ros::shutdown();
-  return result;
-}
+int main(int argc, char** argv) { return runRostestNode(argc, argv, "test_pipeline_faults"); }

@@ -15,6 +15,7 @@
 
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/common/geometry.h"
+#include "fake_robot.h"
 
 namespace {
 
@@ -30,22 +31,12 @@ constexpr double kScanPeriod = 0.1;
 
 /// A 360-beam, full-turn scan of one disc (centre given in the laser frame); every other beam is a non-return.
 sensor_msgs::LaserScan discScan(const ros::Time& stamp, const Vec2& centre_laser, const std::string& frame = "laser") {
-  sensor_msgs::LaserScan s;
-  s.header.stamp = stamp;
-  s.header.frame_id = frame;
-  const int beams = 360;
-  s.angle_min = static_cast<float>(-M_PI);
-  s.angle_increment = static_cast<float>(2.0 * M_PI / beams);
-  s.angle_max = static_cast<float>(s.angle_min + (beams - 1) * s.angle_increment);
-  s.range_min = 0.05f;
-  s.range_max = 10.0f;
-  s.scan_time = static_cast<float>(kScanPeriod);
-  s.ranges.assign(beams, std::numeric_limits<float>::infinity());
+  sensor_msgs::LaserScan s = dqn_dovs::test::makeScan(stamp, dqn_dovs::test::fullTurnScan(kScanPeriod), frame);
   const dqn_dovs::Circle disc{centre_laser, kDiscRadius};
-  for (int i = 0; i < beams; ++i) {
-    const double a = s.angle_min + i * static_cast<double>(s.angle_increment);
+  for (size_t i = 0; i < s.ranges.size(); ++i) {
+    const double a = s.angle_min + static_cast<double>(i) * static_cast<double>(s.angle_increment);
     if (const auto r = dqn_dovs::rayCircle(Vec2::Zero(), Vec2(std::cos(a), std::sin(a)), disc)) {
-      s.ranges[static_cast<size_t>(i)] = static_cast<float>(*r);
+      s.ranges[i] = static_cast<float>(*r);
     }
   }
   return s;
@@ -77,11 +68,8 @@ class TrackerBadInput : public ::testing::Test {
     t.transform.rotation.z = std::sin(kLaserYaw / 2.0);
     t.transform.rotation.w = std::cos(kLaserYaw / 2.0);
     broadcaster_->sendTransform(t);
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(20.0);
-    while (ros::ok() && (scan_pub_->getNumSubscribers() == 0 || obstacles_sub_->getNumPublishers() == 0) &&
-           ros::WallTime::now() < deadline) {
-      ros::WallDuration(0.05).sleep();
-    }
+    dqn_dovs::test::waitFor([] { return scan_pub_->getNumSubscribers() > 0 && obstacles_sub_->getNumPublishers() > 0; },
+                            20.0, 0.05);
   }
 
   static void TearDownTestSuite() {
@@ -101,16 +89,16 @@ class TrackerBadInput : public ::testing::Test {
   /// Publishes `scan` and waits for the tracker's output with the scan's stamp (nullopt after `wait_s`).
   static std::optional<TrackedObstacleArray> send(const sensor_msgs::LaserScan& scan, double wait_s = 1.0) {
     scan_pub_->publish(scan);
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(wait_s);
-    while (ros::ok() && ros::WallTime::now() < deadline) {
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        const auto it = received_.find(scan.header.stamp);
-        if (it != received_.end()) return it->second;
-      }
-      ros::WallDuration(0.005).sleep();
-    }
-    return std::nullopt;
+    std::optional<TrackedObstacleArray> out;
+    dqn_dovs::test::waitFor(
+        [&] {
+          std::lock_guard<std::mutex> lock(mutex_);
+          const auto it = received_.find(scan.header.stamp);
+          if (it != received_.end()) out = it->second;
+          return out.has_value();
+        },
+        wait_s);
+    return out;
   }
 
   /// A fresh time base far from every earlier one: the tracker resets on the jump, so tests do not interact.
@@ -284,10 +272,4 @@ TEST_F(TrackerBadInput, TimeGoingBackwardsResetsTracks) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_tracker_bad_input");
-  const int result = RUN_ALL_TESTS();
-  ros::shutdown();
-  return result;
-}
+int main(int argc, char** argv) { return dqn_dovs::test::runRostestNode(argc, argv, "test_tracker_bad_input"); }

@@ -96,6 +96,9 @@ struct EpisodeRecord {
   /// The planner's note on its last decision (PlannerDecision::note, e.g. the shield level or the escape tier that
   /// drove the robot into a collision); "planner error" when it threw.
   std::string last_decision;
+  /// The planner's action at every decision: an index into the 8 actions, or -1 for a velocity that is not one of
+  /// them (the shield's escape, a deceleration, a baseline's own command).
+  std::vector<int> actions;
   /// Robot poses at every step (only for jobs listed in EvalConfig::keep_paths).
   std::vector<Pose2> robot_path;
   /// Per obstacle, its centre at every step (same jobs).
@@ -106,6 +109,12 @@ struct EpisodeRecord {
 /// or generated ones (N obstacles, moving with probability dynamic_fraction). Ordered by N, then K.
 /// Throws EvalError naming the file or the generator failure.
 std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config);
+
+/// Runs one episode of `scenario` with `planner` in `episode` (both reset first) as runEvaluation does: the
+/// planner decides every control period, and a planner that throws PlannerError makes the robot decelerate.
+/// Paths are kept when `keep_paths`.
+EpisodeRecord runEpisode(Planner& planner, Episode& episode, const std::string& method, const EvalScenario& scenario,
+                         bool keep_paths = false);
 
 /// Progress report: the record just finished, how many are done and the total.
 using EvalProgress = std::function<void(const EpisodeRecord& record, size_t done, size_t total)>;
