@@ -21,19 +21,19 @@ namespace {
 sim::LidarConfig loadLidarConfig(const ros::NodeHandle& pnh) {
   const std::string profile = param<std::string>(pnh, "lidar/profile", "sim");
   sim::LidarConfig c;
-  if (profile == "sim") {
-    c = sim::LidarConfig::simProfile();
-  } else if (profile == "hokuyo") {
-    c = sim::LidarConfig::hokuyoProfile();
-  } else {
-    throw ParameterError("parameter '" + pnh.resolveName("lidar/profile") + "' = '" + profile +
-                         "': expected 'sim' or 'hokuyo'");
+  try {
+    c = sim::LidarConfig::profile(profile);
+  } catch (const sim::SimConfigError& e) {
+    throw ParameterError("parameter '" + pnh.resolveName("lidar/profile") + "': " + e.what());
   }
   c.fov_rad = param<double>(pnh, "lidar/fov", c.fov_rad);
   c.beams = param<int>(pnh, "lidar/beams", c.beams);
   c.range_min_m = param<double>(pnh, "lidar/range_min", c.range_min_m);
   c.range_max_m = param<double>(pnh, "lidar/range_max", c.range_max_m);
   c.noise_std_m = param<double>(pnh, "lidar/noise_std", c.noise_std_m);
+  c.dropout_probability = param<double>(pnh, "lidar/dropout_probability", c.dropout_probability);
+  c.grazing_limit_rad = param<double>(pnh, "lidar/grazing_limit", c.grazing_limit_rad);
+  c.mixed_pixel_probability = param<double>(pnh, "lidar/mixed_pixel_probability", c.mixed_pixel_probability);
   c.mount.x = param<double>(pnh, "lidar/mount_x", c.mount.x);
   c.mount.y = param<double>(pnh, "lidar/mount_y", c.mount.y);
   c.mount.theta = param<double>(pnh, "lidar/mount_yaw", c.mount.theta);
@@ -65,7 +65,6 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
     throw ParameterError("frame parameters (odom_frame, base_frame, laser_frame) must not be empty");
   }
   period_s_ = paramInRange(pnh_, "period", 0.05, 1e-3, 0.5);
-  scan_period_s_ = paramInRange(pnh_, "scan_period", 0.1, period_s_, 1.0);
   realtime_factor_ = paramInRange(pnh_, "realtime_factor", 1.0, 0.0, 1000.0);
   cmd_timeout_s_ = paramInRange(pnh_, "cmd_timeout", 0.5, 0.05, 10.0);
   dynamic_fraction_ = paramInRange(pnh_, "dynamic_fraction", 0.85, 0.0, 1.0);
@@ -73,6 +72,8 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
 
   world_config_.robot = loadRobotLimits(pnh_);
   world_config_.lidar = loadLidarConfig(pnh_);
+  // The scanner's own period unless overridden.
+  scan_period_s_ = paramInRange(pnh_, "scan_period", world_config_.lidar.scan_period_s, period_s_, 1.0);
   world_config_.stop_on_collision = param<bool>(pnh_, "stop_on_collision", true);
   obstacle_radius_m_ = paramInRange(pnh_, "obstacle_radius", 0.2, 0.05, 1.0);
   const std::string world_error = world_config_.validate();

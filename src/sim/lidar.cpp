@@ -50,6 +50,21 @@ std::string LidarConfig::validate() const {
   if (!(std::isfinite(noise_std_fraction) && noise_std_fraction >= 0.0 && noise_std_fraction < 1.0)) {
     return bad("noise_std_fraction", noise_std_fraction, "must be in [0, 1)");
   }
+  if (!(std::isfinite(dropout_probability) && dropout_probability >= 0.0 && dropout_probability < 1.0)) {
+    return bad("dropout_probability", dropout_probability, "must be in [0, 1)");
+  }
+  if (!(std::isfinite(grazing_limit_rad) && grazing_limit_rad > 0.0 && grazing_limit_rad <= kPi / 2.0 + 1e-12)) {
+    return bad("grazing_limit_rad", grazing_limit_rad, "must be in (0, pi/2] rad");
+  }
+  if (!(std::isfinite(mixed_pixel_probability) && mixed_pixel_probability >= 0.0 && mixed_pixel_probability <= 1.0)) {
+    return bad("mixed_pixel_probability", mixed_pixel_probability, "must be in [0, 1]");
+  }
+  if (!(std::isfinite(mixed_pixel_jump_m) && mixed_pixel_jump_m > 0.0)) {
+    return bad("mixed_pixel_jump_m", mixed_pixel_jump_m, "must be finite and > 0 m");
+  }
+  if (!(std::isfinite(scan_period_s) && scan_period_s > 0.0 && scan_period_s <= 1.0)) {
+    return bad("scan_period_s", scan_period_s, "must be in (0, 1] s");
+  }
   if (!mount.isFinite()) return bad("mount", mount.x + mount.y + mount.theta, "mount pose must be finite");
   return {};
 }
@@ -81,6 +96,44 @@ LidarConfig LidarConfig::hokuyoProfile() {
   return c;
 }
 
+LidarConfig LidarConfig::urg04lxProfile() {
+  LidarConfig c = hokuyoProfile();
+  c.fov_rad = 240.0 * kPi / 180.0;
+  c.beams = 683;  // 240 deg / (360 / 1024 deg) = 682.7 steps
+  c.dropout_probability = 0.01;
+  c.grazing_limit_rad = 80.0 * kPi / 180.0;
+  c.mixed_pixel_probability = 0.5;
+  c.scan_period_s = 0.1;
+  return c;
+}
+
+LidarConfig LidarConfig::rplidarA1Profile() {
+  LidarConfig c;
+  c.fov_rad = kTwoPi;
+  c.beams = 360;
+  c.range_min_m = 0.15;
+  c.range_max_m = 8.0;
+  c.noise_std_m = 0.005;
+  c.noise_std_fraction = 0.01;
+  c.dropout_probability = 0.02;
+  c.grazing_limit_rad = 75.0 * kPi / 180.0;
+  c.mixed_pixel_probability = 0.5;
+  c.scan_period_s = 1.0 / 7.0;
+  return c;
+}
+
+std::vector<std::string> LidarConfig::profileNames() { return {"sim", "hokuyo", "urg04lx", "rplidar_a1"}; }
+
+LidarConfig LidarConfig::profile(const std::string& name) {
+  if (name == "sim") return simProfile();
+  if (name == "hokuyo") return hokuyoProfile();
+  if (name == "urg04lx") return urg04lxProfile();
+  if (name == "rplidar_a1") return rplidarA1Profile();
+  std::string known;
+  for (const std::string& n : profileNames()) known += (known.empty() ? "" : ", ") + n;
+  throw SimConfigError("lidar profile '" + name + "' is not one of " + known);
+}
+
 Lidar::Lidar(const LidarConfig& config, uint64_t seed) : config_(config), rng_(seed) {
   const std::string error = config_.validate();
   if (!error.empty()) throw SimConfigError(error);
@@ -93,9 +146,16 @@ Lidar::Lidar(const LidarConfig& config, uint64_t seed) : config_(config), rng_(s
 }
 
 void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vector<Vec2>& dirs_world,
-                    std::vector<double>& ranges) const {
+                    std::vector<double>& ranges, std::vector<double>* incidence_cos) const {
   const size_t n = beam_dirs_local_.size();
   ranges.assign(n, kInf);
+  if (incidence_cos != nullptr) incidence_cos->assign(n, 1.0);
+  // The cosine between beam i and a surface normal (unit or not: only its direction counts).
+  auto incidence = [&](size_t i, const Vec2& normal) {
+    if (incidence_cos == nullptr) return;
+    const double norm = normal.norm();
+    (*incidence_cos)[i] = norm > 0.0 ? std::abs(dirs_world[i].dot(normal)) / norm : 1.0;
+  };
   if (!laser_pose.isFinite()) return;  // a broken pose sees nothing rather than garbage
   const Vec2 o = laser_pose.position();
   const double c = std::cos(laser_pose.theta), s = std::sin(laser_pose.theta);
@@ -108,7 +168,15 @@ void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vecto
   const double half = scene.room_half_size_m;
   if (half > 0.0) {
     if (std::abs(o.x()) < half && std::abs(o.y()) < half) {
-      for (size_t i = 0; i < n; ++i) ranges[i] = rayRoomFromInside(o, dirs_world[i], half);
+      for (size_t i = 0; i < n; ++i) {
+        ranges[i] = rayRoomFromInside(o, dirs_world[i], half);
+        if (incidence_cos != nullptr) {
+          // The wall hit is the one whose coordinate the hit point reaches.
+          const Vec2 hit = o + ranges[i] * dirs_world[i];
+          incidence(i, std::abs(std::abs(hit.x()) - half) < std::abs(std::abs(hit.y()) - half) ? Vec2(1.0, 0.0)
+                                                                                               : Vec2(0.0, 1.0));
+        }
+      }
     } else {
       // Outside the room (only a misplaced robot can be there): fall back to the four wall segments.
       const Segment walls[4] = {{Vec2(-half, -half), Vec2(half, -half)},
@@ -118,16 +186,23 @@ void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vecto
       for (size_t i = 0; i < n; ++i) {
         for (const Segment& w : walls) {
           const std::optional<double> t = raySegment(o, dirs_world[i], w);
-          if (t && *t < ranges[i]) ranges[i] = *t;
+          if (t && *t < ranges[i]) {
+            ranges[i] = *t;
+            incidence(i, Vec2(-(w.b - w.a).y(), (w.b - w.a).x()));
+          }
         }
       }
     }
   }
 
   for (const Segment& seg : scene.segments) {
+    const Vec2 normal(-(seg.b - seg.a).y(), (seg.b - seg.a).x());
     for (size_t i = 0; i < n; ++i) {
       const std::optional<double> t = raySegment(o, dirs_world[i], seg);
-      if (t && *t < ranges[i]) ranges[i] = *t;
+      if (t && *t < ranges[i]) {
+        ranges[i] = *t;
+        incidence(i, normal);
+      }
     }
   }
 
@@ -152,7 +227,10 @@ void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vecto
       if (inc <= 0.0) {
         if (lo <= 0.0 && hi >= 0.0) {
           const std::optional<double> t = rayCircle(o, dirs_world[0], disc);
-          if (t && *t < ranges[0]) ranges[0] = *t;
+          if (t && *t < ranges[0]) {
+            ranges[0] = *t;
+            incidence(0, o + *t * dirs_world[0] - disc.center);
+          }
         }
         continue;
       }
@@ -160,8 +238,12 @@ void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vecto
       const long i0 = std::max(0L, static_cast<long>(std::floor(lo / inc)) - 1);
       const long i1 = std::min(last, static_cast<long>(std::ceil(hi / inc)) + 1);
       for (long i = i0; i <= i1; ++i) {
-        const std::optional<double> t = rayCircle(o, dirs_world[static_cast<size_t>(i)], disc);
-        if (t && *t < ranges[static_cast<size_t>(i)]) ranges[static_cast<size_t>(i)] = *t;
+        const size_t k = static_cast<size_t>(i);
+        const std::optional<double> t = rayCircle(o, dirs_world[k], disc);
+        if (t && *t < ranges[k]) {
+          ranges[k] = *t;
+          incidence(k, o + *t * dirs_world[k] - disc.center);
+        }
       }
     }
   }
@@ -181,7 +263,8 @@ LaserScan2 Lidar::scan(const Pose2& laser_pose, const LidarScene& scene, double 
 }
 
 void Lidar::scanInto(const Pose2& laser_pose, const LidarScene& scene, double stamp_s, LaserScan2& out) {
-  castAll(laser_pose, scene, dirs_world_, work_);
+  const bool grazing = config_.grazing_limit_rad < kPi / 2.0;
+  castAll(laser_pose, scene, dirs_world_, work_, grazing ? &incidence_ : nullptr);
   out.stamp_s = stamp_s;
   out.angle_min = config_.angleMin_rad();
   out.angle_increment = config_.angleIncrement_rad();
@@ -190,10 +273,27 @@ void Lidar::scanInto(const Pose2& laser_pose, const LidarScene& scene, double st
   out.ranges.resize(work_.size());
   const double rmin = config_.range_min_m, rmax = config_.range_max_m;
   const bool noisy = config_.noise_std_m > 0.0 || config_.noise_std_fraction > 0.0;
+  const double grazing_cos = std::cos(config_.grazing_limit_rad);
+  // Mixed pixels: at a depth edge the farther beam may report a range between the two surfaces. Decided on the
+  // true ranges before noise, so a beam is mixed at most once.
+  if (config_.mixed_pixel_probability > 0.0) {
+    for (size_t i = 0; i + 1 < work_.size(); ++i) {
+      const double a = work_[i], b = work_[i + 1];
+      if (!(std::isfinite(a) && std::isfinite(b)) || std::abs(a - b) <= config_.mixed_pixel_jump_m) continue;
+      if (rng_.uniform01() >= config_.mixed_pixel_probability) continue;
+      double& far = a > b ? work_[i] : work_[i + 1];
+      const double near = std::min(a, b);
+      far = near + rng_.uniform01() * (far - near);
+      ++i;  // the mixed beam is not the near side of the next edge
+    }
+  }
   for (size_t i = 0; i < work_.size(); ++i) {
     const double r = work_[i];
     double value = 0.0;
-    if (!(r <= rmax)) {
+    const bool lost =
+        r <= rmax && ((grazing && incidence_[i] < grazing_cos) ||
+                      (config_.dropout_probability > 0.0 && rng_.uniform01() < config_.dropout_probability));
+    if (!(r <= rmax) || lost) {
       value = kInf;
     } else if (r < rmin) {
       value = -kInf;

@@ -295,5 +295,132 @@ TEST(Lidar, NonFiniteInputsDoNotCrash) {
   for (float r : bad_pose.ranges) ASSERT_TRUE(std::isinf(r) && r > 0.0);
 }
 
+TEST(LidarConfig, NamedProfilesOfTheTurtlebotScanners) {
+  const LidarConfig urg = LidarConfig::profile("urg04lx");
+  EXPECT_EQ(urg.validate(), "");
+  EXPECT_EQ(urg.beams, 683);
+  EXPECT_NEAR(urg.angleMin_rad(), -120.0 * kPi / 180.0, 1e-12);
+  EXPECT_NEAR(urg.angleMin_rad() + 682 * urg.angleIncrement_rad(), 120.0 * kPi / 180.0, 1e-12);
+  EXPECT_NEAR(urg.angleIncrement_rad(), kTwoPi / 1024.0, 2e-5);  // the device's native step, to 0.1 %
+  EXPECT_DOUBLE_EQ(urg.range_min_m, 0.02);
+  EXPECT_DOUBLE_EQ(urg.range_max_m, 5.6);
+  EXPECT_DOUBLE_EQ(urg.scan_period_s, 0.1);
+  const LidarConfig a1 = LidarConfig::profile("rplidar_a1");
+  EXPECT_EQ(a1.validate(), "");
+  EXPECT_TRUE(a1.fullCircle());
+  EXPECT_EQ(a1.beams, 360);
+  EXPECT_DOUBLE_EQ(a1.range_max_m, 8.0);
+  EXPECT_NEAR(1.0 / a1.scan_period_s, 7.0, 1e-9);
+  for (const std::string& name : LidarConfig::profileNames()) EXPECT_EQ(LidarConfig::profile(name).validate(), "");
+  // The simulation profile has none of the hardware effects: training scans stay as they were.
+  const LidarConfig sim = LidarConfig::profile("sim");
+  EXPECT_EQ(sim.dropout_probability, 0.0);
+  EXPECT_EQ(sim.mixed_pixel_probability, 0.0);
+  EXPECT_DOUBLE_EQ(sim.grazing_limit_rad, kPi / 2.0);
+  try {
+    LidarConfig::profile("velodyne");
+    FAIL() << "no error for an unknown profile";
+  } catch (const SimConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("'velodyne' is not one of sim, hokuyo, urg04lx, rplidar_a1"),
+              std::string::npos)
+        << e.what();
+  }
+  LidarConfig c;
+  c.dropout_probability = 1.0;
+  EXPECT_NE(c.validate().find("dropout_probability"), std::string::npos);
+  c = LidarConfig();
+  c.grazing_limit_rad = 2.0;
+  EXPECT_NE(c.validate().find("grazing_limit_rad"), std::string::npos);
+  c = LidarConfig();
+  c.mixed_pixel_probability = -0.1;
+  EXPECT_NE(c.validate().find("mixed_pixel_probability"), std::string::npos);
+  c = LidarConfig();
+  c.scan_period_s = 0.0;
+  EXPECT_NE(c.validate().find("scan_period_s"), std::string::npos);
+}
+
+TEST(Lidar, DarkSurfacesDropReturnsAtTheirRateReproducibly) {
+  LidarConfig c = noiseless();
+  c.dropout_probability = 0.1;
+  LidarScene room;
+  room.room_half_size_m = 4.0;
+  Lidar a(c, 7), b(c, 7);
+  size_t lost = 0, total = 0;
+  for (int k = 0; k < 20; ++k) {
+    const LaserScan2 sa = a.scan({0.3, -0.2, 0.1}, room, 0.0), sb = b.scan({0.3, -0.2, 0.1}, room, 0.0);
+    for (size_t i = 0; i < sa.ranges.size(); ++i) {
+      EXPECT_EQ(std::isinf(sa.ranges[i]), std::isinf(sb.ranges[i]));  // same seed, same losses
+      lost += sa.ranges[i] == static_cast<float>(kInf);
+      ++total;
+    }
+  }
+  const double rate = static_cast<double>(lost) / static_cast<double>(total);
+  EXPECT_NEAR(rate, 0.1, 0.01) << lost << " of " << total;  // 14,400 beams: 4.5 standard deviations
+}
+
+TEST(Lidar, GlancingSurfacesReturnNothingBeyondTheLimit) {
+  LidarConfig c = noiseless();
+  c.grazing_limit_rad = 60.0 * kPi / 180.0;
+  // A long wall along y = 1: the beam at bearing b meets it 90 deg - b from its normal.
+  LidarScene wall;
+  wall.segments.push_back({Vec2(-50.0, 1.0), Vec2(50.0, 1.0)});
+  Lidar lidar(c, 1);
+  const LaserScan2 scan = lidar.scan({}, wall, 0.0);
+  for (double bearing_deg : {90.0, 60.0, 45.0, 31.0}) {
+    const size_t i = beamAt(c, bearing_deg * kPi / 180.0);
+    EXPECT_NEAR(scan.ranges[i], 1.0 / std::sin(bearing_deg * kPi / 180.0), 1e-4) << bearing_deg;
+  }
+  for (double bearing_deg : {29.0, 20.0, 10.0}) {
+    const size_t i = beamAt(c, bearing_deg * kPi / 180.0);
+    EXPECT_TRUE(std::isinf(scan.ranges[i]) && scan.ranges[i] > 0) << bearing_deg << " deg: " << scan.ranges[i];
+  }
+  // A disc is seen face-on at its centre and glancingly at its rim.
+  LidarScene disc;
+  disc.discs.push_back({Vec2(3.0, 0.0), 1.0});
+  const LaserScan2 d = lidar.scan({}, disc, 0.0);
+  EXPECT_NEAR(d.ranges[beamAt(c, 0.0)], 2.0, 1e-6);
+  // The beam at bearing a meets the disc 3 sin(a) off its centre line: asin(3 sin a) from the surface normal.
+  int kept = 0, dropped = 0;
+  for (size_t i = 0; i < d.ranges.size(); ++i) {
+    const double a = c.angleMin_rad() + static_cast<double>(i) * c.angleIncrement_rad();
+    const double offset = 3.0 * std::sin(std::abs(a));
+    if (std::cos(a) <= 0.0 || offset >= 1.0) continue;  // misses the disc
+    if (offset < std::sin(59.0 * kPi / 180.0)) {
+      EXPECT_TRUE(std::isfinite(d.ranges[i])) << "bearing " << a;
+      ++kept;
+    } else if (offset > std::sin(61.0 * kPi / 180.0)) {
+      EXPECT_TRUE(std::isinf(d.ranges[i])) << "bearing " << a;
+      ++dropped;
+    }
+  }
+  EXPECT_GT(kept, 10);
+  EXPECT_GT(dropped, 2);
+}
+
+TEST(Lidar, MixedPixelsLieBetweenTheSurfacesAtDepthEdgesOnly) {
+  LidarConfig c = noiseless();
+  c.mixed_pixel_probability = 1.0;
+  LidarScene scene;
+  scene.room_half_size_m = 6.0;
+  scene.discs.push_back({Vec2(2.0, 0.0), 0.5});
+  const Pose2 pose{};
+  Lidar lidar(c, 3);
+  const std::vector<double> truth = lidar.trueRanges(pose, scene);
+  const LaserScan2 scan = lidar.scan(pose, scene, 0.0);
+  int mixed = 0;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    const double r = scan.ranges[i];
+    if (std::abs(r - truth[i]) < 1e-6) continue;
+    ++mixed;
+    // Only a beam beside a depth edge changes, to a range between its neighbour's surface and its own.
+    const double left = truth[(i + truth.size() - 1) % truth.size()], right = truth[(i + 1) % truth.size()];
+    const double near = std::min(left, right);
+    EXPECT_LT(near + c.mixed_pixel_jump_m, truth[i]) << "beam " << i << " is not the far side of an edge";
+    EXPECT_GE(r, near - 1e-6);
+    EXPECT_LE(r, truth[i] + 1e-6);
+  }
+  EXPECT_EQ(mixed, 2) << "one mixed beam at each side of the disc";
+}
+
 }  // namespace
 }  // namespace dqn_dovs::sim

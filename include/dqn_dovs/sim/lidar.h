@@ -1,5 +1,7 @@
 // Simulated 2-D LIDAR: ray casting against the room walls, extra wall segments and disc obstacles with true
-// occlusion (each beam reports its nearest hit), plus seeded Gaussian range noise.
+// occlusion (each beam reports its nearest hit), plus seeded sensor effects: Gaussian range noise, missing
+// returns (dark surfaces at random, glancing surfaces by incidence angle) and mixed pixels at depth edges.
+// Named profiles model the scanners a Turtlebot 2 carries.
 #pragma once
 
 #include <cstdint>
@@ -31,6 +33,18 @@ struct LidarConfig {
   /// Range-proportional noise: the standard deviation is max(noise_std_m, noise_std_fraction * range)
   /// (dimensionless; 0.01 = 1 % of the range).
   double noise_std_fraction = 0.0;
+  /// Probability that a beam with a hit returns nothing (+inf): dark or absorbing surfaces. 0 disables.
+  double dropout_probability = 0.0;
+  /// A beam meeting a surface further than this from its normal returns nothing (+inf): glancing surfaces
+  /// reflect away from the sensor (rad, in (0, pi/2]; pi/2 disables).
+  double grazing_limit_rad = kPi / 2.0;
+  /// At a depth edge (neighbouring beams differ by more than mixed_pixel_jump_m), the probability that the
+  /// farther beam reports a range between the two surfaces (the beam's footprint straddles the edge). 0 disables.
+  double mixed_pixel_probability = 0.0;
+  /// Smallest range difference between neighbouring beams that makes a depth edge (m).
+  double mixed_pixel_jump_m = 0.15;
+  /// Time between scans (s): the scanner's rotation period.
+  double scan_period_s = 0.1;
   /// Pose of the laser on the robot base frame (m, m, rad); x forward, theta = 0 looks forward.
   Pose2 mount;
 
@@ -52,6 +66,18 @@ struct LidarConfig {
   /// 0.02..5.6 m, noise sigma max(5 mm, 0.5 % of the range) (the datasheet's +-10 mm up to 1 m and +-1 %
   /// beyond taken as 2-sigma bounds), mounted at the robot centre looking forward.
   static LidarConfig hokuyoProfile();
+  /// The full Hokuyo URG-04LX: 240 deg at 360/1024 deg (683 beams), 0.02..5.6 m, the same noise, 10 Hz, 1 %
+  /// missing returns, none beyond 80 deg of incidence, mixed pixels at half of the depth edges.
+  static LidarConfig urg04lxProfile();
+  /// An RPLIDAR A1-like scanner: 360 deg, 360 beams (1 deg), 0.15..8 m, noise sigma max(5 mm, 1 % of the
+  /// range), about 7 Hz, 2 % missing returns, none beyond 75 deg of incidence, mixed pixels at half of the
+  /// depth edges.
+  static LidarConfig rplidarA1Profile();
+  /// The profile of that name: "sim", "hokuyo", "urg04lx" or "rplidar_a1". Throws SimConfigError naming the
+  /// name and the known ones otherwise.
+  static LidarConfig profile(const std::string& name);
+  /// The names profile() accepts.
+  static std::vector<std::string> profileNames();
 };
 
 /// What the LIDAR can see: a square room centred on the origin (optional), extra wall segments and discs.
@@ -87,13 +113,16 @@ class Lidar {
   std::vector<double> trueRanges(const Pose2& laser_pose, const LidarScene& scene) const;
 
  private:
+  /// True ranges along every beam, and (when `incidence_cos` is given) the cosine of the angle between each
+  /// beam and the normal of the surface it hits (1 when nothing is hit).
   void castAll(const Pose2& laser_pose, const LidarScene& scene, std::vector<Vec2>& dirs_world,
-               std::vector<double>& ranges) const;
+               std::vector<double>& ranges, std::vector<double>* incidence_cos = nullptr) const;
 
   LidarConfig config_;
   std::vector<Vec2> beam_dirs_local_;  // unit beam directions in the laser frame
   std::vector<Vec2> dirs_world_;       // per-scan scratch: beam directions in the world frame
   std::vector<double> work_;           // per-scan scratch: true ranges
+  std::vector<double> incidence_;      // per-scan scratch: cosine of each beam's incidence angle
   Rng rng_;
 };
 
