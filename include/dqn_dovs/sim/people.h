@@ -1,0 +1,113 @@
+// Simulated people: a body disc for contact and two leg discs for the LIDAR, walking between destinations.
+//
+// Each person walks to its current destination at its preferred speed, waits there for a while, then takes the
+// next destination of its list (and starts over at the end). Motion models:
+//   - constant: the person keeps its start velocity (what the paper's discs do);
+//   - social_force: the social force model of Helbing and Molnar (1995): a drive toward the destination at the
+//     preferred speed with relaxation time tau, repulsion from other people through their elliptical potential
+//     (stretched along the other's motion, with the anisotropy that weighs what is ahead) and from walls, and a
+//     pull toward the centroid of the person's group.
+// The robot is invisible to people unless PeopleConfig::see_robot, in which case they repel from it like from a
+// person. Legs: two discs beside the body's centre line whose fore-aft offsets swing in opposite phase with a
+// stride that grows with the walking speed; the phase advances with the distance walked, so a standing person's
+// legs are side by side.
+// Nobody walks through a wall: a move that would cross one keeps only its component along it.
+// Deterministic: the same people, walls, configuration and robot motion give the same trajectories.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/common/types.h"
+
+namespace dqn_dovs::sim {
+
+/// How people move.
+enum class PeopleModel { kConstant, kSocialForce };
+
+/// "constant", "social_force"; parsePeopleModel throws SimConfigError naming an unknown name.
+const char* peopleModelName(PeopleModel model);
+PeopleModel parsePeopleModel(const std::string& name);
+
+/// One person's initial state and plan.
+struct PersonSpec {
+  Vec2 position = Vec2::Zero();
+  double heading_rad = 0.0;
+  double body_radius_m = 0.25;       ///< contact disc, 0.2..0.3 m for adults
+  double preferred_speed_mps = 1.0;  ///< walking speed when unhindered, 0.5..1.3 m/s
+  /// Places to walk to in turn (cycled); empty: walk straight along heading_rad at the preferred speed.
+  std::vector<Vec2> destinations;
+  /// Pause at each destination, s.
+  double wait_s = 0.0;
+  /// People with the same group id >= 0 walk together (the social force model pulls them to their centroid).
+  int group = -1;
+};
+
+/// Parameters of the people models and their legs.
+struct PeopleConfig {
+  PeopleModel model = PeopleModel::kSocialForce;
+  /// Whether people see the robot and give way to it (false: the robot is invisible, the hardest case).
+  bool see_robot = false;
+  double relaxation_time_s = 0.5;      ///< tau: how fast a person returns to its preferred velocity
+  double person_repulsion_mps2 = 7.0;  ///< A: repulsion between people when their bodies touch (V0 / sigma)
+  double person_range_m = 0.3;         ///< B: its decay length (sigma)
+  double step_time_s = 0.5;            ///< how far ahead the other's motion shapes the repulsion's ellipse
+  double anisotropy = 0.35;            ///< lambda in [0, 1]: weight of what is behind (1: as ahead)
+  double wall_repulsion_mps2 = 10.0;   ///< repulsion from walls
+  double wall_range_m = 0.1;           ///< its decay length
+  double group_attraction_mps2 = 1.0;  ///< pull toward the group's centroid per metre beyond group_radius_m
+  double group_radius_m = 0.6;         ///< a group member closer than this to the centroid feels no pull
+  double max_speed_factor = 1.3;       ///< speed limit as a multiple of the preferred speed
+  double arrival_radius_m = 0.3;       ///< a destination closer than this is reached
+  double leg_radius_m = 0.06;          ///< leg disc radius at the scan height
+  double hip_half_width_m = 0.1;       ///< lateral offset of each leg from the centre line
+  double physics_step_s = 0.05;        ///< longest integration step
+
+  /// Empty when consistent, otherwise a message naming the field and why.
+  std::string validate() const;
+};
+
+/// One person's state.
+struct Person {
+  PersonSpec spec;
+  Vec2 position = Vec2::Zero();
+  Vec2 velocity = Vec2::Zero();
+  double heading_rad = 0.0;
+  size_t destination = 0;       ///< index into spec.destinations
+  double waiting_s = 0.0;       ///< pause left at the current destination, s
+  double gait_phase_rad = 0.0;  ///< advances with the distance walked
+};
+
+/// The people of one episode.
+class Crowd {
+ public:
+  Crowd() = default;
+  /// Throws SimConfigError when config.validate() fails or a spec is not finite or has a non-positive radius or
+  /// speed.
+  Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config);
+
+  /// Advances every person by dt_s (split into steps of at most config.physics_step_s). `walls` repel and
+  /// block people (social force); `robot` and `robot_velocity` are used only when config.see_robot.
+  void step(double dt_s, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity);
+
+  const std::vector<Person>& people() const { return people_; }
+  const PeopleConfig& config() const { return config_; }
+  /// The body discs (contact).
+  std::vector<Circle> bodies() const;
+  /// The two leg discs of every person, left then right (what a LIDAR at leg height sees).
+  std::vector<Circle> legs() const;
+  /// The bodies as moving obstacles (velocity as speed and heading of motion; turn rate 0).
+  std::vector<MovingObstacle> asObstacles() const;
+  /// The leg discs of one person.
+  static void legsOf(const Person& p, const PeopleConfig& config, Circle& left, Circle& right);
+
+ private:
+  void substep(double dt, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity);
+  Vec2 drive(const Person& p) const;
+
+  std::vector<Person> people_;
+  PeopleConfig config_;
+};
+
+}  // namespace dqn_dovs::sim

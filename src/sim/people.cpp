@@ -1,0 +1,264 @@
+#include "dqn_dovs/sim/people.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+
+#include "dqn_dovs/sim/errors.h"
+
+namespace dqn_dovs::sim {
+
+namespace {
+
+bool finitePositive(double x) { return std::isfinite(x) && x > 0.0; }
+
+/// Closest point of segment s to p.
+Vec2 closestOnSegment(const Segment& s, const Vec2& p) {
+  const Vec2 d = s.b - s.a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0.0 ? std::clamp((p - s.a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return s.a + t * d;
+}
+
+/// True when the open segments p-q and s cross (a body's centre moving through a wall).
+bool crosses(const Vec2& p, const Vec2& q, const Segment& s) {
+  auto cross = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
+  const Vec2 r = q - p, w = s.b - s.a;
+  const double denom = cross(r, w);
+  if (std::abs(denom) < 1e-15) return false;
+  const double t = cross(s.a - p, w) / denom, u = cross(s.a - p, r) / denom;
+  return t > 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0;
+}
+
+/// Step length (m) of a person walking at `speed` (m/s): longer strides when faster.
+double stepLength(double speed) { return 0.3 + 0.3 * std::min(speed, 1.5); }
+
+}  // namespace
+
+const char* peopleModelName(PeopleModel model) {
+  switch (model) {
+    case PeopleModel::kConstant:
+      return "constant";
+    case PeopleModel::kSocialForce:
+      return "social_force";
+  }
+  return "?";
+}
+
+PeopleModel parsePeopleModel(const std::string& name) {
+  if (name == "constant") return PeopleModel::kConstant;
+  if (name == "social_force") return PeopleModel::kSocialForce;
+  throw SimConfigError("people model '" + name + "' is not one of constant, social_force");
+}
+
+std::string PeopleConfig::validate() const {
+  std::ostringstream os;
+  auto positive = [&](const char* name, double v) {
+    if (!finitePositive(v) && os.str().empty()) os << "people parameter '" << name << "' = " << v << ": must be > 0";
+  };
+  positive("relaxation_time_s", relaxation_time_s);
+  positive("person_range_m", person_range_m);
+  positive("step_time_s", step_time_s);
+  positive("wall_range_m", wall_range_m);
+  positive("max_speed_factor", max_speed_factor);
+  positive("arrival_radius_m", arrival_radius_m);
+  positive("leg_radius_m", leg_radius_m);
+  positive("physics_step_s", physics_step_s);
+  if (!os.str().empty()) return os.str();
+  for (const auto& [name, v] : {std::pair<const char*, double>{"person_repulsion_mps2", person_repulsion_mps2},
+                                {"wall_repulsion_mps2", wall_repulsion_mps2},
+                                {"group_attraction_mps2", group_attraction_mps2},
+                                {"group_radius_m", group_radius_m},
+                                {"hip_half_width_m", hip_half_width_m}}) {
+    if (!(std::isfinite(v) && v >= 0.0)) {
+      os << "people parameter '" << name << "' = " << v << ": must be finite and >= 0";
+      return os.str();
+    }
+  }
+  if (!(std::isfinite(anisotropy) && anisotropy >= 0.0 && anisotropy <= 1.0)) {
+    os << "people parameter 'anisotropy' = " << anisotropy << ": must be in [0, 1]";
+  }
+  return os.str();
+}
+
+Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config) : config_(config) {
+  if (const std::string e = config_.validate(); !e.empty()) throw SimConfigError(e);
+  for (size_t i = 0; i < people.size(); ++i) {
+    const PersonSpec& s = people[i];
+    bool ok = s.position.allFinite() && std::isfinite(s.heading_rad) && finitePositive(s.body_radius_m) &&
+              finitePositive(s.preferred_speed_mps) && std::isfinite(s.wait_s) && s.wait_s >= 0.0;
+    for (const Vec2& d : s.destinations) ok = ok && d.allFinite();
+    if (!ok) {
+      throw SimConfigError("person " + std::to_string(i) +
+                           ": position, heading, destinations and wait must be finite, radius and speed > 0");
+    }
+    Person p;
+    p.spec = s;
+    p.position = s.position;
+    p.heading_rad = s.heading_rad;
+    if (config_.model == PeopleModel::kConstant || s.destinations.empty()) {
+      p.velocity = s.preferred_speed_mps * Vec2(std::cos(s.heading_rad), std::sin(s.heading_rad));
+    }
+    people_.push_back(p);
+  }
+}
+
+Vec2 Crowd::drive(const Person& p) const {
+  if (p.waiting_s > 0.0) return Vec2::Zero();
+  if (p.spec.destinations.empty()) {
+    return p.spec.preferred_speed_mps * Vec2(std::cos(p.spec.heading_rad), std::sin(p.spec.heading_rad));
+  }
+  const Vec2 to = p.spec.destinations[p.destination] - p.position;
+  const double dist = to.norm();
+  if (dist < 1e-9) return Vec2::Zero();
+  // Slow down over the last half metre so a person stops on the destination instead of overshooting it.
+  return std::min(p.spec.preferred_speed_mps, 2.0 * dist) * to / dist;
+}
+
+void Crowd::step(double dt_s, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity) {
+  if (!(std::isfinite(dt_s) && dt_s >= 0.0)) throw SimConfigError("Crowd::step: dt_s must be finite and >= 0");
+  const int n = std::max(1, static_cast<int>(std::ceil(dt_s / config_.physics_step_s - 1e-9)));
+  for (int k = 0; k < n && dt_s > 0.0; ++k) substep(dt_s / n, walls, robot, robot_velocity);
+}
+
+void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity) {
+  const size_t count = people_.size();
+  std::vector<Vec2> velocity(count);
+  // Group centroids from the states at the start of the step (every person is updated from the same snapshot).
+  std::map<int, std::pair<Vec2, int>> groups;
+  for (const Person& p : people_) {
+    if (p.spec.group < 0) continue;
+    auto& g = groups[p.spec.group];
+    if (g.second == 0) g.first = Vec2::Zero();
+    g.first += p.position;
+    ++g.second;
+  }
+  for (size_t i = 0; i < count; ++i) {
+    const Person& p = people_[i];
+    if (config_.model == PeopleModel::kConstant) {
+      velocity[i] = p.velocity;
+      continue;
+    }
+    const Vec2 desired = drive(p);
+    Vec2 force = (desired - p.velocity) / config_.relaxation_time_s;
+    const Vec2 heading(std::cos(p.heading_rad), std::sin(p.heading_rad));
+    // Repulsion from another body (position, radius, velocity): the elliptical potential of Helbing and Molnar,
+    // V = A B exp(-(b - R) / B), where b is the semi-minor axis of the ellipse through the person's position with
+    // foci at the other's position and where the other will be after step_time_s (so people moving toward each
+    // other repel earlier), and R the sum of the radii; the force is -grad V (central differences).
+    auto repel = [&](const Vec2& other, double other_radius, const Vec2& other_velocity) {
+      const Vec2 step = config_.step_time_s * other_velocity;
+      const double s = step.norm(), radii = p.spec.body_radius_m + other_radius;
+      auto potential = [&](const Vec2& r) {
+        const double a = r.norm() + (r - step).norm();
+        const double b = 0.5 * std::sqrt(std::max(0.0, a * a - s * s));
+        return config_.person_repulsion_mps2 * config_.person_range_m *
+               std::exp(-(b - radii) / config_.person_range_m);
+      };
+      const Vec2 r = p.position - other;
+      if (r.norm() < 1e-9) return;
+      constexpr double h = 1e-5;
+      const Vec2 f(-(potential(r + Vec2(h, 0)) - potential(r - Vec2(h, 0))) / (2 * h),
+                   -(potential(r + Vec2(0, h)) - potential(r - Vec2(0, h))) / (2 * h));
+      // Anisotropy: full strength for what lies ahead, lambda for what lies behind.
+      const double ahead = -r.normalized().dot(heading);
+      const double weight = config_.anisotropy + (1.0 - config_.anisotropy) * 0.5 * (1.0 + ahead);
+      force += weight * f;
+    };
+    for (size_t j = 0; j < count; ++j) {
+      if (j != i) repel(people_[j].position, people_[j].spec.body_radius_m, people_[j].velocity);
+    }
+    if (config_.see_robot) repel(robot.center, robot.radius, robot_velocity);
+    for (const Segment& w : walls) {
+      const Vec2 d = p.position - closestOnSegment(w, p.position);
+      const double dist = d.norm();
+      if (dist < 1e-9 || dist > p.spec.body_radius_m + 10.0 * config_.wall_range_m) continue;
+      force += config_.wall_repulsion_mps2 * std::exp((p.spec.body_radius_m - dist) / config_.wall_range_m) * d / dist;
+    }
+    if (p.spec.group >= 0) {
+      const auto& g = groups[p.spec.group];
+      const Vec2 to = g.first / g.second - p.position;
+      const double dist = to.norm();
+      if (dist > config_.group_radius_m) {
+        force += config_.group_attraction_mps2 * (dist - config_.group_radius_m) * to / dist;
+      }
+    }
+    Vec2 v = p.velocity + dt * force;
+    const double limit = config_.max_speed_factor * p.spec.preferred_speed_mps;
+    if (v.norm() > limit) v *= limit / v.norm();
+    velocity[i] = v;
+  }
+  for (size_t i = 0; i < count; ++i) {
+    Person& p = people_[i];
+    Vec2 v = velocity[i];
+    Vec2 next = p.position + dt * v;
+    // Nobody walks through a wall: a move whose centre would cross one is cancelled, and the velocity keeps only
+    // its component along that wall (people slide along walls).
+    for (const Segment& w : walls) {
+      if (!crosses(p.position, next, w)) continue;
+      const Vec2 along = (w.b - w.a).normalized();
+      v = v.dot(along) * along;
+      next = p.position;
+    }
+    const double speed = v.norm();
+    p.gait_phase_rad = std::fmod(p.gait_phase_rad + kPi * speed * dt / stepLength(speed), kTwoPi);
+    p.position = next;
+    p.velocity = v;
+    if (speed > 0.05) p.heading_rad = std::atan2(v.y(), v.x());
+    // Destinations and waits.
+    if (p.waiting_s > 0.0) {
+      p.waiting_s = std::max(0.0, p.waiting_s - dt);
+    } else if (!p.spec.destinations.empty() &&
+               (p.spec.destinations[p.destination] - p.position).norm() < config_.arrival_radius_m) {
+      p.destination = (p.destination + 1) % p.spec.destinations.size();
+      p.waiting_s = p.spec.wait_s;
+    }
+  }
+}
+
+void Crowd::legsOf(const Person& p, const PeopleConfig& config, Circle& left, Circle& right) {
+  const double speed = p.velocity.norm();
+  const Vec2 fwd(std::cos(p.heading_rad), std::sin(p.heading_rad)), side(-fwd.y(), fwd.x());
+  // Swing amplitude: half a step when walking, fading to legs side by side when standing.
+  const double swing = 0.5 * stepLength(speed) * std::min(1.0, speed / 0.3) * std::sin(p.gait_phase_rad);
+  left = {p.position + config.hip_half_width_m * side + swing * fwd, config.leg_radius_m};
+  right = {p.position - config.hip_half_width_m * side - swing * fwd, config.leg_radius_m};
+}
+
+std::vector<Circle> Crowd::bodies() const {
+  std::vector<Circle> out;
+  out.reserve(people_.size());
+  for (const Person& p : people_) out.push_back({p.position, p.spec.body_radius_m});
+  return out;
+}
+
+std::vector<Circle> Crowd::legs() const {
+  std::vector<Circle> out;
+  out.reserve(2 * people_.size());
+  for (const Person& p : people_) {
+    Circle l, r;
+    legsOf(p, config_, l, r);
+    out.push_back(l);
+    out.push_back(r);
+  }
+  return out;
+}
+
+std::vector<MovingObstacle> Crowd::asObstacles() const {
+  std::vector<MovingObstacle> out;
+  out.reserve(people_.size());
+  for (const Person& p : people_) {
+    MovingObstacle m;
+    m.center = p.position;
+    m.radius = p.spec.body_radius_m;
+    m.speed = p.velocity.norm();
+    m.heading = m.speed > 1e-9 ? std::atan2(p.velocity.y(), p.velocity.x()) : p.heading_rad;
+    m.turn_rate = 0.0;
+    m.is_static = false;
+    out.push_back(m);
+  }
+  return out;
+}
+
+}  // namespace dqn_dovs::sim

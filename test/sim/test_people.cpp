@@ -1,0 +1,191 @@
+// People: legs and gait, walking to destinations with waits, the social force model (avoidance, walls, groups,
+// seeing the robot), the constant model, determinism and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "dqn_dovs/sim/errors.h"
+#include "dqn_dovs/sim/people.h"
+
+namespace dqn_dovs::sim {
+namespace {
+
+const Circle kFarRobot{Vec2(100.0, 100.0), 0.2};
+
+PersonSpec walker(Vec2 from, Vec2 to, double speed = 1.0) {
+  PersonSpec s;
+  s.position = from;
+  s.heading_rad = std::atan2((to - from).y(), (to - from).x());
+  s.preferred_speed_mps = speed;
+  s.destinations = {to};
+  return s;
+}
+
+/// Fore-aft and lateral offsets of a person's two legs from its centre, in its own frame.
+void legOffsets(const Person& p, const PeopleConfig& c, Vec2& left, Vec2& right) {
+  Circle l, r;
+  Crowd::legsOf(p, c, l, r);
+  const Pose2 body{p.position.x(), p.position.y(), p.heading_rad};
+  left = body.toLocal(l.center);
+  right = body.toLocal(r.center);
+}
+
+TEST(People, LegsStandSideBySideAndSwingInOppositePhaseWhenWalking) {
+  PeopleConfig c;
+  Person p;
+  p.position = Vec2(1.0, 2.0);
+  p.heading_rad = 0.7;
+  p.gait_phase_rad = 1.2;
+  Vec2 l, r;
+  legOffsets(p, c, l, r);  // standing: no swing whatever the phase
+  EXPECT_NEAR(l.x(), 0.0, 1e-12);
+  EXPECT_NEAR(r.x(), 0.0, 1e-12);
+  EXPECT_NEAR(l.y(), c.hip_half_width_m, 1e-12);
+  EXPECT_NEAR(r.y(), -c.hip_half_width_m, 1e-12);
+  double amplitude_slow = 0.0, amplitude_fast = 0.0;
+  for (double speed : {0.5, 1.3}) {
+    Crowd crowd({walker({0, 0}, {100, 0}, speed)}, c);
+    double largest = 0.0;
+    for (int k = 0; k < 60; ++k) {
+      crowd.step(0.05, {}, kFarRobot, Vec2::Zero());
+      legOffsets(crowd.people()[0], c, l, r);
+      EXPECT_NEAR(l.x(), -r.x(), 1e-9);  // opposite phase
+      largest = std::max(largest, std::abs(l.x()));
+    }
+    (speed < 1.0 ? amplitude_slow : amplitude_fast) = largest;
+  }
+  EXPECT_GT(amplitude_slow, 0.15);
+  EXPECT_GT(amplitude_fast, amplitude_slow + 0.05);  // longer strides when faster
+  EXPECT_LT(amplitude_fast, 0.45);
+}
+
+TEST(People, WalkToEachDestinationWaitThereAndGoOn) {
+  PersonSpec s = walker({0, 0}, {3, 0});
+  s.destinations.push_back({3, 3});
+  s.wait_s = 1.0;
+  Crowd crowd({s}, PeopleConfig{});
+  double reached_first = -1.0, left_first = -1.0, reached_second = -1.0;
+  for (int k = 1; k <= 400; ++k) {
+    crowd.step(0.05, {}, kFarRobot, Vec2::Zero());
+    const Person& p = crowd.people()[0];
+    const double t = 0.05 * k;
+    if (reached_first < 0 && p.destination == 1) reached_first = t;
+    if (reached_first > 0 && left_first < 0 && p.waiting_s == 0.0) left_first = t;
+    if (reached_first > 0 && reached_second < 0 && p.destination == 0) reached_second = t;
+  }
+  // 3 m at ~1 m/s (slowing down over the last half metre), a 1 s wait, then another 3 m.
+  EXPECT_GT(reached_first, 2.5);
+  EXPECT_LT(reached_first, 4.5);
+  EXPECT_NEAR(left_first - reached_first, 1.0, 0.06);
+  EXPECT_GT(reached_second, left_first + 2.5);
+  EXPECT_LT(reached_second, left_first + 5.0);
+}
+
+TEST(People, SocialForceLetsTwoPeoplePassHeadOnWhereConstantOnesCollide) {
+  auto closest = [](PeopleModel model) {
+    PeopleConfig c;
+    c.model = model;
+    PersonSpec a = walker({-4, 0.05}, {4, 0.05}), b = walker({4, -0.05}, {-4, -0.05});
+    Crowd crowd({a, b}, c);
+    double d = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 200; ++k) {
+      crowd.step(0.05, {}, kFarRobot, Vec2::Zero());
+      d = std::min(d, (crowd.people()[0].position - crowd.people()[1].position).norm());
+    }
+    return d;
+  };
+  EXPECT_GT(closest(PeopleModel::kSocialForce), 0.5 * 0.95);  // two 0.25 m bodies never overlap
+  EXPECT_LT(closest(PeopleModel::kConstant), 0.2);
+}
+
+TEST(People, NobodyWalksThroughAWall) {
+  // A wall between everyone and their destinations; people start close to it and push toward it for 20 s.
+  const std::vector<Segment> walls = {{Vec2(-5, 0), Vec2(5, 0)}};
+  for (PeopleModel model : {PeopleModel::kSocialForce, PeopleModel::kConstant}) {
+    PeopleConfig c;
+    c.model = model;
+    std::vector<PersonSpec> people;
+    for (int i = 0; i < 8; ++i) people.push_back(walker({-3.5 + i, -0.4 - 0.1 * i}, {-3.5 + i, 3.0}, 1.3));
+    Crowd crowd(people, c);
+    for (int k = 0; k < 400; ++k) {
+      crowd.step(0.05, walls, kFarRobot, Vec2::Zero());
+      for (const Person& p : crowd.people()) ASSERT_LT(p.position.y(), 0.0) << peopleModelName(model) << " step " << k;
+    }
+  }
+}
+
+TEST(People, GroupsWalkTogetherAndAVisibleRobotIsGivenWay) {
+  PersonSpec a = walker({0, -1.5}, {10, -1.5}), b = walker({0, 1.5}, {10, 1.5});
+  a.group = b.group = 4;
+  PeopleConfig c;
+  Crowd together({a, b}, c);
+  a.group = b.group = -1;
+  Crowd apart({a, b}, c);
+  for (int k = 0; k < 100; ++k) {
+    together.step(0.05, {}, kFarRobot, Vec2::Zero());
+    apart.step(0.05, {}, kFarRobot, Vec2::Zero());
+  }
+  const auto gap = [](const Crowd& cr) { return (cr.people()[0].position - cr.people()[1].position).norm(); };
+  EXPECT_LT(gap(together), 2.0);
+  EXPECT_NEAR(gap(apart), 3.0, 0.05);
+
+  // A robot standing in a person's way: walked into when invisible, given way to when seen.
+  const Circle robot{Vec2(3.0, 0.0), 0.2};
+  auto closest = [&](bool see) {
+    PeopleConfig cfg;
+    cfg.see_robot = see;
+    Crowd crowd({walker({0, 0.02}, {6, 0.02})}, cfg);
+    double d = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 150; ++k) {
+      crowd.step(0.05, {}, robot, Vec2::Zero());
+      d = std::min(d, (crowd.people()[0].position - robot.center).norm());
+    }
+    return d;
+  };
+  EXPECT_LT(closest(false), 0.1);
+  EXPECT_GT(closest(true), 0.25 + 0.2 - 0.02);
+}
+
+TEST(People, SameInputSameTrajectories) {
+  std::vector<PersonSpec> people;
+  for (int i = 0; i < 6; ++i)
+    people.push_back(walker({-3.0 + i, -2.0 + 0.5 * i}, {3.0 - i, 2.0 - 0.3 * i}, 0.6 + 0.1 * i));
+  const std::vector<Segment> walls = {{Vec2(-4, -3), Vec2(4, -3)}, {Vec2(-4, 3), Vec2(4, 3)}};
+  Crowd a(people, PeopleConfig{}), b(people, PeopleConfig{});
+  for (int k = 0; k < 100; ++k) {
+    a.step(0.1, walls, kFarRobot, Vec2::Zero());
+    b.step(0.1, walls, kFarRobot, Vec2::Zero());
+  }
+  for (size_t i = 0; i < people.size(); ++i) {
+    EXPECT_EQ(a.people()[i].position, b.people()[i].position);
+    EXPECT_EQ(a.people()[i].gait_phase_rad, b.people()[i].gait_phase_rad);
+  }
+  EXPECT_EQ(a.legs().size(), 12u);
+  EXPECT_EQ(a.asObstacles().size(), 6u);
+}
+
+TEST(People, BadInputIsNamed) {
+  PeopleConfig c;
+  c.relaxation_time_s = 0.0;
+  EXPECT_NE(c.validate().find("relaxation_time_s"), std::string::npos);
+  c = PeopleConfig();
+  c.anisotropy = 1.5;
+  EXPECT_NE(c.validate().find("anisotropy"), std::string::npos);
+  PersonSpec s = walker({0, 0}, {1, 0});
+  s.body_radius_m = -0.2;
+  try {
+    Crowd({walker({0, 0}, {1, 0}), s}, PeopleConfig{});
+    FAIL() << "no error for a negative radius";
+  } catch (const SimConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("person 1"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(parsePeopleModel("teleport"), SimConfigError);
+  EXPECT_EQ(parsePeopleModel("social_force"), PeopleModel::kSocialForce);
+  Crowd crowd({walker({0, 0}, {1, 0})}, PeopleConfig{});
+  EXPECT_THROW(crowd.step(std::nan(""), {}, kFarRobot, Vec2::Zero()), SimConfigError);
+}
+
+}  // namespace
+}  // namespace dqn_dovs::sim
