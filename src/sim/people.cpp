@@ -153,8 +153,7 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
       auto potential = [&](const Vec2& r) {
         const double a = r.norm() + (r - step).norm();
         const double b = 0.5 * std::sqrt(std::max(0.0, a * a - s * s));
-        return config_.person_repulsion_mps2 * config_.person_range_m *
-               std::exp(-(b - radii) / config_.person_range_m);
+        return config_.person_repulsion_mps2 * config_.person_range_m * std::exp(-(b - radii) / config_.person_range_m);
       };
       const Vec2 r = p.position - other;
       if (r.norm() < 1e-9) return;

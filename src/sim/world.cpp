@@ -61,6 +61,12 @@ void checkScenario(const Scenario& s) {
       fail("static segment " + std::to_string(i) + " is not finite");
     }
   }
+  for (size_t i = 0; i < s.people.size(); ++i) {
+    const Vec2& p = s.people[i].position;
+    if (!(p.allFinite() && std::abs(p.x()) < s.room_half_size_m && std::abs(p.y()) < s.room_half_size_m)) {
+      fail("person " + std::to_string(i) + " does not start inside the room");
+    }
+  }
 }
 
 const WorldConfig& validated(const WorldConfig& config) {
@@ -82,6 +88,7 @@ std::string WorldConfig::validate() const {
   }
   const std::string lidar_error = lidar.validate();
   if (!lidar_error.empty()) return "world parameter 'lidar': " + lidar_error;
+  if (const std::string e = people.validate(); !e.empty()) return "world parameter 'people': " + e;
   if (!(std::isfinite(border_turn_rate_rps) && border_turn_rate_rps > 0.0)) {
     return bad("border_turn_rate_rps", border_turn_rate_rps, "must be finite and > 0 rad/s");
   }
@@ -117,6 +124,11 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
     }
     o.turn_direction = o.body.turn_rate < 0.0 ? -1.0 : 1.0;
     obstacles_.push_back(o);
+  }
+  try {
+    crowd_ = Crowd(scenario.people, config_.people);
+  } catch (const SimConfigError& e) {
+    throw ScenarioError("scenario '" + scenario.name + "': " + e.what());
   }
   const double h = scenario.room_half_size_m;
   walls_ = {
@@ -229,6 +241,18 @@ bool World::checkCollision() {
       return true;
     }
   }
+  const std::vector<Person>& people = crowd_.people();
+  for (size_t j = 0; j < people.size(); ++j) {
+    if ((people[j].position - p).norm() < r + people[j].spec.body_radius_m) {
+      if (!collided()) {
+        // A person standing still (waiting) counts as static: driving into them was avoidable.
+        const bool still = people[j].velocity.norm() < 1e-3;
+        collision_ = {CollisionInfo::Kind::kObstacle, static_cast<int>(obstacles_.size() + j), time_s_,
+                      std::abs(robot_twist_.v), still};
+      }
+      return true;
+    }
+  }
   for (size_t i = 0; i < walls_.size(); ++i) {
     if (pointSegmentDistance(p, walls_[i]) < r) {
       if (!collided())
@@ -259,6 +283,9 @@ void World::step(const Twist2& cmd, double dt_s) {
 
   double fastest_obstacle = 0.0;
   for (const SimObstacle& o : obstacles_) fastest_obstacle = std::max(fastest_obstacle, std::abs(o.body.speed));
+  for (const Person& p : crowd_.people()) {
+    fastest_obstacle = std::max(fastest_obstacle, config_.people.max_speed_factor * p.spec.preferred_speed_mps);
+  }
   const double robot_speed =
       config_.ramp_velocity ? std::max(std::abs(robot_twist_.v), std::abs(command.v)) : std::abs(robot_twist_.v);
   const double relative_speed = std::min(robot_speed, config_.robot.v_max) + fastest_obstacle;
@@ -274,6 +301,7 @@ void World::step(const Twist2& cmd, double dt_s) {
     const Pose2 previous = robot_pose_;
     robot_pose_ = integrateUnicycle(robot_pose_, robot_twist_.v, robot_twist_.w, sub_dt);
     for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
+    stepPeople(sub_dt);
     time_s_ += sub_dt;
     if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
       robot_pose_ = previous;
@@ -304,6 +332,9 @@ void World::stepHolonomic(const Vec2& velocity, double dt_s) {
 
   double fastest_obstacle = 0.0;
   for (const SimObstacle& o : obstacles_) fastest_obstacle = std::max(fastest_obstacle, std::abs(o.body.speed));
+  for (const Person& p : crowd_.people()) {
+    fastest_obstacle = std::max(fastest_obstacle, config_.people.max_speed_factor * p.spec.preferred_speed_mps);
+  }
   double h = config_.physics_step_s;
   const double relative_speed = held_speed + fastest_obstacle;
   if (relative_speed > 0.0) h = std::min(h, config_.max_substep_travel_m / relative_speed);
@@ -316,6 +347,7 @@ void World::stepHolonomic(const Vec2& velocity, double dt_s) {
       robot_pose_.y += u.y() * sub_dt;
     }
     for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
+    stepPeople(sub_dt);
     time_s_ += sub_dt;
     if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
       robot_pose_ = previous;
@@ -325,9 +357,15 @@ void World::stepHolonomic(const Vec2& velocity, double dt_s) {
   }
 }
 
+void World::stepPeople(double dt_s) {
+  if (crowd_.people().empty()) return;
+  const Vec2 robot_velocity = robot_twist_.v * Vec2(std::cos(robot_pose_.theta), std::sin(robot_pose_.theta));
+  crowd_.step(dt_s, walls_, Circle{robot_pose_.position(), config_.robot.radius}, robot_velocity);
+}
+
 std::vector<MovingObstacle> World::groundTruthObstacles() const {
   std::vector<MovingObstacle> out;
-  out.reserve(obstacles_.size());
+  out.reserve(obstacles_.size() + crowd_.people().size());
   for (const SimObstacle& o : obstacles_) {
     MovingObstacle m = o.body;
     if (o.motion == ObstacleMotion::kTurningAtBorder) {
@@ -336,6 +374,7 @@ std::vector<MovingObstacle> World::groundTruthObstacles() const {
     }
     out.push_back(m);
   }
+  for (const MovingObstacle& m : crowd_.asObstacles()) out.push_back(m);
   return out;
 }
 
@@ -344,6 +383,7 @@ double World::minClearance_m() const {
   const double r = config_.robot.radius;
   double best = kInf;
   for (const SimObstacle& o : obstacles_) best = std::min(best, (o.body.center - p).norm() - o.body.radius - r);
+  for (const Person& q : crowd_.people()) best = std::min(best, (q.position - p).norm() - q.spec.body_radius_m - r);
   // The room walls as a signed distance, so that a robot that went through a wall reads as overlapping.
   const double h = scenario_.room_half_size_m;
   best = std::min(best, std::min(h - std::abs(p.x()), h - std::abs(p.y())) - r);
@@ -355,6 +395,10 @@ void World::scanInto(LaserScan2& out) {
   lidar_scene_.discs.resize(obstacles_.size());
   for (size_t i = 0; i < obstacles_.size(); ++i) {
     lidar_scene_.discs[i] = Circle{obstacles_[i].body.center, obstacles_[i].body.radius};
+  }
+  if (!crowd_.people().empty()) {
+    const std::vector<Circle> seen = config_.scan_legs ? crowd_.legs() : crowd_.bodies();
+    lidar_scene_.discs.insert(lidar_scene_.discs.end(), seen.begin(), seen.end());
   }
   lidar_.scanInto(laserPose(), lidar_scene_, time_s_, out);
 }

@@ -10,6 +10,7 @@
 #include "dqn_dovs/common/geometry.h"
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/sim/errors.h"
+#include "dqn_dovs/sim/people.h"
 
 namespace dqn_dovs::sim {
 
@@ -21,6 +22,7 @@ struct Scenario {
   Vec2 goal = Vec2::Zero();               ///< Goal position in the room frame (m).
   std::vector<MovingObstacle> obstacles;  ///< Initial obstacle states; speed/turn_rate are their nominal motion.
   std::vector<Segment> static_segments;   ///< Optional extra static walls inside the room (not stored in .dovs).
+  std::vector<PersonSpec> people;         ///< People walking between destinations (not stored in .dovs).
   double room_half_size_m = 4.0;          ///< Half the side of the square room (m): walls at x, y = +-room_half_size_m.
 };
 

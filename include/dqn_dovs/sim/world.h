@@ -1,5 +1,6 @@
-// The simulated world: a square room with walls, a differential-drive robot with the limits of
-// robot_model.h, disc obstacles on constant-(v, w) motions that turn around at the room border, and a LIDAR.
+// The simulated world: a square room with walls and any extra wall segments, a differential-drive robot with the
+// limits of robot_model.h, disc obstacles on constant-(v, w) motions that turn around at the room border, people
+// walking between destinations (people.h: bodies for contact, legs for the LIDAR), and a LIDAR.
 // Deterministic: the same scenario, configuration, seed and command sequence give the same trajectory and
 // the same scans, bit for bit.
 #pragma once
@@ -13,6 +14,7 @@
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/sim/errors.h"
 #include "dqn_dovs/sim/lidar.h"
+#include "dqn_dovs/sim/people.h"
 #include "dqn_dovs/sim/scenario.h"
 
 namespace dqn_dovs::sim {
@@ -39,6 +41,10 @@ struct WorldConfig {
   /// dynamic window is reached at once); true: the velocity ramps toward the command at the acceleration
   /// limits, sub-step by sub-step.
   bool ramp_velocity = false;
+  /// How the scenario's people move, and their legs.
+  PeopleConfig people;
+  /// true: the LIDAR sees people's two legs (a scanner at leg height); false: their body discs.
+  bool scan_legs = true;
   /// true: on its first collision the robot is put back to its last collision-free sub-step pose, its
   /// velocity drops to zero and it ignores commands until reset(); false: it keeps driving through.
   bool stop_on_collision = true;
@@ -70,7 +76,7 @@ struct SimObstacle {
 struct CollisionInfo {
   enum class Kind { kNone, kObstacle, kWall };
   Kind kind = Kind::kNone;
-  /// Index into obstacles() or walls().
+  /// Index into groundTruthObstacles() (obstacles, then people) or walls().
   int index = -1;
   /// Simulation time of the sub-step at which the contact was found (s).
   double time_s = 0.0;
@@ -113,8 +119,11 @@ class World {
 
   /// True states of the obstacles, including the border state machine.
   const std::vector<SimObstacle>& obstacles() const { return obstacles_; }
+  /// The people (bodies, legs, plans).
+  const Crowd& crowd() const { return crowd_; }
   /// The obstacles with their instantaneous motion: while turning at the border, speed 0 and turn rate
-  /// +-border_turn_rate_rps; otherwise the nominal (speed, turn_rate).
+  /// +-border_turn_rate_rps; otherwise the nominal (speed, turn_rate); then the people's bodies (index
+  /// obstacles().size() + person).
   std::vector<MovingObstacle> groundTruthObstacles() const;
   /// The four room walls (counter-clockwise from the bottom wall) followed by the scenario's static segments.
   const std::vector<Segment>& walls() const { return walls_; }
@@ -135,6 +144,7 @@ class World {
 
  private:
   void advanceObstacle(SimObstacle& o, double dt_s) const;
+  void stepPeople(double dt_s);
   void startBorderTurn(SimObstacle& o) const;
   /// Earliest time in [0, dt_s] at which the obstacle, moving nominally, reaches the border while heading
   /// out of the room; a negative value when it does not within dt_s.
@@ -150,6 +160,7 @@ class World {
   Twist2 robot_twist_;
   bool robot_stopped_ = false;
   std::vector<SimObstacle> obstacles_;
+  Crowd crowd_;
   std::vector<Segment> walls_;
   CollisionInfo collision_;
   LidarScene lidar_scene_;

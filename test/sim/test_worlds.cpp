@@ -1,0 +1,176 @@
+// World families: deterministic by seed, start and goal where the family puts them, people and their plans in
+// free space with routes that never cross a wall, people who never walk through one in the simulator, and the
+// world's use of people (legs in the scan, bodies for contact and ground truth).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/sim/world.h"
+#include "dqn_dovs/sim/worlds.h"
+
+namespace dqn_dovs::sim {
+namespace {
+
+bool crosses(const Vec2& p, const Vec2& q, const Segment& s) {
+  auto cross = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
+  const Vec2 r = q - p, w = s.b - s.a;
+  const double denom = cross(r, w);
+  if (std::abs(denom) < 1e-15) return false;
+  const double t = cross(s.a - p, w) / denom, u = cross(s.a - p, r) / denom;
+  return t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0;
+}
+
+WorldFamilyConfig family(WorldFamily f, int people = 8) {
+  WorldFamilyConfig c;
+  c.family = f;
+  c.people = people;
+  return c;
+}
+
+const WorldFamily kBuildings[] = {WorldFamily::kCrowd, WorldFamily::kCorridor, WorldFamily::kDoorway,
+                                  WorldFamily::kClutter, WorldFamily::kJunction};
+
+TEST(Worlds, SameSeedSameWorldAndEveryFamilyHasItsShape) {
+  for (WorldFamily f : kBuildings) {
+    const Scenario a = generateWorld(family(f), 5), b = generateWorld(family(f), 5), c = generateWorld(family(f), 6);
+    EXPECT_EQ(a.name, std::string(worldFamilyName(f)) + "/seed=5");
+    ASSERT_EQ(a.people.size(), 8u) << a.name;
+    EXPECT_EQ(a.people[3].position, b.people[3].position);
+    EXPECT_EQ(a.robot_start.x, b.robot_start.x);
+    EXPECT_NE(a.people[3].position, c.people[3].position);
+    EXPECT_GT((a.goal - a.robot_start.position()).norm(), 5.0) << a.name;
+    EXPECT_EQ(parseWorldFamily(worldFamilyName(f)), f);
+  }
+  const Scenario corridor = generateWorld(family(WorldFamily::kCorridor), 1);
+  EXPECT_GT((corridor.goal - corridor.robot_start.position()).norm(), 11.0);  // beyond any 8 m room
+  // The doorway's shared wall leaves a door of 0.9-1.2 m.
+  for (uint64_t seed = 1; seed <= 10; ++seed) {
+    const Scenario d = generateWorld(family(WorldFamily::kDoorway), seed);
+    std::vector<double> ys;
+    for (const Segment& s : d.static_segments) {
+      // The shared wall's two pieces at x = 0; each has one end on the outer wall (|y| = 3), one at the door.
+      if (std::abs(s.a.x()) < 1e-9 && std::abs(s.b.x()) < 1e-9) {
+        ys.push_back(std::abs(std::abs(s.a.y()) - 3.0) < 1e-9 ? s.b.y() : s.a.y());
+      }
+    }
+    ASSERT_EQ(ys.size(), 2u);
+    const double door = std::abs(ys[0] - ys[1]);
+    EXPECT_GE(door, 0.9 - 1e-9);
+    EXPECT_LE(door, 1.2 + 1e-9);
+    EXPECT_LT(d.robot_start.x, 0.0);
+    EXPECT_GT(d.goal.x(), 0.0);
+  }
+  EXPECT_GE(generateWorld(family(WorldFamily::kClutter), 2).static_segments.size(), 4u);  // furniture
+  // The room family is the paper's generator with `people` disc obstacles.
+  const Scenario room = generateWorld(family(WorldFamily::kRoom, 6), 3);
+  EXPECT_EQ(room.obstacles.size(), 6u);
+  EXPECT_TRUE(room.people.empty());
+}
+
+TEST(Worlds, PeopleAndPlansInFreeSpaceWithRoutesThatCrossNoWall) {
+  for (WorldFamily f : kBuildings) {
+    for (uint64_t seed = 1; seed <= 20; ++seed) {
+      const Scenario s = generateWorld(family(f, 10), seed);
+      for (const Segment& w : s.static_segments) {
+        EXPECT_GT(pointSegmentDistance(s.robot_start.position(), w), 0.2) << s.name;
+        EXPECT_GT(pointSegmentDistance(s.goal, w), 0.2) << s.name;
+      }
+      for (size_t i = 0; i < s.people.size(); ++i) {
+        const PersonSpec& p = s.people[i];
+        ASSERT_FALSE(p.destinations.empty());
+        EXPECT_GE(p.body_radius_m, 0.2);
+        EXPECT_LE(p.body_radius_m, 0.3);
+        std::vector<Vec2> route = {p.position};
+        route.insert(route.end(), p.destinations.begin(), p.destinations.end());
+        route.push_back(p.destinations.front());  // destinations cycle
+        for (size_t k = 0; k + 1 < route.size(); ++k) {
+          for (const Segment& w : s.static_segments) {
+            ASSERT_FALSE(crosses(route[k], route[k + 1], w)) << s.name << " person " << i << " leg " << k;
+          }
+        }
+        for (const Segment& w : s.static_segments) EXPECT_GT(pointSegmentDistance(p.position, w), p.body_radius_m);
+      }
+    }
+  }
+}
+
+TEST(Worlds, NobodyWalksThroughAWallInTheSimulator) {
+  WorldConfig config;
+  for (WorldFamily f : kBuildings) {
+    for (uint64_t seed = 1; seed <= 3; ++seed) {
+      Scenario s = generateWorld(family(f, 12), seed);
+      World world(s, config, seed);
+      std::vector<Vec2> before;
+      for (const Person& p : world.crowd().people()) before.push_back(p.position);
+      for (int k = 0; k < 300; ++k) {  // 60 s with the robot parked
+        world.step({0.0, 0.0}, 0.2);
+        const auto& people = world.crowd().people();
+        for (size_t i = 0; i < people.size(); ++i) {
+          for (const Segment& w : world.walls()) {
+            ASSERT_FALSE(crosses(before[i], people[i].position, w)) << s.name << " person " << i << " at step " << k;
+          }
+          before[i] = people[i].position;
+        }
+      }
+    }
+  }
+}
+
+TEST(Worlds, PeopleInTheWorldAreSeenByTheirLegsAndHitByTheirBodies) {
+  Scenario s;
+  s.name = "one person";
+  s.robot_start = {0.0, 0.0, 0.0};
+  s.goal = Vec2(3.0, 3.0);
+  PersonSpec p;
+  p.position = Vec2(2.0, 0.0);
+  p.heading_rad = kPi;
+  p.preferred_speed_mps = 0.8;
+  p.destinations = {Vec2(-3.0, 0.0)};  // walks at the robot, which it does not see
+  s.people.push_back(p);
+  WorldConfig config;
+  config.lidar.noise_std_m = 0.0;
+  World world(s, config, 1);
+  const std::vector<MovingObstacle> truth = world.groundTruthObstacles();
+  ASSERT_EQ(truth.size(), 1u);
+  EXPECT_NEAR(truth[0].radius, 0.25, 1e-12);
+  // The scan straight ahead meets a leg (nearer than the body's front at 2 - 0.25 m is not required, but the
+  // leg disc's front at 2 - 0.06 m is what a leg-height scanner sees).
+  const LaserScan2 scan = world.scan();
+  const size_t ahead = static_cast<size_t>(std::lround(-scan.angle_min / scan.angle_increment));
+  double nearest = 1e9;
+  for (size_t i = ahead - 8; i <= ahead + 8; ++i) nearest = std::min<double>(nearest, scan.ranges[i]);
+  EXPECT_NEAR(nearest, 2.0 - 0.06, 0.02);
+  for (int k = 0; k < 30 && !world.collided(); ++k) world.step({0.0, 0.0}, 0.2);
+  ASSERT_TRUE(world.collided());
+  EXPECT_EQ(world.collision().kind, CollisionInfo::Kind::kObstacle);
+  EXPECT_EQ(world.collision().index, 0);  // obstacles first (none), then people
+  EXPECT_FALSE(world.collision().static_contact);
+  EXPECT_LT(world.minClearance_m(), 1e-9);
+}
+
+TEST(Worlds, BadConfigurationsAndImpossibleWorldsAreNamed) {
+  try {
+    parseWorldFamily("maze");
+    FAIL();
+  } catch (const SimConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("'maze' is not one of room, crowd"), std::string::npos) << e.what();
+  }
+  WorldFamilyConfig c = family(WorldFamily::kCorridor);
+  c.corridor_width_min_m = 3.5;
+  EXPECT_NE(c.validate().find("corridor_width"), std::string::npos);
+  c = family(WorldFamily::kCorridor, 150);
+  c.corridor_length_m = 6.0;
+  c.max_attempts = 50;
+  try {
+    generateWorld(c, 9);
+    FAIL() << "150 people fit in a 6 m corridor";
+  } catch (const ScenarioError& e) {
+    EXPECT_NE(std::string(e.what()).find("world generator 'corridor' (seed 9): no free place for "), std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dqn_dovs::sim
