@@ -21,6 +21,8 @@
 
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/planning/planner.h"
+#include "dqn_dovs/sim/lidar.h"
+#include "dqn_dovs/sim/worlds.h"
 
 namespace {
 
@@ -30,6 +32,7 @@ const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
+    "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
     "                     [--no-report]\n"
     "  --methods           planners to evaluate, comma-separated (default s_dovs)\n"
     "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
@@ -45,6 +48,11 @@ const char* kUsage =
     "                      action_shield/* and config/static_safety.yaml (static_safety/margin=0.1, ...)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
     "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n"
+    "  --world FAMILY      generated worlds: room (the paper's discs, default), crowd, corridor, doorway,\n"
+    "                      clutter, junction (N = people; needs --generate)\n"
+    "  --sensor PROFILE    LIDAR profile: sim (default), hokuyo, urg04lx, rplidar_a1\n"
+    "  --people-model M    how people move: social_force (default) or constant\n"
+    "  --people-see-robot  people see the robot and give way (default: it is invisible to them)\n"
     "  --no-report         write the records only (results.csv, run.json, paths.json), not the summaries\n"
     "The summaries and plots come from the Python reporter, python -m dqn_dovs_py.report OUT (interpreter\n"
     "$DQN_DOVS_PYTHON, package folder $DQN_DOVS_PYTHON_DIR; defaults: the build's venv and source tree).\n";
@@ -83,6 +91,14 @@ double parseDouble(const std::string& flag, const std::string& text, double lo, 
     throw UsageError(os.str());
   }
   return v;
+}
+
+/// Throws a UsageError naming the flag, the value and the accepted names unless `value` is one of them.
+void checkName(const std::string& flag, const std::string& value, const std::vector<std::string>& names) {
+  if (std::find(names.begin(), names.end(), value) != names.end()) return;
+  std::string list;
+  for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+  throw UsageError(flag + ": '" + value + "' is not one of " + list);
 }
 
 std::vector<std::string> splitList(const std::string& flag, const std::string& text) {
@@ -167,6 +183,17 @@ Options parse(int argc, char** argv) {
       if (const std::string e = o.eval.shield.validate(); !e.empty()) throw UsageError("--shield: " + e);
     } else if (flag == "--reference") {
       o.reference = value();
+    } else if (flag == "--world") {
+      o.eval.world = value();
+      checkName(flag, o.eval.world, dqn_dovs::sim::worldFamilyNames());
+    } else if (flag == "--sensor") {
+      o.eval.sensor = value();
+      checkName(flag, o.eval.sensor, dqn_dovs::sim::LidarConfig::profileNames());
+    } else if (flag == "--people-model") {
+      o.eval.people_model = value();
+      checkName(flag, o.eval.people_model, {"social_force", "constant"});
+    } else if (flag == "--people-see-robot") {
+      o.eval.people_see_robot = true;
     } else if (flag == "--no-report") {
       o.report = false;
     } else if (flag == "--trajectories") {
@@ -177,6 +204,8 @@ Options parse(int argc, char** argv) {
   }
   if (have_scenarios && have_generate) throw UsageError("--scenarios and --generate exclude each other");
   if (have_generate) o.eval.scenarios_dir.clear();
+  if (o.eval.world != "room" && !have_generate) throw UsageError("--world " + o.eval.world + " needs --generate SEED");
+  dqn_dovs::applyWorldOptions(o.eval);
   if (o.reference.empty()) {
     const auto& m = o.eval.methods;
     o.reference = std::find(m.begin(), m.end(), "dqn_dovs") != m.end() ? "dqn_dovs" : m.front();

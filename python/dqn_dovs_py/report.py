@@ -336,6 +336,11 @@ class RunInfo:
     methods: list[str]
     reference: str
     goal_tolerance_m: float
+    # Optional (older runs lack them): the world family, LIDAR profile and people model of generated episodes.
+    world: str = "room"
+    sensor: str = "sim"
+    people_model: str = "social_force"
+    people_see_robot: bool = False
 
 
 def _type_ok(value: object, kind: type) -> bool:
@@ -352,6 +357,7 @@ _RUN_TYPES: dict[str, type] = {"command": str, "scenarios": str, "seed": int, "o
                                "obstacles_max": int, "episodes": int, "dynamic_fraction": float, "perfect_info": bool,
                                "step_s": float, "max_steps": int, "wall_s": float, "threads": int, "methods": list,
                                "reference": str, "goal_tolerance_m": float}
+_OPTIONAL_RUN_TYPES: dict[str, type] = {"world": str, "sensor": str, "people_model": str, "people_see_robot": bool}
 _TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
                list: "a non-empty list of strings"}
 
@@ -372,7 +378,11 @@ def read_run(path: str) -> RunInfo:
             raise ValueError(f"{path}: missing key '{key}'")
         if not _type_ok(data[key], kind):
             raise ValueError(f"{path}: '{key}' must be {_TYPE_NAMES[kind]}, got {data[key]!r}")
-    return RunInfo(**{key: data[key] for key in _RUN_TYPES})
+    for key, kind in _OPTIONAL_RUN_TYPES.items():
+        if key in data and not _type_ok(data[key], kind):
+            raise ValueError(f"{path}: '{key}' must be {_TYPE_NAMES[kind]}, got {data[key]!r}")
+    keys = list(_RUN_TYPES) + [k for k in _OPTIONAL_RUN_TYPES if k in data]
+    return RunInfo(**{key: data[key] for key in keys})
 
 
 # ----------------------------------------------------------------------------------------------- summary.md
@@ -387,9 +397,14 @@ def run_header(run: RunInfo) -> str:
     """The lines above the tables: command, scenarios, perception, wall time."""
     scenarios = f"generated, seed {run.seed}" if run.scenarios == "generated" else f"`{run.scenarios}`"
     perception = "perfect information (ground truth)" if run.perfect_info else "LIDAR + tracker in the loop"
+    world = ""
+    if run.world != "room" or run.sensor != "sim":
+        sees = "people give way to the robot" if run.people_see_robot else "the robot invisible to people"
+        world = (f"World: {run.world} ({run.people_model} people, {sees}); LIDAR profile {run.sensor}  \n"
+                 if run.world != "room" else f"World: room; LIDAR profile {run.sensor}  \n")
     return (f"Command: `{run.command}`  \n"
             f"Scenarios: {scenarios}; obstacles {run.obstacles_min}-{run.obstacles_max}, {run.episodes} episodes "
-            f"each; dynamic fraction {run.dynamic_fraction:g}  \n"
+            f"each; dynamic fraction {run.dynamic_fraction:g}  \n" + world +
             f"Perception: {perception}; step {run.step_s:g} s, limit {run.max_steps} steps  \n"
             f"Wall time: {run.wall_s:.1f} s on {run.threads} thread(s)")
 

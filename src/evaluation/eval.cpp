@@ -13,12 +13,16 @@
 
 #include "dqn_dovs/common/random.h"
 #include "dqn_dovs/planning/planner.h"
+#include "dqn_dovs/sim/worlds.h"
 
 namespace dqn_dovs {
 
 std::string EvalConfig::validate() const {
   std::ostringstream os;
   if (methods.empty()) return "methods is empty";
+  if (world != "room" && !scenarios_dir.empty()) {
+    return "world '" + world + "' is generated: scenario files hold only the room (use the generator)";
+  }
   for (size_t i = 0; i < methods.size(); ++i) {
     if (methods[i].empty()) return "methods[" + std::to_string(i) + "] is empty";
     for (size_t j = 0; j < i; ++j) {
@@ -53,6 +57,20 @@ uint64_t episodeSeed(uint64_t base, int obstacles, int episode) {
 
 }  // namespace
 
+void applyWorldOptions(EvalConfig& config) {
+  try {
+    config.episode.world.lidar = sim::LidarConfig::profile(config.sensor);
+    config.episode.world.people.model = sim::parsePeopleModel(config.people_model);
+  } catch (const sim::SimError& e) {
+    throw EvalError(e.what());
+  }
+  config.episode.world.people.see_robot = config.people_see_robot;
+  // One scan every control period / n: the scanner's period, or the next slower one that divides the period.
+  const double dt = config.episode.world.robot.dt;
+  const int n = std::max(1, static_cast<int>(std::floor(dt / config.episode.world.lidar.scan_period_s + 1e-9)));
+  config.episode.scan_period_s = dt / n;
+}
+
 std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config) {
   if (const std::string e = config.validate(); !e.empty()) throw EvalError("evaluation configuration: " + e);
   std::vector<EvalScenario> out;
@@ -75,6 +93,23 @@ std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config) {
                           " obstacles, the folder 1-" + std::to_string(n) + " promises " + std::to_string(n));
         }
         s.scenario.name = "1-" + std::to_string(n) + "/" + std::to_string(k);
+      } else if (config.world != "room") {
+        sim::WorldFamilyConfig w;
+        try {
+          w.family = sim::parseWorldFamily(config.world);
+        } catch (const sim::SimError& e) {
+          throw EvalError(e.what());
+        }
+        w.people = n;
+        const uint64_t scenario_seed = episodeSeed(config.seed ^ 0x5CE7A210ULL, n, k);
+        try {
+          s.scenario = sim::generateWorld(w, scenario_seed);
+        } catch (const std::exception& e) {
+          throw EvalError("generated " + config.world + " world (seed " + std::to_string(config.seed) + ", " +
+                          std::to_string(n) + " people, episode " + std::to_string(k) + "): " + e.what());
+        }
+        s.scenario.name =
+            config.world + "/" + std::to_string(config.seed) + "/" + std::to_string(n) + "/" + std::to_string(k);
       } else {
         sim::GeneratorConfig g;
         g.obstacle_count_min = n;
@@ -118,12 +153,14 @@ EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& metho
   r.obstacles = s.obstacles;
   r.episode = s.episode;
   r.scenario = s.scenario.name;
-  if (keep_paths) r.obstacle_paths.resize(ep.world().obstacles().size());
+  // Obstacles, then people (the order of World::groundTruthObstacles).
+  if (keep_paths) r.obstacle_paths.resize(ep.world().obstacles().size() + ep.world().crowd().people().size());
   auto recordObstacles = [&]() {
     if (!keep_paths) return;
     const auto& obs = ep.world().obstacles();
-    for (size_t i = 0; i < obs.size() && i < r.obstacle_paths.size(); ++i)
-      r.obstacle_paths[i].push_back(obs[i].body.center);
+    const auto& people = ep.world().crowd().people();
+    for (size_t i = 0; i < r.obstacle_paths.size(); ++i)
+      r.obstacle_paths[i].push_back(i < obs.size() ? obs[i].body.center : people[i - obs.size()].position);
   };
   recordObstacles();
   const RobotLimits& limits = ep.config().world.robot;
@@ -315,6 +352,9 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"seed\": " << config.seed << ",\n  \"obstacles_min\": " << config.obstacles_min
       << ",\n  \"obstacles_max\": " << config.obstacles_max << ",\n  \"episodes\": " << config.episodes
       << ",\n  \"dynamic_fraction\": " << jsonNumber(config.dynamic_fraction)
+      << ",\n  \"world\": " << jsonString(config.world) << ",\n  \"sensor\": " << jsonString(config.sensor)
+      << ",\n  \"people_model\": " << jsonString(config.people_model)
+      << ",\n  \"people_see_robot\": " << (config.people_see_robot ? "true" : "false")
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"step_s\": " << jsonNumber(config.episode.world.robot.dt)
       << ",\n  \"max_steps\": " << config.episode.reward.max_steps << ",\n  \"wall_s\": " << jsonNumber(info.wall_s)
@@ -360,9 +400,12 @@ void writePathsJson(const std::vector<EpisodeRecord>& records, const std::vector
     }
     out << "],\n \"obstacle_paths\": [";
     for (size_t i = 0; i < r.obstacle_paths.size(); ++i) {
-      const bool known = i < sc.obstacles.size();
-      out << (i ? ",\n  " : "\n  ") << "{\"radius\": " << jsonNumber(known ? sc.obstacles[i].radius : 0.2)
-          << ", \"static\": " << (known && sc.obstacles[i].is_static ? "true" : "false") << ", \"path\": [";
+      const bool disc = i < sc.obstacles.size(), person = !disc && i - sc.obstacles.size() < sc.people.size();
+      const double radius = disc     ? sc.obstacles[i].radius
+                            : person ? sc.people[i - sc.obstacles.size()].body_radius_m
+                                     : 0.2;
+      out << (i ? ",\n  " : "\n  ") << "{\"radius\": " << jsonNumber(radius)
+          << ", \"static\": " << (disc && sc.obstacles[i].is_static ? "true" : "false") << ", \"path\": [";
       const std::vector<Vec2>& trail = r.obstacle_paths[i];
       for (size_t k = 0; k < trail.size(); ++k) {
         out << (k ? ", [" : "[") << jsonNumber(trail[k].x(), 6) << ", " << jsonNumber(trail[k].y(), 6) << "]";

@@ -62,3 +62,36 @@ def test_shield_overrides_change_the_decisions_and_bad_ones_are_named(tmp_path):
     assert proc.returncode != 0 and "unknown action shield parameter 'no_such_thing'" in proc.stderr
     proc, _ = run_eval(tmp_path, "--shield", "passive_escape")
     assert proc.returncode != 0 and "NAME=VALUE" in proc.stderr
+
+
+def test_every_world_family_and_sensor_runs_through_the_evaluation(tmp_path):
+    # A short smoke run per family (people, walls, furniture), each with another LIDAR profile; the same episodes
+    # for every planner, and the world in run.json and summary.md.
+    sensors = {"crowd": "urg04lx", "corridor": "rplidar_a1", "doorway": "sim", "clutter": "hokuyo",
+               "junction": "urg04lx"}
+    for world, sensor in sensors.items():
+        out = tmp_path / world
+        cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "dqn_dovs,s_dovs", "--world", world, "--sensor", sensor,
+               "--generate", "10003", "--obstacles", "4", "--episodes", "2", "--trajectories", "1", "--out", str(out),
+               "--model", str(ROOT / "models" / "dqn_dovs.dqnw")]
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+        assert proc.returncode == 0, proc.stderr
+        rows = list(csv.DictReader(open(out / "results.csv")))
+        assert [r["scenario"] for r in rows] == [f"{world}/10003/4/{k}" for k in (1, 2)] * 2
+        assert all(int(r["steps"]) > 0 for r in rows), rows
+        run = json.load(open(out / "run.json"))
+        assert (run["world"], run["sensor"], run["people_model"], run["people_see_robot"]) == (
+            world, sensor, "social_force", False)
+        assert f"World: {world} (social_force people, the robot invisible to people); LIDAR profile {sensor}" in (
+            out / "summary.md").read_text()
+        assert list(out.glob("trajectories_*.png"))
+
+
+def test_world_flags_are_checked(tmp_path):
+    base = [str(built_tool("dqn_dovs_eval")), "--out", str(tmp_path / "x"), "--obstacles", "2", "--episodes", "1"]
+    for extra, message in ((["--world", "maze", "--generate", "1"], "--world: 'maze' is not one of room, crowd"),
+                           (["--world", "crowd"], "--world crowd needs --generate SEED"),
+                           (["--sensor", "sonar"], "--sensor: 'sonar' is not one of sim, hokuyo, urg04lx, rplidar_a1"),
+                           (["--people-model", "orca"], "--people-model: 'orca' is not one of social_force, constant")):
+        proc = subprocess.run(base + extra, capture_output=True, text=True, timeout=60, cwd=ROOT)
+        assert proc.returncode == 2 and message in proc.stderr, proc.stderr

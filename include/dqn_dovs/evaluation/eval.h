@@ -40,6 +40,14 @@ struct EvalConfig {
   /// Fraction of moving obstacles (scenarios README convention for files, per-obstacle probability for the
   /// generator), in [0, 1].
   double dynamic_fraction = 0.85;
+  /// World family of generated episodes (sim/worlds.h): "room" is the paper's room of N disc obstacles; the
+  /// others hold N people. Only "room" reads scenario files.
+  std::string world = "room";
+  /// LIDAR profile (sim/lidar.h LidarConfig::profile): applied to episode.world.lidar by applyWorldOptions.
+  std::string sensor = "sim";
+  /// How people move ("constant", "social_force") and whether they see the robot and give way.
+  std::string people_model = "social_force";
+  bool people_see_robot = false;
   /// Goal distance of generated scenarios: at least this far from the robot, as in the evaluation files, m.
   double generated_goal_distance_min_m = 4.0;
   /// Worker threads (each with its own planners and episode); results do not depend on it.
@@ -56,6 +64,11 @@ struct EvalConfig {
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
 };
+
+/// Puts config.sensor, people_model and people_see_robot into config.episode (the LIDAR profile, the scan period:
+/// the scanner's, or the next slower one that divides the control period, and the people model). Throws
+/// EvalError naming the unknown name.
+void applyWorldOptions(EvalConfig& config);
 
 /// Collisions split by who could have avoided them (passive safety): hitting static geometry (walls, furniture,
 /// static obstacles) is never necessary; a robot at rest (speed below kRestSpeedMps) was walked into; a moving
@@ -101,7 +114,7 @@ struct EpisodeRecord {
   std::vector<int> actions;
   /// Robot poses at every step (only for jobs listed in EvalConfig::keep_paths).
   std::vector<Pose2> robot_path;
-  /// Per obstacle, its centre at every step (same jobs).
+  /// Per obstacle, then per person, its centre at every step (same jobs).
   std::vector<std::vector<Vec2>> obstacle_paths;
 };
 
