@@ -195,20 +195,52 @@ void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vecto
     }
   }
 
+  const double amin = config_.angleMin_rad(), inc = config_.angleIncrement_rad();
+  const double yaw = laser_pose.theta;
+  const long last = static_cast<long>(n) - 1;
+  // Calls hit(i) for every beam whose angle (from beam 0) lies in [lo, hi] rad, with one guard beam on each side
+  // against rounding, across the wrap of a full circle (hit decides exactly).
+  auto forBeamsIn = [&](double lo, double hi, auto&& hit) {
+    for (const double shift : {-kTwoPi, 0.0, kTwoPi}) {
+      if (inc <= 0.0) {
+        if (lo + shift <= 0.0 && hi + shift >= 0.0) hit(0);
+        continue;
+      }
+      const long i0 = std::max(0L, static_cast<long>(std::floor((lo + shift) / inc)) - 1);
+      const long i1 = std::min(last, static_cast<long>(std::ceil((hi + shift) / inc)) + 1);
+      for (long i = i0; i <= i1; ++i) hit(static_cast<size_t>(i));
+    }
+  };
+  // The angle of a world point from beam 0, in [0, 2 pi).
+  auto beamAngle = [&](const Vec2& p) {
+    double a = std::fmod(std::atan2(p.y() - o.y(), p.x() - o.x()) - yaw - amin, kTwoPi);
+    return a < 0.0 ? a + kTwoPi : a;
+  };
+
   for (const Segment& seg : scene.segments) {
     const Vec2 normal(-(seg.b - seg.a).y(), (seg.b - seg.a).x());
-    for (size_t i = 0; i < n; ++i) {
+    auto hit = [&](size_t i) {
       const std::optional<double> t = raySegment(o, dirs_world[i], seg);
       if (t && *t < ranges[i]) {
         ranges[i] = *t;
         incidence(i, normal);
       }
+    };
+    // Only the beams between the angles of the two ends can hit the segment (the shorter arc between them; a
+    // laser on the segment's line, where the arc is undefined, tries every beam).
+    const Vec2 ra = seg.a - o, rb = seg.b - o;
+    const double side = ra.x() * rb.y() - ra.y() * rb.x();
+    if (!(seg.a.allFinite() && seg.b.allFinite())) continue;
+    if (std::abs(side) < 1e-12 * std::max(1.0, ra.squaredNorm() + rb.squaredNorm())) {
+      for (size_t i = 0; i < n; ++i) hit(i);
+      continue;
     }
+    double lo = beamAngle(seg.a), hi = beamAngle(seg.b);
+    if (side < 0.0) std::swap(lo, hi);  // counter-clockwise from lo to hi
+    if (hi < lo) hi += kTwoPi;
+    forBeamsIn(lo, hi, hit);
   }
 
-  const double amin = config_.angleMin_rad(), inc = config_.angleIncrement_rad();
-  const double yaw = laser_pose.theta;
-  const long last = static_cast<long>(n) - 1;
   for (const Circle& disc : scene.discs) {
     if (!(disc.center.allFinite() && std::isfinite(disc.radius) && disc.radius > 0.0)) continue;
     const Vec2 rel = disc.center - o;
@@ -220,32 +252,14 @@ void Lidar::castAll(const Pose2& laser_pose, const LidarScene& scene, std::vecto
     }
     // Only the beams inside the disc's angular span [bearing - half_span, bearing + half_span] can hit it.
     const double half_span = std::asin(disc.radius / dist);
-    double bearing = std::fmod(std::atan2(rel.y(), rel.x()) - yaw - amin, kTwoPi);
-    if (bearing < 0.0) bearing += kTwoPi;
-    for (const double shift : {-kTwoPi, 0.0, kTwoPi}) {
-      const double lo = bearing + shift - half_span, hi = bearing + shift + half_span;
-      if (inc <= 0.0) {
-        if (lo <= 0.0 && hi >= 0.0) {
-          const std::optional<double> t = rayCircle(o, dirs_world[0], disc);
-          if (t && *t < ranges[0]) {
-            ranges[0] = *t;
-            incidence(0, o + *t * dirs_world[0] - disc.center);
-          }
-        }
-        continue;
+    const double bearing = beamAngle(disc.center);
+    forBeamsIn(bearing - half_span, bearing + half_span, [&](size_t k) {
+      const std::optional<double> t = rayCircle(o, dirs_world[k], disc);
+      if (t && *t < ranges[k]) {
+        ranges[k] = *t;
+        incidence(k, o + *t * dirs_world[k] - disc.center);
       }
-      // One extra beam on each side guards against rounding at the span's edges; rayCircle decides exactly.
-      const long i0 = std::max(0L, static_cast<long>(std::floor(lo / inc)) - 1);
-      const long i1 = std::min(last, static_cast<long>(std::ceil(hi / inc)) + 1);
-      for (long i = i0; i <= i1; ++i) {
-        const size_t k = static_cast<size_t>(i);
-        const std::optional<double> t = rayCircle(o, dirs_world[k], disc);
-        if (t && *t < ranges[k]) {
-          ranges[k] = *t;
-          incidence(k, o + *t * dirs_world[k] - disc.center);
-        }
-      }
-    }
+    });
   }
 }
 

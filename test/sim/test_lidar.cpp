@@ -178,11 +178,17 @@ TEST(Lidar, PrefilteredCastingMatchesBruteForce) {
       for (int k = 0; k < 15; ++k) {
         scene.discs.push_back({Vec2(rng.uniform(-3.8, 3.8), rng.uniform(-3.8, 3.8)), rng.uniform(0.05, 0.6)});
       }
-      scene.segments.push_back(
-          {Vec2(rng.uniform(-3, 3), rng.uniform(-3, 3)), Vec2(rng.uniform(-3, 3), rng.uniform(-3, 3))});
+      // Wall segments, prefiltered by the arc between their ends: short and long ones, some passing behind the
+      // laser (arcs across beam 0), one through the laser's position line (every beam tried).
+      for (int k = 0; k < 6; ++k) {
+        scene.segments.push_back(
+            {Vec2(rng.uniform(-3, 3), rng.uniform(-3, 3)), Vec2(rng.uniform(-3, 3), rng.uniform(-3, 3))});
+      }
       // Include headings at the +-pi seam so that spans wrapping around beam 0 are exercised.
       const double theta = trial % 3 == 0 ? kPi - 1e-4 : rng.uniform(-kPi, kPi);
       Pose2 pose{rng.uniform(-3.5, 3.5), rng.uniform(-3.5, 3.5), theta};
+      const Vec2 along(std::cos(rng.uniform(-kPi, kPi)), 0.3);
+      scene.segments.push_back({pose.position() + 0.5 * along, pose.position() + 2.0 * along});
       bool inside = false;
       for (const Circle& d : scene.discs) inside = inside || (d.center - pose.position()).norm() <= d.radius;
       if (inside) continue;
