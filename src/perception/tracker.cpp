@@ -47,6 +47,11 @@ std::string TrackerConfig::validate() const {
   if (radius_window < 1) return badField("radius_window", radius_window, "must be >= 1");
   if (!(std::isfinite(radius_quantile) && radius_quantile >= 0.0 && radius_quantile <= 1.0))
     return badField("radius_quantile", radius_quantile, "must be in [0, 1]");
+  if (!positive(leg_max_radius_m)) return badField("leg_max_radius_m", leg_max_radius_m, "must be > 0 (m)");
+  if (!positive(leg_pair_max_distance_m))
+    return badField("leg_pair_max_distance_m", leg_pair_max_distance_m, "must be > 0 (m)");
+  if (!(positive(person_radius_m) && person_radius_m <= max_circle_radius_m))
+    return badField("person_radius_m", person_radius_m, "must be > 0 and at most max_circle_radius_m (m)");
   if (!positive(measurement_noise_m)) return badField("measurement_noise_m", measurement_noise_m, "must be > 0 (m)");
   if (!positive(accel_noise_mps2)) return badField("accel_noise_mps2", accel_noise_mps2, "must be > 0 (m/s^2)");
   if (!positive(turn_accel_noise_rps2))

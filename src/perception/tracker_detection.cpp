@@ -152,6 +152,70 @@ void classifyGroup(const std::vector<Vec2>& pts, const std::vector<std::pair<siz
   }
 }
 
+/// People at leg height (TrackerConfig::pair_legs): leg-sized detections paired into person detections, nearest
+/// pairs first; lone legs become persons of person_radius_m. Other detections are left as they are.
+void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles) {
+  auto isLeg = [&](const CircleDetection& d) {
+    if (d.points.size() < 2) return false;
+    return (d.points.front() - d.points.back()).norm() <= 2.0 * config.leg_max_radius_m &&
+           (!d.free_fit || d.circle.radius <= config.leg_max_radius_m);
+  };
+  std::vector<size_t> legs;
+  for (size_t i = 0; i < circles.size(); ++i) {
+    if (isLeg(circles[i])) legs.push_back(i);
+  }
+  if (legs.empty()) return;
+  // A leg's centre: a free fit's, or (a fallback placement sits fallback_radius_m behind the arc) one leg radius
+  // behind the middle of its returns.
+  auto legCentre = [&](const CircleDetection& d) {
+    if (d.free_fit) return d.circle.center;
+    Vec2 mid = Vec2::Zero();
+    for (const Vec2& p : d.points) mid += p;
+    mid /= static_cast<double>(d.points.size());
+    const Vec2 behind = d.circle.center - mid;
+    return behind.norm() > 1e-9 ? Vec2(mid + config.leg_max_radius_m * 0.6 * behind.normalized()) : mid;
+  };
+  struct Pair {
+    double distance;
+    size_t a, b;
+  };
+  std::vector<Pair> pairs;
+  for (size_t i = 0; i < legs.size(); ++i) {
+    for (size_t j = i + 1; j < legs.size(); ++j) {
+      const double d = (legCentre(circles[legs[i]]) - legCentre(circles[legs[j]])).norm();
+      if (d <= config.leg_pair_max_distance_m) pairs.push_back({d, legs[i], legs[j]});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+    return x.distance < y.distance || (x.distance == y.distance && (x.a < y.a || (x.a == y.a && x.b < y.b)));
+  });
+  std::vector<bool> used(circles.size(), false);
+  std::vector<CircleDetection> out;
+  for (const Pair& p : pairs) {
+    if (used[p.a] || used[p.b]) continue;
+    used[p.a] = used[p.b] = true;
+    const Vec2 ca = legCentre(circles[p.a]), cb = legCentre(circles[p.b]);
+    CircleDetection person;
+    person.circle = {0.5 * (ca + cb), std::max(config.person_radius_m, 0.5 * p.distance + config.leg_max_radius_m)};
+    person.fit_rms_m = std::max(circles[p.a].fit_rms_m, circles[p.b].fit_rms_m);
+    person.free_fit = true;  // its radius speaks for the person; no points: no refit with a disc's radius
+    out.push_back(person);
+  }
+  for (size_t i : legs) {
+    if (used[i]) continue;
+    used[i] = true;
+    CircleDetection person;
+    person.circle = {legCentre(circles[i]), config.person_radius_m};
+    person.fit_rms_m = circles[i].fit_rms_m;
+    person.free_fit = true;
+    out.push_back(person);
+  }
+  for (size_t i = 0; i < circles.size(); ++i) {
+    if (!used[i]) out.push_back(std::move(circles[i]));
+  }
+  circles = std::move(out);
+}
+
 /// Classifies one cluster (fixed-frame points in scan order).
 void classifyCluster(const std::vector<Vec2>& pts, const Vec2& laser_xy, const TrackerConfig& config,
                      ScanDetections& out) {
@@ -267,6 +331,7 @@ ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, 
     for (size_t k : cluster) pts.push_back(laser_pose.toWorld(beams[k].local));
     classifyCluster(pts, laser_xy, config, out);
   }
+  if (config.pair_legs) pairLegs(config, out.circles);
   return out;
 }
 

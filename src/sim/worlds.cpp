@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 #include "dqn_dovs/common/random.h"
@@ -76,12 +77,20 @@ class Builder {
     return true;
   }
 
-  /// A free point for a disc of radius `margin`, accepted by `ok`.
+  /// A free point for a disc of radius `margin`, accepted by `ok`; throws ScenarioError naming `what` after
+  /// max_attempts draws.
   template <class Ok>
   Vec2 sample(double margin, Ok ok, const std::string& what) {
+    if (const std::optional<Vec2> p = trySample(margin, ok, c_.max_attempts)) return *p;
+    fail("no free place for " + what);
+  }
+
+  /// The same within `attempts` draws, or nothing.
+  template <class Ok>
+  std::optional<Vec2> trySample(double margin, Ok ok, int attempts) {
     double total = 0.0;
     for (const Rect& r : layout_.free) total += r.area();
-    for (int attempt = 0; attempt < c_.max_attempts; ++attempt) {
+    for (int attempt = 0; attempt < attempts; ++attempt) {
       double pick = rng_.uniform(0.0, total);
       const Rect* rect = &layout_.free.back();
       for (const Rect& r : layout_.free) {
@@ -94,7 +103,7 @@ class Builder {
       const Vec2 p(rng_.uniform(rect->x0, rect->x1), rng_.uniform(rect->y0, rect->y1));
       if (free(p, margin) && ok(p)) return p;
     }
-    fail("no free place for " + what);
+    return std::nullopt;
   }
 
   /// The robot's start and goal, each uniform in its own box, clear of walls.
@@ -181,7 +190,14 @@ class Builder {
         return std::all_of(s.obstacles.begin(), s.obstacles.end(),
                            [&](const MovingObstacle& o) { return (o.center - q).norm() > o.radius + r + 0.1; });
       };
-      p.position = sample(r + 0.1, clear, "person " + std::to_string(i));
+      // A group member that finds no place beside its leader walks alone.
+      std::optional<Vec2> place = trySample(r + 0.1, clear, c_.max_attempts);
+      if (!place && leader != nullptr) {
+        leader = nullptr;
+        place = trySample(r + 0.1, clear, c_.max_attempts);
+      }
+      if (!place) fail("no free place for person " + std::to_string(i));
+      p.position = *place;
       if (leader != nullptr) {
         p.group = leader->group >= 0 ? leader->group : static_cast<int>(s.people.size()) - 1;
         s.people.back().group = p.group;

@@ -66,8 +66,8 @@ struct EvalConfig {
 };
 
 /// Puts config.sensor, people_model and people_see_robot into config.episode (the LIDAR profile, the scan period:
-/// the scanner's, or the next slower one that divides the control period, and the people model). Throws
-/// EvalError naming the unknown name.
+/// the scanner's, or the next slower one that divides the control period, the people model, and the tracker's
+/// leg pairing in worlds with people). Throws EvalError naming the unknown name.
 void applyWorldOptions(EvalConfig& config);
 
 /// Collisions split by who could have avoided them (passive safety): hitting static geometry (walls, furniture,

@@ -60,6 +60,19 @@ struct TrackerConfig {
   /// Quantile of the kept radii that is reported: above the median because partial arcs scatter low.
   double radius_quantile = 0.75;
 
+  // --- legs ---------------------------------------------------------------------------------------------
+  /// People seen at leg height: two leg-sized detections (their returns span at most 2 leg_max_radius_m) whose
+  /// centres are at most leg_pair_max_distance_m apart become one person detection at their midpoint, with
+  /// radius max(person_radius_m, half the legs' distance + leg radius); a leg left alone (the other one hidden)
+  /// is reported as a person of person_radius_m centred on it. Off by default (the paper's discs have no legs).
+  bool pair_legs = false;
+  /// Largest radius of a leg (m).
+  double leg_max_radius_m = 0.1;
+  /// Largest distance between the centres of a person's two legs (m): hip width and stride.
+  double leg_pair_max_distance_m = 0.6;
+  /// Body radius reported for a person (m): what the robot must keep clear of, not the legs' extent.
+  double person_radius_m = 0.25;
+
   // --- filter -------------------------------------------------------------------------------------------
   /// Standard deviation of a detected centre, each axis (m).
   double measurement_noise_m = 0.03;
