@@ -157,18 +157,18 @@ void classifyGroup(const std::vector<Vec2>& pts, const std::vector<std::pair<siz
 void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles) {
   auto isLeg = [&](const CircleDetection& d) {
     if (d.points.size() < 2) return false;
-    return (d.points.front() - d.points.back()).norm() <= 2.0 * config.leg_max_radius_m &&
-           (!d.free_fit || d.circle.radius <= config.leg_max_radius_m);
+    // By the extent of its returns: a free fit on a leg's handful of returns can be far off in radius.
+    return (d.points.front() - d.points.back()).norm() <= 2.0 * config.leg_max_radius_m;
   };
   std::vector<size_t> legs;
   for (size_t i = 0; i < circles.size(); ++i) {
     if (isLeg(circles[i])) legs.push_back(i);
   }
   if (legs.empty()) return;
-  // A leg's centre: a free fit's, or (a fallback placement sits fallback_radius_m behind the arc) one leg radius
-  // behind the middle of its returns.
+  // A leg's centre: a free fit's when its radius is a leg's, otherwise (the fit is off, or a fallback placement
+  // sits fallback_radius_m behind the arc) a leg radius behind the middle of its returns.
   auto legCentre = [&](const CircleDetection& d) {
-    if (d.free_fit) return d.circle.center;
+    if (d.free_fit && d.circle.radius <= config.leg_max_radius_m) return d.circle.center;
     Vec2 mid = Vec2::Zero();
     for (const Vec2& p : d.points) mid += p;
     mid /= static_cast<double>(d.points.size());

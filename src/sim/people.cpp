@@ -65,12 +65,14 @@ std::string PeopleConfig::validate() const {
   positive("arrival_radius_m", arrival_radius_m);
   positive("leg_radius_m", leg_radius_m);
   positive("physics_step_s", physics_step_s);
+  positive("hip_height_m", hip_height_m);
   if (!os.str().empty()) return os.str();
   for (const auto& [name, v] : {std::pair<const char*, double>{"person_repulsion_mps2", person_repulsion_mps2},
                                 {"wall_repulsion_mps2", wall_repulsion_mps2},
                                 {"group_attraction_mps2", group_attraction_mps2},
                                 {"group_radius_m", group_radius_m},
-                                {"hip_half_width_m", hip_half_width_m}}) {
+                                {"hip_half_width_m", hip_half_width_m},
+                                {"scan_height_m", scan_height_m}}) {
     if (!(std::isfinite(v) && v >= 0.0)) {
       os << "people parameter '" << name << "' = " << v << ": must be finite and >= 0";
       return os.str();
@@ -220,7 +222,8 @@ void Crowd::legsOf(const Person& p, const PeopleConfig& config, Circle& left, Ci
   const double speed = p.velocity.norm();
   const Vec2 fwd(std::cos(p.heading_rad), std::sin(p.heading_rad)), side(-fwd.y(), fwd.x());
   // Swing amplitude: half a step when walking, fading to legs side by side when standing.
-  const double swing = 0.5 * stepLength(speed) * std::min(1.0, speed / 0.3) * std::sin(p.gait_phase_rad);
+  const double height = std::clamp((config.hip_height_m - config.scan_height_m) / config.hip_height_m, 0.0, 1.0);
+  const double swing = 0.5 * stepLength(speed) * height * std::min(1.0, speed / 0.3) * std::sin(p.gait_phase_rad);
   left = {p.position + config.hip_half_width_m * side + swing * fwd, config.leg_radius_m};
   right = {p.position - config.hip_half_width_m * side - swing * fwd, config.leg_radius_m};
 }

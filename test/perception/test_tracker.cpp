@@ -9,6 +9,7 @@
 
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/perception/tracker_metrics.h"
+#include "dqn_dovs/sim/people.h"
 #include "tracker_test_helpers.h"
 
 using namespace dqn_dovs;
@@ -188,6 +189,69 @@ TEST(TrackerDetection, NonFiniteBeamsAreSkippedNotClustered) {
 // ---------------------------------------------------------------------------------------------------------
 // Tracking
 // ---------------------------------------------------------------------------------------------------------
+
+TEST(TrackerDetection, LegsPairIntoOnePersonAndDiscsStayDiscs) {
+  std::mt19937 rng(5);
+  SyntheticLidar lidar;
+  lidar.noise_std_m = 0.005;
+  TrackerConfig config;
+  config.pair_legs = true;
+  // A person 2.5 m ahead, legs 0.3 m apart across the beam, and a lone leg (the other hidden) to the left.
+  const std::vector<Circle> legs = {{Vec2(2.5, -0.15), 0.06}, {Vec2(2.5, 0.15), 0.06}, {Vec2(1.0, 2.0), 0.06}};
+  const LaserScan2 scan = syntheticScan(lidar, {}, legs, {}, 0.0, rng);
+  const ScanDetections paired = detectObstacles(scan, {}, config);
+  ASSERT_EQ(paired.circles.size(), 2u);
+  const CircleDetection& person = paired.circles[0];
+  EXPECT_NEAR(person.circle.center.x(), 2.5, 0.05);
+  EXPECT_NEAR(person.circle.center.y(), 0.0, 0.05);
+  EXPECT_GE(person.circle.radius, config.person_radius_m);
+  EXPECT_NEAR((paired.circles[1].circle.center - Vec2(1.0, 2.0)).norm(), 0.0, 0.08);  // the lone leg
+  EXPECT_DOUBLE_EQ(paired.circles[1].circle.radius, config.person_radius_m);
+  config.pair_legs = false;
+  EXPECT_EQ(detectObstacles(scan, {}, config).circles.size(), 3u);
+  // Two 0.2 m discs half a metre apart are discs, not a pair of legs.
+  config.pair_legs = true;
+  const LaserScan2 discs = syntheticScan(lidar, {}, {{Vec2(2.5, -0.35), 0.2}, {Vec2(2.5, 0.35), 0.2}}, {}, 0.0, rng);
+  const ScanDetections d = detectObstacles(discs, {}, config);
+  ASSERT_EQ(d.circles.size(), 2u);
+  for (const CircleDetection& c : d.circles) EXPECT_NEAR(c.circle.radius, 0.2, 0.05);
+}
+
+TEST(Tracker, AWalkingPersonIsOneTrackAtTheBodyCentreWithItsSpeed) {
+  // The simulator's person (gait and all) crossing in front of a still laser for 4 s at 1 m/s.
+  sim::PersonSpec spec;
+  spec.position = Vec2(-2.0, 2.0);
+  spec.preferred_speed_mps = 1.0;
+  spec.destinations = {Vec2(6.0, 2.0)};
+  sim::Crowd crowd({spec}, sim::PeopleConfig{});
+  TrackerConfig config;
+  config.pair_legs = true;
+  ObstacleTracker tracker(config);
+  std::mt19937 rng(3);
+  SyntheticLidar lidar;
+  std::set<int> ids;
+  std::vector<double> centre_err, speed_err;
+  for (int k = 1; k <= 40; ++k) {
+    crowd.step(kScanPeriod, {}, Circle{Vec2(0, -5), 0.2}, Vec2::Zero());
+    const TrackerResult r = tracker.update(syntheticScan(lidar, {}, crowd.legs(), {}, k * kScanPeriod, rng), {});
+    ASSERT_NE(r.status, TrackerStatus::kRejected) << r.message;
+    for (const TrackedObstacle& t : r.scene.obstacles) {
+      ids.insert(t.id);
+      if (k > 15) {  // tracks older than 1 s
+        const sim::Person& p = crowd.people()[0];
+        centre_err.push_back((t.center - p.position).norm());
+        speed_err.push_back(std::abs(t.speed - p.velocity.norm()));
+      }
+    }
+  }
+  EXPECT_EQ(ids.size(), 1u) << "one person, one track";
+  ASSERT_GT(centre_err.size(), 20u);
+  double sum_c = 0.0, sum_s = 0.0;
+  for (double e : centre_err) sum_c += e * e;
+  for (double e : speed_err) sum_s += e * e;
+  EXPECT_LT(std::sqrt(sum_c / centre_err.size()), 0.08);
+  EXPECT_LT(std::sqrt(sum_s / speed_err.size()), 0.15);
+}
 
 TEST(Tracker, StraightLineWithMovingRotatingLaser) {
   ObstacleTracker tracker{TrackerConfig{}};

@@ -56,9 +56,14 @@ TEST(People, LegsStandSideBySideAndSwingInOppositePhaseWhenWalking) {
     }
     (speed < 1.0 ? amplitude_slow : amplitude_fast) = largest;
   }
-  EXPECT_GT(amplitude_slow, 0.15);
-  EXPECT_GT(amplitude_fast, amplitude_slow + 0.05);  // longer strides when faster
-  EXPECT_LT(amplitude_fast, 0.45);
+  // Half a step (0.3 + 0.3 v m) at the scan height (0.3 m of a 0.9 m leg: two thirds of it).
+  EXPECT_NEAR(amplitude_slow, 0.5 * (0.3 + 0.3 * 0.5) * 2.0 / 3.0, 0.01);
+  EXPECT_NEAR(amplitude_fast, 0.5 * (0.3 + 0.3 * 1.3) * 2.0 / 3.0, 0.01);  // longer strides when faster
+  c.scan_height_m = 0.9;  // a scan at hip height sees the legs side by side
+  Crowd hips({walker({0, 0}, {100, 0}, 1.0)}, c);
+  for (int k = 0; k < 20; ++k) hips.step(0.05, {}, kFarRobot, Vec2::Zero());
+  legOffsets(hips.people()[0], c, l, r);
+  EXPECT_NEAR(l.x(), 0.0, 1e-12);
 }
 
 TEST(People, WalkToEachDestinationWaitThereAndGoOn) {

@@ -9,8 +9,8 @@
 //     pull toward the centroid of the person's group.
 // The robot is invisible to people unless PeopleConfig::see_robot, in which case they repel from it like from a
 // person. Legs: two discs beside the body's centre line whose fore-aft offsets swing in opposite phase with a
-// stride that grows with the walking speed; the phase advances with the distance walked, so a standing person's
-// legs are side by side.
+// stride that grows with the walking speed, scaled to the scan height (legs pivot at the hip); the phase advances
+// with the distance walked, so a standing person's legs are side by side.
 // Nobody walks through a wall: a move that would cross one keeps only its component along it.
 // Deterministic: the same people, walls, configuration and robot motion give the same trajectories.
 #pragma once
@@ -62,7 +62,10 @@ struct PeopleConfig {
   double arrival_radius_m = 0.3;       ///< a destination closer than this is reached
   double leg_radius_m = 0.06;          ///< leg disc radius at the scan height
   double hip_half_width_m = 0.1;       ///< lateral offset of each leg from the centre line
-  double physics_step_s = 0.05;        ///< longest integration step
+  /// Height of the LIDAR's scan plane (m): legs pivot at the hip, so the lower the scan the closer the legs.
+  double scan_height_m = 0.3;
+  double hip_height_m = 0.9;     ///< height of the hip joint (m)
+  double physics_step_s = 0.05;  ///< longest integration step
 
   /// Empty when consistent, otherwise a message naming the field and why.
   std::string validate() const;
