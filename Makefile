@@ -21,6 +21,7 @@ help:
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
 	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information (EPISODES=100)"
+	@echo "make benchmark-worlds  docs/benchmark_worlds.md: dqn_dovs vs s_dovs on every world family, LIDAR profile and people model (EPISODES=50)"
 	@echo "make select-model RUN=runs/NAME  rank a training run's snapshots on held-out generated scenarios"
 	@echo "make demo    the ROS pipeline in simulation on shared scenarios"
 	@echo "make soak    the full pipeline in real time over random scenarios for SOAK_SECONDS (3600) s: crashes, RSS, deadlines"
@@ -53,6 +54,10 @@ performance-report: setup
 
 benchmark-table: build
 	@bash scripts/benchmark_table.sh
+
+.PHONY: benchmark-worlds
+benchmark-worlds: build
+	@bash scripts/benchmark_worlds.sh
 
 select-model: build
 	@bash scripts/select_model.sh $(RUN)

@@ -26,6 +26,10 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   c.deletion_timeout_s = param<double>(pnh, p + "deletion_timeout", c.deletion_timeout_s);
   c.max_time_gap_s = param<double>(pnh, p + "max_time_gap", c.max_time_gap_s);
   c.static_speed_threshold_mps = param<double>(pnh, p + "static_speed_threshold", c.static_speed_threshold_mps);
+  c.pair_legs = param<bool>(pnh, p + "pair_legs", c.pair_legs);
+  c.leg_max_radius_m = param<double>(pnh, p + "leg_max_radius", c.leg_max_radius_m);
+  c.leg_pair_max_distance_m = param<double>(pnh, p + "leg_pair_max_distance", c.leg_pair_max_distance_m);
+  c.person_radius_m = param<double>(pnh, p + "person_radius", c.person_radius_m);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);
   return c;

@@ -208,17 +208,26 @@ class Builder {
         std::vector<Vec2> stops;
         Vec2 last = p.position;
         for (int k = 0; k < 4; ++k) {
-          last = sample(
-              r + 0.15,
-              [&](const Vec2& q) {
-                // Far enough, and reachable in a straight line (through the hub between regions); the last
-                // stop also leads back to the first.
-                return (q - last).norm() >= c_.destination_min_distance_m && reachable(last, q) &&
-                       (k < 3 || reachable(q, stops.front()));
-              },
-              "a destination of person " + std::to_string(i));
+          // Far enough, and reachable in a straight line (through the hub between regions); the last stop also
+          // leads back to the first. Where furniture leaves no such place, half the distance will do, and a
+          // person boxed in further keeps the stops it has.
+          auto stop = [&](double min_distance) {
+            return trySample(
+                r + 0.15,
+                [&](const Vec2& q) {
+                  return (q - last).norm() >= min_distance && reachable(last, q) &&
+                         (k < 3 || reachable(q, stops.front()));
+                },
+                c_.max_attempts);
+          };
+          std::optional<Vec2> q = stop(c_.destination_min_distance_m);
+          if (!q) q = stop(0.5 * c_.destination_min_distance_m);
+          if (!q) break;
+          last = *q;
           stops.push_back(last);
         }
+        while (stops.size() > 1 && !reachable(stops.back(), stops.front())) stops.pop_back();
+        if (stops.empty()) fail("no destination reachable from person " + std::to_string(i));
         p.destinations = route(p.position, stops);
       }
       const Vec2 first = p.destinations.front() - p.position;

@@ -150,6 +150,18 @@ TEST(Worlds, PeopleInTheWorldAreSeenByTheirLegsAndHitByTheirBodies) {
   EXPECT_LT(world.minClearance_m(), 1e-9);
 }
 
+TEST(Worlds, EveryFamilyHoldsFifteenPeople) {
+  // The densest evaluation setting: every family places 15 people with their plans, whatever the seed
+  // (furniture may leave a person fewer or nearer destinations, never none).
+  for (WorldFamily f : kBuildings) {
+    for (uint64_t seed = 1; seed <= 60; ++seed) {
+      const Scenario s = generateWorld(family(f, 15), seed * 7919);
+      ASSERT_EQ(s.people.size(), 15u) << s.name;
+      for (const PersonSpec& p : s.people) ASSERT_FALSE(p.destinations.empty()) << s.name;
+    }
+  }
+}
+
 TEST(Worlds, BadConfigurationsAndImpossibleWorldsAreNamed) {
   try {
     parseWorldFamily("maze");

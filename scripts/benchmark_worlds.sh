@@ -1,0 +1,99 @@
+#!/usr/bin/env bash
+# Regenerates docs/benchmark_worlds.md: dqn_dovs and s_dovs with the evaluation CLI on generated worlds, LIDAR +
+# tracker in the loop, seed 11001 (the seed of this report, never used to tune anything):
+# - every world family (room, crowd, corridor, doorway, clutter, junction) at N = 5, 10 and 15 with the sim LIDAR
+#   and social-force people to whom the robot is invisible: docs/benchmark_worlds/FAMILY_nN/;
+# - crowd at N = 10 with the hokuyo, urg04lx and rplidar_a1 profiles (crowd_n10_PROFILE/; sim is crowd_n10/);
+# - crowd at N = 10 with constant-velocity people (crowd_n10_constant/) and with people who give way to the robot
+#   (crowd_n10_see_robot/).
+# Each run folder keeps results.csv, run.json, summary.json and summary.md; FAMILY_n10/ also keeps dqn_dovs's
+# first trajectory picture. Then python/dqn_dovs_py/worlds_report.py writes the tables and
+# docs/benchmark_worlds/success_by_world.png, including docs/benchmark_worlds_discussion.md (hand-written).
+# A run the tool stops (a world it cannot generate) keeps only failed.txt, its error; the others go on, the report
+# shows it as not run and the script exits 1 at the end.
+# Run from anywhere (make benchmark-worlds does); one progress line per run with its wall time. With the defaults
+# (23 runs x 2 methods x 50 episodes) about 3 min on 2 cores (189 s measured while the machine also compiled; the
+# doorway and junction runs take 15-20 s each, the others 3-8 s).
+# Environment: EPISODES (50 per run and method), THREADS (2), MODEL (models/dqn_dovs.dqnw), DQN_DOVS_EVAL (default
+# install/lib/dqn_dovs/dqn_dovs_eval), OUT_DIR (docs/benchmark_worlds), OUT_DOC (docs/benchmark_worlds.md).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+# shellcheck source=scripts/env.sh
+. scripts/env.sh
+root="$(pwd)"
+seed=11001  # fixed: the report's seed
+episodes="${EPISODES:-50}"
+threads="${THREADS:-2}"
+model="${MODEL:-models/dqn_dovs.dqnw}"
+exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
+out_dir="${OUT_DIR:-docs/benchmark_worlds}"
+out_doc="${OUT_DOC:-docs/benchmark_worlds.md}"
+families=(room crowd corridor doorway clutter junction)
+counts=(5 10 15)
+# The installed tools find the core library through the install tree.
+export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+
+[ -x "$exe" ] || { echo "benchmark_worlds: $exe not found; run 'make build' (or set DQN_DOVS_EVAL)" >&2; exit 2; }
+[ -f "$model" ] || { echo "benchmark_worlds: model $model not found" >&2; exit 2; }
+[ -x .venv/bin/python ] || { echo "benchmark_worlds: .venv missing; run 'make setup'" >&2; exit 2; }
+
+total_runs=$(( ${#families[@]} * ${#counts[@]} + 5 ))
+done_runs=0
+failed=()
+
+# evaluate NAME N TRAJECTORIES [dqn_dovs_eval options...]: one run of both methods at N into OUT_DIR/NAME/.
+evaluate() {
+  local name=$1 n=$2 trajectories=$3
+  shift 3
+  local dir="$out_dir/$name"
+  rm -rf "$dir"
+  mkdir -p "$dir"
+  local args=(--methods dqn_dovs,s_dovs --generate "$seed" --obstacles "$n" --episodes "$episodes"
+              --threads "$threads" --model "$model" --trajectories "$trajectories" --out "$dir" "$@")
+  local start end
+  start=$(date +%s.%N)
+  local outcome
+  if "$exe" "${args[@]}" >"$dir/eval.log" 2>&1; then
+    # The console table's mean row: success, c = collision, t = timeout of dqn_dovs then s_dovs.
+    outcome="dqn_dovs / s_dovs:$(grep -E '^ +mean ' "$dir/eval.log" | sed -E 's/^ +mean//; s/ +/ /g')"
+  else
+    # The tool stops at its first error (its last line); the report shows the run as not run, with it.
+    tail -n 1 "$dir/eval.log" >"$dir/failed.txt"
+    failed+=("$name")
+    outcome="FAILED: $(cat "$dir/failed.txt")"
+  fi
+  end=$(date +%s.%N)
+  done_runs=$((done_runs + 1))
+  printf '[%2d/%d] %-20s %6.1f s  %s\n' "$done_runs" "$total_runs" "$name" "$(echo "$end - $start" | bc)" "$outcome"
+  # What the report needs stays; paths.json, the success plot and every other picture would make the folder heavy.
+  find "$dir" -type f ! -name results.csv ! -name run.json ! -name summary.json ! -name summary.md \
+    ! -name failed.txt ! -name 'trajectories_dqn_dovs_*' -delete
+}
+
+mkdir -p "$out_dir"
+total_start=$(date +%s.%N)
+for family in "${families[@]}"; do
+  for n in "${counts[@]}"; do
+    keep=0
+    [ "$n" = 10 ] && keep=1  # one dqn_dovs trajectory per family
+    evaluate "${family}_n$n" "$n" "$keep" --world "$family" --sensor sim
+  done
+done
+for sensor in hokuyo urg04lx rplidar_a1; do
+  evaluate "crowd_n10_$sensor" 10 0 --world crowd --sensor "$sensor"
+done
+evaluate crowd_n10_constant 10 0 --world crowd --sensor sim --people-model constant
+evaluate crowd_n10_see_robot 10 0 --world crowd --sensor sim --people-see-robot
+total_end=$(date +%s.%N)
+total_wall=$(echo "$total_end - $total_start" | bc)
+printf "=== benchmark-worlds: %d runs in %.1f s\n" "$total_runs" "$total_wall"
+
+commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+dirty=$(git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo "+local changes" || true)
+MPLBACKEND=Agg PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.worlds_report --runs "$out_dir" \
+  --out "$out_doc" --discussion docs/benchmark_worlds_discussion.md --commit "$commit$dirty" --model "$model" \
+  --total-wall "$total_wall"
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "benchmark_worlds: ${#failed[@]} run(s) failed (${failed[*]}); the report shows them as not run" >&2
+  exit 1
+fi
