@@ -37,4 +37,13 @@ Vec2 closestPointOnSegment(const Vec2& p, const Segment& s) {
 
 double pointSegmentDistance(const Vec2& p, const Segment& s) { return (p - closestPointOnSegment(p, s)).norm(); }
 
+bool segmentsCross(const Vec2& p, const Vec2& q, const Segment& s) {
+  auto cross = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
+  const Vec2 r = q - p, w = s.b - s.a;
+  const double denom = cross(r, w);
+  if (std::abs(denom) < 1e-15) return false;
+  const double t = cross(s.a - p, w) / denom, u = cross(s.a - p, r) / denom;
+  return t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0;
+}
+
 }  // namespace dqn_dovs

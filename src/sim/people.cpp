@@ -13,24 +13,6 @@ namespace {
 
 bool finitePositive(double x) { return std::isfinite(x) && x > 0.0; }
 
-/// Closest point of segment s to p.
-Vec2 closestOnSegment(const Segment& s, const Vec2& p) {
-  const Vec2 d = s.b - s.a;
-  const double len2 = d.squaredNorm();
-  const double t = len2 > 0.0 ? std::clamp((p - s.a).dot(d) / len2, 0.0, 1.0) : 0.0;
-  return s.a + t * d;
-}
-
-/// True when the open segments p-q and s cross (a body's centre moving through a wall).
-bool crosses(const Vec2& p, const Vec2& q, const Segment& s) {
-  auto cross = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
-  const Vec2 r = q - p, w = s.b - s.a;
-  const double denom = cross(r, w);
-  if (std::abs(denom) < 1e-15) return false;
-  const double t = cross(s.a - p, w) / denom, u = cross(s.a - p, r) / denom;
-  return t > 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0;
-}
-
 /// Step length (m) of a person walking at `speed` (m/s): longer strides when faster.
 double stepLength(double speed) { return 0.3 + 0.3 * std::min(speed, 1.5); }
 
@@ -172,7 +154,7 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
     }
     if (config_.see_robot) repel(robot.center, robot.radius, robot_velocity);
     for (const Segment& w : walls) {
-      const Vec2 d = p.position - closestOnSegment(w, p.position);
+      const Vec2 d = p.position - closestPointOnSegment(p.position, w);
       const double dist = d.norm();
       if (dist < 1e-9 || dist > p.spec.body_radius_m + 10.0 * config_.wall_range_m) continue;
       force += config_.wall_repulsion_mps2 * std::exp((p.spec.body_radius_m - dist) / config_.wall_range_m) * d / dist;
@@ -197,7 +179,7 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
     // Nobody walks through a wall: a move whose centre would cross one is cancelled, and the velocity keeps only
     // its component along that wall (people slide along walls).
     for (const Segment& w : walls) {
-      if (!crosses(p.position, next, w)) continue;
+      if (!segmentsCross(p.position, next, w)) continue;
       const Vec2 along = (w.b - w.a).normalized();
       v = v.dot(along) * along;
       next = p.position;

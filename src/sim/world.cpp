@@ -281,11 +281,7 @@ void World::step(const Twist2& cmd, double dt_s) {
     robot_twist_ = robot_stopped_ ? Twist2{} : applyAccelerationLimits(robot_twist_, command, config_.robot, dt_s);
   }
 
-  double fastest_obstacle = 0.0;
-  for (const SimObstacle& o : obstacles_) fastest_obstacle = std::max(fastest_obstacle, std::abs(o.body.speed));
-  for (const Person& p : crowd_.people()) {
-    fastest_obstacle = std::max(fastest_obstacle, config_.people.max_speed_factor * p.spec.preferred_speed_mps);
-  }
+  const double fastest_obstacle = fastestObstacleSpeed();
   const double robot_speed =
       config_.ramp_velocity ? std::max(std::abs(robot_twist_.v), std::abs(command.v)) : std::abs(robot_twist_.v);
   const double relative_speed = std::min(robot_speed, config_.robot.v_max) + fastest_obstacle;
@@ -330,11 +326,7 @@ void World::stepHolonomic(const Vec2& velocity, double dt_s) {
   if (held_speed > 1e-9) robot_pose_.theta = std::atan2(u.y(), u.x());
   robot_twist_ = Twist2{held_speed, 0.0};
 
-  double fastest_obstacle = 0.0;
-  for (const SimObstacle& o : obstacles_) fastest_obstacle = std::max(fastest_obstacle, std::abs(o.body.speed));
-  for (const Person& p : crowd_.people()) {
-    fastest_obstacle = std::max(fastest_obstacle, config_.people.max_speed_factor * p.spec.preferred_speed_mps);
-  }
+  const double fastest_obstacle = fastestObstacleSpeed();
   double h = config_.physics_step_s;
   const double relative_speed = held_speed + fastest_obstacle;
   if (relative_speed > 0.0) h = std::min(h, config_.max_substep_travel_m / relative_speed);
@@ -355,6 +347,15 @@ void World::stepHolonomic(const Vec2& velocity, double dt_s) {
       robot_stopped_ = true;
     }
   }
+}
+
+double World::fastestObstacleSpeed() const {
+  double fastest = 0.0;
+  for (const SimObstacle& o : obstacles_) fastest = std::max(fastest, std::abs(o.body.speed));
+  for (const Person& p : crowd_.people()) {
+    fastest = std::max(fastest, config_.people.max_speed_factor * p.spec.preferred_speed_mps);
+  }
+  return fastest;
 }
 
 void World::stepPeople(double dt_s) {

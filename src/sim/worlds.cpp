@@ -239,14 +239,8 @@ class Builder {
   /// True when the straight walk from a to b (through the hub when they lie in different regions) crosses no wall.
   bool reachable(const Vec2& a, const Vec2& b) const {
     auto clear = [&](const Vec2& p, const Vec2& q) {
-      return std::none_of(layout_.walls.begin(), layout_.walls.end(), [&](const Segment& w) {
-        auto cross = [](const Vec2& u, const Vec2& v) { return u.x() * v.y() - u.y() * v.x(); };
-        const Vec2 r = q - p, d = w.b - w.a;
-        const double denom = cross(r, d);
-        if (std::abs(denom) < 1e-15) return false;
-        const double t = cross(w.a - p, d) / denom, u = cross(w.a - p, r) / denom;
-        return t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0;
-      });
+      return std::none_of(layout_.walls.begin(), layout_.walls.end(),
+                          [&](const Segment& w) { return segmentsCross(p, q, w); });
     };
     if (regionOf(a) == regionOf(b)) return clear(a, b);
     return clear(a, layout_.hub) && clear(layout_.hub, b);

@@ -161,5 +161,15 @@ TEST(PointSegment, DistanceAndClosestPoint) {
   EXPECT_NEAR(s.length(), 4.0, 1e-12);
 }
 
+TEST(Geometry, SegmentsCrossIncludingTheirEnds) {
+  const Segment wall{Vec2(0.0, -1.0), Vec2(0.0, 1.0)};
+  EXPECT_TRUE(segmentsCross(Vec2(-1.0, 0.0), Vec2(1.0, 0.5), wall));
+  EXPECT_TRUE(segmentsCross(Vec2(-1.0, 0.0), Vec2(0.0, 0.0), wall));    // ends on the wall
+  EXPECT_TRUE(segmentsCross(Vec2(-1.0, 1.0), Vec2(1.0, 1.0), wall));    // through the wall's end
+  EXPECT_FALSE(segmentsCross(Vec2(-1.0, 0.0), Vec2(-0.1, 0.0), wall));  // stops short
+  EXPECT_FALSE(segmentsCross(Vec2(-1.0, 1.5), Vec2(1.0, 1.5), wall));   // passes beyond its end
+  EXPECT_FALSE(segmentsCross(Vec2(0.5, -1.0), Vec2(0.5, 1.0), wall));   // parallel
+}
+
 }  // namespace
 }  // namespace dqn_dovs

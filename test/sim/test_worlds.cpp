@@ -13,15 +13,6 @@
 namespace dqn_dovs::sim {
 namespace {
 
-bool crosses(const Vec2& p, const Vec2& q, const Segment& s) {
-  auto cross = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
-  const Vec2 r = q - p, w = s.b - s.a;
-  const double denom = cross(r, w);
-  if (std::abs(denom) < 1e-15) return false;
-  const double t = cross(s.a - p, w) / denom, u = cross(s.a - p, r) / denom;
-  return t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0;
-}
-
 WorldFamilyConfig family(WorldFamily f, int people = 8) {
   WorldFamilyConfig c;
   c.family = f;
@@ -87,7 +78,7 @@ TEST(Worlds, PeopleAndPlansInFreeSpaceWithRoutesThatCrossNoWall) {
         route.push_back(p.destinations.front());  // destinations cycle
         for (size_t k = 0; k + 1 < route.size(); ++k) {
           for (const Segment& w : s.static_segments) {
-            ASSERT_FALSE(crosses(route[k], route[k + 1], w)) << s.name << " person " << i << " leg " << k;
+            ASSERT_FALSE(segmentsCross(route[k], route[k + 1], w)) << s.name << " person " << i << " leg " << k;
           }
         }
         for (const Segment& w : s.static_segments) EXPECT_GT(pointSegmentDistance(p.position, w), p.body_radius_m);
@@ -109,7 +100,8 @@ TEST(Worlds, NobodyWalksThroughAWallInTheSimulator) {
         const auto& people = world.crowd().people();
         for (size_t i = 0; i < people.size(); ++i) {
           for (const Segment& w : world.walls()) {
-            ASSERT_FALSE(crosses(before[i], people[i].position, w)) << s.name << " person " << i << " at step " << k;
+            ASSERT_FALSE(segmentsCross(before[i], people[i].position, w))
+                << s.name << " person " << i << " at step " << k;
           }
           before[i] = people[i].position;
         }

@@ -131,4 +131,7 @@ double pointSegmentDistance(const Vec2& p, const Segment& s);
 /// Closest point of segment s to p.
 Vec2 closestPointOnSegment(const Vec2& p, const Segment& s);
 
+/// True when the segment from p to q meets segment s (ends included; parallel segments never meet).
+bool segmentsCross(const Vec2& p, const Vec2& q, const Segment& s);
+
 }  // namespace dqn_dovs

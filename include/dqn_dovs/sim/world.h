@@ -145,6 +145,8 @@ class World {
  private:
   void advanceObstacle(SimObstacle& o, double dt_s) const;
   void stepPeople(double dt_s);
+  /// The fastest any obstacle or person can move (m/s): it bounds the sub-step length.
+  double fastestObstacleSpeed() const;
   void startBorderTurn(SimObstacle& o) const;
   /// Earliest time in [0, dt_s] at which the obstacle, moving nominally, reaches the border while heading
   /// out of the room; a negative value when it does not within dt_s.
