@@ -157,8 +157,15 @@ void classifyGroup(const std::vector<Vec2>& pts, const std::vector<std::pair<siz
 void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles) {
   auto isLeg = [&](const CircleDetection& d) {
     if (d.points.size() < 2) return false;
-    // By the extent of its returns: a free fit on a leg's handful of returns can be far off in radius.
-    return (d.points.front() - d.points.back()).norm() <= 2.0 * config.leg_max_radius_m;
+    // By the extent of its returns (a free fit on a leg's handful of returns can be far off in radius), and
+    // curved: a short flat piece is a fragment of a wall or a piece of furniture between occluders.
+    const Vec2 chord = d.points.back() - d.points.front();
+    const double length = chord.norm();
+    if (length > 2.0 * config.leg_max_radius_m || length < 1e-9) return false;
+    const Vec2 normal(-chord.y() / length, chord.x() / length);
+    double sagitta = 0.0;
+    for (const Vec2& p : d.points) sagitta = std::max(sagitta, std::abs((p - d.points.front()).dot(normal)));
+    return sagitta >= config.min_arc_sagitta_ratio * length;
   };
   std::vector<size_t> legs;
   for (size_t i = 0; i < circles.size(); ++i) {
