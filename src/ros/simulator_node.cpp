@@ -12,6 +12,7 @@
 #include "dqn_dovs/SimStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/evaluation/eval.h"
+#include "dqn_dovs/sim/worlds.h"
 #include "ros_params.h"
 
 namespace dqn_dovs {
@@ -83,6 +84,16 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
       static_cast<int>(paramInRange(pnh_, "generator/obstacles", 8, 0, 40));
   generator_config_.obstacle_type = sim::ObstacleType::kBoth;
   generator_config_.dynamic_fraction = dynamic_fraction_;
+  // World family of generated scenarios (sim/worlds.h): "room" is the paper's; the others hold
+  // generator/obstacles people, moved by people/model, who see the robot when people/see_robot.
+  world_family_ = param<std::string>(pnh_, "world", "room");
+  try {
+    sim::parseWorldFamily(world_family_);
+    world_config_.people.model = sim::parsePeopleModel(param<std::string>(pnh_, "people/model", "social_force"));
+  } catch (const sim::SimConfigError& e) {
+    throw ParameterError(std::string("simulator: ") + e.what());
+  }
+  world_config_.people.see_robot = param<bool>(pnh_, "people/see_robot", false);
 
   // First scenario: a .dovs file when `scenario` is set, else the generator with `seed`.
   const std::string scenario_path = param<std::string>(pnh_, "scenario", "");
@@ -93,7 +104,7 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
     scenario = sim::loadDovsScenario(scenario_path, obstacle_radius_m_);
     sim::applyDynamicFraction(scenario, dynamic_fraction_);
   } else {
-    scenario = sim::generateScenario(generator_config_, static_cast<uint64_t>(seed));
+    scenario = generate(generator_config_.obstacle_count_min, dynamic_fraction_, static_cast<uint64_t>(seed));
   }
 
   scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 5);
@@ -113,6 +124,19 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   load_srv_ = pnh_.advertiseService("load_scenario", &SimulatorNode::onLoadScenario, this);
   ROS_INFO("simulator: scenario '%s' with %zu obstacles, step %.3f s, scan every %.3f s%s", scenario_.name.c_str(),
            scenario_.obstacles.size(), period_s_, scan_period_s_, publish_clock_ ? ", publishing /clock" : "");
+}
+
+sim::Scenario SimulatorNode::generate(int count, double dynamic_fraction, uint64_t seed) const {
+  if (world_family_ != "room") {
+    sim::WorldFamilyConfig w;
+    w.family = sim::parseWorldFamily(world_family_);
+    w.people = count;
+    return sim::generateWorld(w, seed);
+  }
+  sim::GeneratorConfig g = generator_config_;
+  g.obstacle_count_min = g.obstacle_count_max = count;
+  g.dynamic_fraction = dynamic_fraction;
+  return sim::generateScenario(g, seed);
 }
 
 ros::Time SimulatorNode::simNow() const {
@@ -168,10 +192,7 @@ bool SimulatorNode::onLoadScenario(LoadScenario::Request& req, LoadScenario::Res
       if (req.obstacle_count < 0 || req.obstacle_count > 40) {
         throw sim::ScenarioError("obstacle_count " + std::to_string(req.obstacle_count) + " is outside [0, 40]");
       }
-      sim::GeneratorConfig g = generator_config_;
-      g.obstacle_count_min = g.obstacle_count_max = req.obstacle_count;
-      g.dynamic_fraction = fraction;
-      scenario = sim::generateScenario(g, static_cast<uint64_t>(req.seed));
+      scenario = generate(req.obstacle_count, fraction, static_cast<uint64_t>(req.seed));
     }
     loadScenario(scenario, static_cast<uint64_t>(std::max<int64_t>(0, req.seed)));
     res.success = true;

@@ -29,6 +29,8 @@ class SimulatorNode {
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool onLoadScenario(LoadScenario::Request& req, LoadScenario::Response& res);
   void loadScenario(const sim::Scenario& scenario, uint64_t seed);
+  /// A generated scenario of the configured world family: `count` obstacles (room) or people, from `seed`.
+  sim::Scenario generate(int count, double dynamic_fraction, uint64_t seed) const;
   void step();
   void publishState(bool with_scan);
   ros::Time simNow() const;
@@ -41,6 +43,7 @@ class SimulatorNode {
   bool publish_clock_ = false;
   sim::WorldConfig world_config_;
   sim::GeneratorConfig generator_config_;
+  std::string world_family_ = "room";
 
   std::mutex mutex_;  // guards the world, the scenario and the command (services run on the spinner thread)
   std::unique_ptr<sim::World> world_;
