@@ -101,8 +101,7 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   if (seed < 0) throw ParameterError("parameter '" + pnh_.resolveName("seed") + "' must be >= 0");
   sim::Scenario scenario;
   if (!scenario_path.empty()) {
-    scenario = sim::loadDovsScenario(scenario_path, obstacle_radius_m_);
-    sim::applyDynamicFraction(scenario, dynamic_fraction_);
+    scenario = loadFile(scenario_path, dynamic_fraction_);
   } else {
     scenario = generate(generator_config_.obstacle_count_min, dynamic_fraction_, static_cast<uint64_t>(seed));
   }
@@ -124,6 +123,15 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   load_srv_ = pnh_.advertiseService("load_scenario", &SimulatorNode::onLoadScenario, this);
   ROS_INFO("simulator: scenario '%s' with %zu obstacles, step %.3f s, scan every %.3f s%s", scenario_.name.c_str(),
            scenario_.obstacles.size(), period_s_, scan_period_s_, publish_clock_ ? ", publishing /clock" : "");
+}
+
+sim::Scenario SimulatorNode::loadFile(const std::string& path, double dynamic_fraction) const {
+  sim::Scenario scenario = sim::loadScenarioFile(path, obstacle_radius_m_);
+  // The protocol's dynamic fraction applies to the .dovs files; text scenarios say which obstacles are static.
+  if (path.size() >= 5 && path.compare(path.size() - 5, 5, ".dovs") == 0) {
+    sim::applyDynamicFraction(scenario, dynamic_fraction);
+  }
+  return scenario;
 }
 
 sim::Scenario SimulatorNode::generate(int count, double dynamic_fraction, uint64_t seed) const {
@@ -185,8 +193,7 @@ bool SimulatorNode::onLoadScenario(LoadScenario::Request& req, LoadScenario::Res
     if (fraction > 1.0) throw sim::ScenarioError("dynamic_fraction " + std::to_string(fraction) + " is above 1");
     sim::Scenario scenario;
     if (!req.path.empty()) {
-      scenario = sim::loadDovsScenario(req.path, obstacle_radius_m_);
-      sim::applyDynamicFraction(scenario, fraction);
+      scenario = loadFile(req.path, fraction);
     } else {
       if (req.seed < 0) throw sim::ScenarioError("seed must be >= 0");
       if (req.obstacle_count < 0 || req.obstacle_count > 40) {

@@ -29,6 +29,8 @@ class SimulatorNode {
   bool onReset(std_srvs::Empty::Request&, std_srvs::Empty::Response&);
   bool onLoadScenario(LoadScenario::Request& req, LoadScenario::Response& res);
   void loadScenario(const sim::Scenario& scenario, uint64_t seed);
+  /// A scenario file of either format (sim::loadScenarioFile), the dynamic fraction applied to .dovs files.
+  sim::Scenario loadFile(const std::string& path, double dynamic_fraction) const;
   /// A generated scenario of the configured world family: `count` obstacles (room) or people, from `seed`.
   sim::Scenario generate(int count, double dynamic_fraction, uint64_t seed) const;
   void step();

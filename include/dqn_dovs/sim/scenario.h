@@ -120,4 +120,24 @@ struct GeneratorConfig {
 /// max_attempts draws (e.g. too many obstacles for the spawn square).
 Scenario generateScenario(const GeneratorConfig& config, uint64_t seed);
 
+/// The text scenario format, version 2 (docs/simulator.md, "Scenario files"): a first line
+/// `dqn_dovs scenario 2`, then one item per line, `#` comments:
+///   name NAME | room HALF_SIZE | robot X Y THETA | goal X Y
+///   obstacle X Y HEADING SPEED TURN_RATE RADIUS [static]
+///   wall X1 Y1 X2 Y2 | polygon X1 Y1 X2 Y2 X3 Y3 ... (closed) | map FILE.yaml (its walls; path relative to the file)
+///   person X Y HEADING RADIUS SPEED WAIT GROUP [DX DY ...] (destinations, walked in turn)
+/// Units: m, rad, m/s, rad/s, s; GROUP -1 for none. Throws ScenarioError naming the file, the line and the reason
+/// (an unknown item, a missing or non-numeric value, NaN/inf, a non-positive radius or room size, a map that cannot
+/// be read; the robot, goal, obstacles and people must lie strictly inside the room).
+Scenario parseScenarioText(const std::string& text, const std::string& path);
+
+/// Writes `scenario` in the text format so that parseScenarioText reads back the same scenario (walls as `wall`
+/// lines). Throws ScenarioError naming the file when it cannot be written or a value is not finite.
+void saveScenarioText(const Scenario& scenario, const std::string& path);
+
+/// A scenario file of either format: the text format when its first line is `dqn_dovs scenario 2`, else a `.dovs`
+/// file (loadDovsScenario with `obstacle_radius_m` and `room_half_size_m`). Throws ScenarioError naming the file.
+Scenario loadScenarioFile(const std::string& path, double obstacle_radius_m = kDefaultObstacleRadius,
+                          double room_half_size_m = 4.0);
+
 }  // namespace dqn_dovs::sim
