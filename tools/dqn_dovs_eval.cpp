@@ -33,6 +33,7 @@ const char* kUsage =
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
+    "                     [--odom-noise LEVEL]\n"
     "                     [--no-report]\n"
     "  --methods           planners to evaluate, comma-separated (default s_dovs)\n"
     "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
@@ -53,6 +54,7 @@ const char* kUsage =
     "  --sensor PROFILE    LIDAR profile: sim (default), hokuyo, urg04lx, rplidar_a1\n"
     "  --people-model M    how people move: social_force (default) or constant\n"
     "  --people-see-robot  people see the robot and give way (default: it is invisible to them)\n"
+    "  --odom-noise LEVEL  wheel-odometry drift: none (default), low, high; the robot plans in its odom frame\n"
     "  --no-report         write the records only (results.csv, run.json, paths.json), not the summaries\n"
     "The summaries and plots come from the Python reporter, python -m dqn_dovs_py.report OUT (interpreter\n"
     "$DQN_DOVS_PYTHON, package folder $DQN_DOVS_PYTHON_DIR; defaults: the build's venv and source tree).\n";
@@ -192,6 +194,9 @@ Options parse(int argc, char** argv) {
     } else if (flag == "--people-model") {
       o.eval.people_model = value();
       checkName(flag, o.eval.people_model, {"social_force", "constant"});
+    } else if (flag == "--odom-noise") {
+      o.eval.odom_noise = value();
+      checkName(flag, o.eval.odom_noise, {"none", "low", "high"});
     } else if (flag == "--people-see-robot") {
       o.eval.people_see_robot = true;
     } else if (flag == "--no-report") {

@@ -341,6 +341,7 @@ class RunInfo:
     sensor: str = "sim"
     people_model: str = "social_force"
     people_see_robot: bool = False
+    odom_noise: str = "none"
 
 
 def _type_ok(value: object, kind: type) -> bool:
@@ -357,7 +358,8 @@ _RUN_TYPES: dict[str, type] = {"command": str, "scenarios": str, "seed": int, "o
                                "obstacles_max": int, "episodes": int, "dynamic_fraction": float, "perfect_info": bool,
                                "step_s": float, "max_steps": int, "wall_s": float, "threads": int, "methods": list,
                                "reference": str, "goal_tolerance_m": float}
-_OPTIONAL_RUN_TYPES: dict[str, type] = {"world": str, "sensor": str, "people_model": str, "people_see_robot": bool}
+_OPTIONAL_RUN_TYPES: dict[str, type] = {"world": str, "sensor": str, "people_model": str, "people_see_robot": bool,
+                                        "odom_noise": str}
 _TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
                list: "a non-empty list of strings"}
 
@@ -398,10 +400,11 @@ def run_header(run: RunInfo) -> str:
     scenarios = f"generated, seed {run.seed}" if run.scenarios == "generated" else f"`{run.scenarios}`"
     perception = "perfect information (ground truth)" if run.perfect_info else "LIDAR + tracker in the loop"
     world = ""
-    if run.world != "room" or run.sensor != "sim":
+    if run.world != "room" or run.sensor != "sim" or run.odom_noise != "none":
         sees = "people give way to the robot" if run.people_see_robot else "the robot invisible to people"
-        world = (f"World: {run.world} ({run.people_model} people, {sees}); LIDAR profile {run.sensor}  \n"
-                 if run.world != "room" else f"World: room; LIDAR profile {run.sensor}  \n")
+        odom = "" if run.odom_noise == "none" else f"; odometry drift {run.odom_noise}"
+        world = (f"World: {run.world} ({run.people_model} people, {sees}); LIDAR profile {run.sensor}{odom}  \n"
+                 if run.world != "room" else f"World: room; LIDAR profile {run.sensor}{odom}  \n")
     return (f"Command: `{run.command}`  \n"
             f"Scenarios: {scenarios}; obstacles {run.obstacles_min}-{run.obstacles_max}, {run.episodes} episodes "
             f"each; dynamic fraction {run.dynamic_fraction:g}  \n" + world +

@@ -116,7 +116,10 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
 void Episode::sense() {
   if (config_.perfect_info) return;
   world_.scanInto(scan_);
-  const TrackerResult result = tracker_.update(scan_, world_.laserPose());
+  // The robot knows where its laser is from its odometry: with drift, tracks live in the drifting odom frame.
+  const Pose2 laser =
+      config_.world.odometry.enabled() ? world_.odomPose().compose(config_.world.lidar.mount) : world_.laserPose();
+  const TrackerResult result = tracker_.update(scan_, laser);
   if (result.status == TrackerStatus::kRejected) {
     throw std::runtime_error("episode: the tracker rejected a simulated scan: " + result.message);
   }
@@ -124,7 +127,9 @@ void Episode::sense() {
 
 void Episode::buildContext() {
   observation_.stamp_s = world_.time_s();
-  observation_.robot_pose = world_.robotPose();
+  // Odometry: the pose the robot believes (the truth without drift). The goal, given at the start when the odom
+  // frame and the world agree, keeps its coordinates: with drift the robot aims where it believes the goal is.
+  observation_.robot_pose = world_.odomPose();
   observation_.robot_twist = world_.robotTwist();
   observation_.goal = world_.goal();
   observation_.obstacles.clear();
@@ -132,6 +137,15 @@ void Episode::buildContext() {
   if (config_.perfect_info) {
     observation_.obstacles = world_.groundTruthObstacles();
     observation_.segments = world_.walls();
+    if (config_.world.odometry.enabled()) {
+      // The truth seen from the odom frame (where the robot believes it is): every pose through odom <- world.
+      const Pose2 odom_from_world = world_.odomPose().compose(world_.robotPose().inverse());
+      for (MovingObstacle& o : observation_.obstacles) {
+        o.center = odom_from_world.toWorld(o.center);
+        o.heading = normalizeAngle(o.heading + odom_from_world.theta);
+      }
+      for (Segment& w : observation_.segments) w = {odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)};
+    }
   } else {
     for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
     observation_.segments = tracker_.scene().segments;

@@ -61,6 +61,7 @@ void applyWorldOptions(EvalConfig& config) {
   try {
     config.episode.world.lidar = sim::LidarConfig::profile(config.sensor);
     config.episode.world.people.model = sim::parsePeopleModel(config.people_model);
+    config.episode.world.odometry = sim::OdometryConfig::level(config.odom_noise);
   } catch (const sim::SimError& e) {
     throw EvalError(e.what());
   }
@@ -357,6 +358,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"world\": " << jsonString(config.world) << ",\n  \"sensor\": " << jsonString(config.sensor)
       << ",\n  \"people_model\": " << jsonString(config.people_model)
       << ",\n  \"people_see_robot\": " << (config.people_see_robot ? "true" : "false")
+      << ",\n  \"odom_noise\": " << jsonString(config.odom_noise)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"step_s\": " << jsonNumber(config.episode.world.robot.dt)
       << ",\n  \"max_steps\": " << config.episode.reward.max_steps << ",\n  \"wall_s\": " << jsonNumber(info.wall_s)

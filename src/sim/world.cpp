@@ -11,6 +11,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // Keeps the lidar's noise stream unrelated to any other stream seeded from the same user seed.
 constexpr uint64_t kLidarStreamTag = 0x6C69646172ULL;
+constexpr uint64_t kOdometryStreamTag = 0x6F646F6DULL;
 // A single step is never cut into more sub-steps than this, whatever the speeds (guards absurd inputs).
 constexpr int kMaxSubsteps = 100000;
 
@@ -89,11 +90,29 @@ std::string WorldConfig::validate() const {
   const std::string lidar_error = lidar.validate();
   if (!lidar_error.empty()) return "world parameter 'lidar': " + lidar_error;
   if (const std::string e = people.validate(); !e.empty()) return "world parameter 'people': " + e;
+  if (const std::string e = odometry.validate(); !e.empty()) return "world parameter 'odometry': " + e;
   if (!(std::isfinite(border_turn_rate_rps) && border_turn_rate_rps > 0.0)) {
     return bad("border_turn_rate_rps", border_turn_rate_rps, "must be finite and > 0 rad/s");
   }
   if (!(std::isfinite(border_margin_m) && border_margin_m >= 0.0)) {
     return bad("border_margin_m", border_margin_m, "must be finite and >= 0 m");
+  }
+  return {};
+}
+
+OdometryConfig OdometryConfig::level(const std::string& name) {
+  if (name == "none") return {};
+  if (name == "low") return {0.01, 0.02, 0.005, 0.02};
+  if (name == "high") return {0.03, 0.05, 0.02, 0.05};
+  throw SimConfigError("odometry noise level '" + name + "' is not one of none, low, high");
+}
+
+std::string OdometryConfig::validate() const {
+  for (const auto& [name, v] : {std::pair<const char*, double>{"speed_scale_std", speed_scale_std},
+                                {"turn_scale_std", turn_scale_std},
+                                {"turn_bias_std_rps", turn_bias_std_rps},
+                                {"step_noise_std", step_noise_std}}) {
+    if (!(std::isfinite(v) && v >= 0.0 && v < 0.5)) return bad(name, v, "must be in [0, 0.5)");
   }
   return {};
 }
@@ -110,6 +129,14 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
   time_s_ = 0.0;
   robot_pose_ = scenario.robot_start;
   robot_pose_.theta = normalizeAngle(robot_pose_.theta);
+  odom_pose_ = robot_pose_;
+  if (config_.odometry.enabled()) {
+    // A stream of its own: the LIDAR's noise stays the same with or without odometry errors.
+    odom_rng_.reseed(mixSeed(seed ^ kOdometryStreamTag));
+    odom_speed_scale_ = 1.0 + config_.odometry.speed_scale_std * odom_rng_.normal();
+    odom_turn_scale_ = 1.0 + config_.odometry.turn_scale_std * odom_rng_.normal();
+    odom_turn_bias_rps_ = config_.odometry.turn_bias_std_rps * odom_rng_.normal();
+  }
   robot_twist_ = {};
   robot_stopped_ = false;
   collision_ = {};
@@ -294,13 +321,15 @@ void World::step(const Twist2& cmd, double dt_s) {
     if (config_.ramp_velocity && !robot_stopped_) {
       robot_twist_ = applyAccelerationLimits(robot_twist_, command, config_.robot, sub_dt);
     }
-    const Pose2 previous = robot_pose_;
+    const Pose2 previous = robot_pose_, previous_odom = odom_pose_;
     robot_pose_ = integrateUnicycle(robot_pose_, robot_twist_.v, robot_twist_.w, sub_dt);
+    stepOdometry(sub_dt);
     for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
     stepPeople(sub_dt);
     time_s_ += sub_dt;
     if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
       robot_pose_ = previous;
+      odom_pose_ = previous_odom;
       robot_twist_ = {};
       robot_stopped_ = true;
     }
@@ -338,11 +367,13 @@ void World::stepHolonomic(const Vec2& velocity, double dt_s) {
       robot_pose_.x += u.x() * sub_dt;
       robot_pose_.y += u.y() * sub_dt;
     }
+    odom_pose_ = robot_pose_;  // the holonomic baseline runs without wheel odometry (and is judged by the truth)
     for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
     stepPeople(sub_dt);
     time_s_ += sub_dt;
     if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
       robot_pose_ = previous;
+      odom_pose_ = previous;
       robot_twist_ = {};
       robot_stopped_ = true;
     }
@@ -356,6 +387,18 @@ double World::fastestObstacleSpeed() const {
     fastest = std::max(fastest, config_.people.max_speed_factor * p.spec.preferred_speed_mps);
   }
   return fastest;
+}
+
+void World::stepOdometry(double dt_s) {
+  if (!config_.odometry.enabled()) {
+    odom_pose_ = robot_pose_;
+    return;
+  }
+  const double slip = 1.0 + config_.odometry.step_noise_std * odom_rng_.normal();
+  odom_pose_ = integrateUnicycle(
+      odom_pose_, robot_twist_.v * odom_speed_scale_ * slip,
+      robot_twist_.w * odom_turn_scale_ + (robot_twist_.v != 0.0 || robot_twist_.w != 0.0 ? odom_turn_bias_rps_ : 0.0),
+      dt_s);
 }
 
 void World::stepPeople(double dt_s) {

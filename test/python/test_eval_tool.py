@@ -87,11 +87,24 @@ def test_every_world_family_and_sensor_runs_through_the_evaluation(tmp_path):
         assert list(out.glob("trajectories_*.png"))
 
 
+def test_odometry_drift_runs_and_is_recorded(tmp_path):
+    out = tmp_path / "odom"
+    cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "dqn_dovs", "--generate", "10007", "--obstacles", "3",
+           "--episodes", "3", "--odom-noise", "high", "--trajectories", "0", "--out", str(out),
+           "--model", str(ROOT / "models" / "dqn_dovs.dqnw")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    assert json.load(open(out / "run.json"))["odom_noise"] == "high"
+    assert "odometry drift high" in (out / "summary.md").read_text()
+    assert len(list(csv.DictReader(open(out / "results.csv")))) == 3
+
+
 def test_world_flags_are_checked(tmp_path):
     base = [str(built_tool("dqn_dovs_eval")), "--out", str(tmp_path / "x"), "--obstacles", "2", "--episodes", "1"]
     for extra, message in ((["--world", "maze", "--generate", "1"], "--world: 'maze' is not one of room, crowd"),
                            (["--world", "crowd"], "--world crowd needs --generate SEED"),
                            (["--sensor", "sonar"], "--sensor: 'sonar' is not one of sim, hokuyo, urg04lx, rplidar_a1"),
-                           (["--people-model", "orca"], "--people-model: 'orca' is not one of social_force, constant")):
+                           (["--people-model", "orca"], "--people-model: 'orca' is not one of social_force, constant"),
+                           (["--odom-noise", "wobbly"], "--odom-noise: 'wobbly' is not one of none, low, high")):
         proc = subprocess.run(base + extra, capture_output=True, text=True, timeout=60, cwd=ROOT)
         assert proc.returncode == 2 and message in proc.stderr, proc.stderr

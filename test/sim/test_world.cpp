@@ -370,4 +370,30 @@ TEST(World, DeterministicBySeed) {
 }
 
 }  // namespace
+TEST(World, WheelOdometryDriftsFromTheTruthReproduciblyAndLeavesTheScansAlone) {
+  Scenario s;
+  s.name = "drive";
+  s.robot_start = {-2.0, -2.0, 0.3};
+  s.goal = Vec2(3.0, 3.0);
+  WorldConfig exact, drifting;
+  drifting.odometry = OdometryConfig::level("high");
+  World a(s, exact, 7), b(s, drifting, 7), c(s, drifting, 7), d(s, drifting, 8);
+  for (int k = 0; k < 100; ++k) {  // 20 s on an arc
+    for (World* w : {&a, &b, &c, &d}) w->step({0.4, 0.15}, 0.2);
+  }
+  EXPECT_EQ(a.odomPose().x, a.robotPose().x);   // no drift configured: odom is the truth
+  EXPECT_EQ(b.robotPose().x, a.robotPose().x);  // the truth does not depend on the odometry
+  const double drift = (b.odomPose().position() - b.robotPose().position()).norm();
+  EXPECT_GT(drift, 0.02);
+  EXPECT_LT(drift, 2.0);
+  EXPECT_EQ(b.odomPose().x, c.odomPose().x);  // same seed, same drift
+  EXPECT_NE(b.odomPose().x, d.odomPose().x);
+  // The LIDAR's noise has a stream of its own.
+  const LaserScan2 sa = a.scan(), sb = b.scan();
+  EXPECT_EQ(sa.ranges, sb.ranges);
+  EXPECT_THROW(OdometryConfig::level("wobbly"), SimConfigError);
+  drifting.odometry.turn_scale_std = -0.1;
+  EXPECT_NE(drifting.validate().find("turn_scale_std"), std::string::npos);
+}
+
 }  // namespace dqn_dovs::sim

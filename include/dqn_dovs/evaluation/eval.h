@@ -48,6 +48,8 @@ struct EvalConfig {
   /// How people move ("constant", "social_force") and whether they see the robot and give way.
   std::string people_model = "social_force";
   bool people_see_robot = false;
+  /// Wheel-odometry drift (sim::OdometryConfig::level): "none", "low" or "high".
+  std::string odom_noise = "none";
   /// Goal distance of generated scenarios: at least this far from the robot, as in the evaluation files, m.
   double generated_goal_distance_min_m = 4.0;
   /// Worker threads (each with its own planners and episode); results do not depend on it.

@@ -19,6 +19,26 @@
 
 namespace dqn_dovs::sim {
 
+/// Wheel odometry: how far the odom frame drifts from the truth. Per episode the odometry draws a speed scale
+/// N(1, speed_scale_std), a turn-rate scale N(1, turn_scale_std) and a turn-rate bias N(0, turn_bias_std_rps)
+/// (wheel radii, track width and gyro offsets a calibration misses); per sub-step the measured speed also gets a
+/// relative noise N(0, step_noise_std) (slip). All zero (the default): the odom frame is the truth.
+struct OdometryConfig {
+  double speed_scale_std = 0.0;
+  double turn_scale_std = 0.0;
+  double turn_bias_std_rps = 0.0;
+  double step_noise_std = 0.0;
+
+  bool enabled() const {
+    return speed_scale_std > 0.0 || turn_scale_std > 0.0 || turn_bias_std_rps > 0.0 || step_noise_std > 0.0;
+  }
+  /// "none", "low" (1 % / 2 % scales, 0.005 rad/s bias, 2 % slip) or "high" (3 %, 5 %, 0.02 rad/s, 5 %); throws
+  /// SimConfigError naming another level.
+  static OdometryConfig level(const std::string& name);
+  /// Empty when consistent, otherwise a message naming the field and why.
+  std::string validate() const;
+};
+
 /// Parameters of the world's physics and sensing.
 struct WorldConfig {
   /// Robot kinodynamic limits (speeds, accelerations, radius). `robot.dt` is not used by the world: the
@@ -41,6 +61,8 @@ struct WorldConfig {
   /// dynamic window is reached at once); true: the velocity ramps toward the command at the acceleration
   /// limits, sub-step by sub-step.
   bool ramp_velocity = false;
+  /// Wheel odometry (the odom frame's drift from the truth).
+  OdometryConfig odometry;
   /// How the scenario's people move, and their legs.
   PeopleConfig people;
   /// true: the LIDAR sees people's two legs (a scanner at leg height); false: their body discs.
@@ -134,6 +156,9 @@ class World {
   /// Distance from the robot's surface to the nearest obstacle or wall surface (m); negative when overlapping.
   double minClearance_m() const;
 
+  /// The robot's pose as its wheel odometry has it (the odom frame starts on the true start pose and drifts with
+  /// WorldConfig::odometry; the truth when that is off).
+  const Pose2& odomPose() const { return odom_pose_; }
   /// Pose of the laser in the room frame: the robot pose composed with the LIDAR mount.
   Pose2 laserPose() const { return robot_pose_.compose(config_.lidar.mount); }
   /// A noisy scan at the current time (advances the noise stream).
@@ -145,6 +170,8 @@ class World {
  private:
   void advanceObstacle(SimObstacle& o, double dt_s) const;
   void stepPeople(double dt_s);
+  /// Integrates the odometry over one sub-step of the robot's motion at its current twist.
+  void stepOdometry(double dt_s);
   /// The fastest any obstacle or person can move (m/s): it bounds the sub-step length.
   double fastestObstacleSpeed() const;
   void startBorderTurn(SimObstacle& o) const;
@@ -163,6 +190,9 @@ class World {
   bool robot_stopped_ = false;
   std::vector<SimObstacle> obstacles_;
   Crowd crowd_;
+  Pose2 odom_pose_;
+  Rng odom_rng_;
+  double odom_speed_scale_ = 1.0, odom_turn_scale_ = 1.0, odom_turn_bias_rps_ = 0.0;
   std::vector<Segment> walls_;
   CollisionInfo collision_;
   LidarScene lidar_scene_;
