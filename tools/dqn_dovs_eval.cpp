@@ -52,7 +52,7 @@ const char* kUsage =
     "  --world FAMILY      generated worlds: room (the paper's discs, default), crowd, corridor, doorway,\n"
     "                      clutter, junction (N = people; needs --generate)\n"
     "  --sensor PROFILE    LIDAR profile: sim (default), hokuyo, urg04lx, rplidar_a1\n"
-    "  --people-model M    how people move: social_force (default) or constant\n"
+    "  --people-model M    how people move: social_force (default), orca or constant\n"
     "  --people-see-robot  people see the robot and give way (default: it is invisible to them)\n"
     "  --odom-noise LEVEL  wheel-odometry drift: none (default), low, high; the robot plans in its odom frame\n"
     "  --no-report         write the records only (results.csv, run.json, paths.json), not the summaries\n"
@@ -193,7 +193,7 @@ Options parse(int argc, char** argv) {
       checkName(flag, o.eval.sensor, dqn_dovs::sim::LidarConfig::profileNames());
     } else if (flag == "--people-model") {
       o.eval.people_model = value();
-      checkName(flag, o.eval.people_model, {"social_force", "constant"});
+      checkName(flag, o.eval.people_model, {"social_force", "constant", "orca"});
     } else if (flag == "--odom-noise") {
       o.eval.odom_noise = value();
       checkName(flag, o.eval.odom_noise, {"none", "low", "high"});

@@ -5,6 +5,7 @@
 #include <map>
 #include <sstream>
 
+#include "dqn_dovs/common/orca_lp.h"
 #include "dqn_dovs/sim/errors.h"
 
 namespace dqn_dovs::sim {
@@ -24,6 +25,8 @@ const char* peopleModelName(PeopleModel model) {
       return "constant";
     case PeopleModel::kSocialForce:
       return "social_force";
+    case PeopleModel::kOrca:
+      return "orca";
   }
   return "?";
 }
@@ -31,7 +34,8 @@ const char* peopleModelName(PeopleModel model) {
 PeopleModel parsePeopleModel(const std::string& name) {
   if (name == "constant") return PeopleModel::kConstant;
   if (name == "social_force") return PeopleModel::kSocialForce;
-  throw SimConfigError("people model '" + name + "' is not one of constant, social_force");
+  if (name == "orca") return PeopleModel::kOrca;
+  throw SimConfigError("people model '" + name + "' is not one of constant, social_force, orca");
 }
 
 std::string PeopleConfig::validate() const {
@@ -47,6 +51,9 @@ std::string PeopleConfig::validate() const {
   positive("arrival_radius_m", arrival_radius_m);
   positive("leg_radius_m", leg_radius_m);
   positive("physics_step_s", physics_step_s);
+  positive("orca_time_horizon_s", orca_time_horizon_s);
+  positive("orca_wall_horizon_s", orca_wall_horizon_s);
+  positive("orca_neighbor_dist_m", orca_neighbor_dist_m);
   positive("hip_height_m", hip_height_m);
   if (!os.str().empty()) return os.str();
   for (const auto& [name, v] : {std::pair<const char*, double>{"person_repulsion_mps2", person_repulsion_mps2},
@@ -124,6 +131,10 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
       velocity[i] = p.velocity;
       continue;
     }
+    if (config_.model == PeopleModel::kOrca) {
+      velocity[i] = orcaVelocity(i, dt, walls, robot, robot_velocity);
+      continue;
+    }
     const Vec2 desired = drive(p);
     Vec2 force = (desired - p.velocity) / config_.relaxation_time_s;
     const Vec2 heading(std::cos(p.heading_rad), std::sin(p.heading_rad));
@@ -198,6 +209,31 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
       p.waiting_s = p.spec.wait_s;
     }
   }
+}
+
+Vec2 Crowd::orcaVelocity(size_t i, double dt, const std::vector<Segment>& walls, const Circle& robot,
+                         const Vec2& robot_velocity) const {
+  const Person& p = people_[i];
+  const double r = p.spec.body_radius_m, reach = config_.orca_neighbor_dist_m;
+  std::vector<OrcaLine> lines;
+  for (const Segment& w : walls) {
+    if (pointSegmentDistance(p.position, w) - r < reach) {
+      lines.push_back(orcaLineForSegment(p.position, p.velocity, r, w, config_.orca_wall_horizon_s, dt));
+    }
+  }
+  const size_t hard = lines.size();
+  for (size_t j = 0; j < people_.size(); ++j) {
+    const Person& q = people_[j];
+    if (j == i || (q.position - p.position).norm() - r - q.spec.body_radius_m > reach) continue;
+    lines.push_back(orcaLineForDisc(p.position, p.velocity, r, q.position, q.velocity, q.spec.body_radius_m,
+                                    config_.orca_time_horizon_s, dt, 0.5));
+  }
+  if (config_.see_robot && (robot.center - p.position).norm() - r - robot.radius < reach) {
+    // The robot does not run ORCA with people: whoever sees it takes the whole avoidance.
+    lines.push_back(orcaLineForDisc(p.position, p.velocity, r, robot.center, robot_velocity, robot.radius,
+                                    config_.orca_time_horizon_s, dt, 1.0));
+  }
+  return solveOrcaLp(lines, hard, config_.max_speed_factor * p.spec.preferred_speed_mps, drive(p)).velocity;
 }
 
 void Crowd::legsOf(const Person& p, const PeopleConfig& config, Circle& left, Circle& right) {

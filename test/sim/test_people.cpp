@@ -102,13 +102,14 @@ TEST(People, SocialForceLetsTwoPeoplePassHeadOnWhereConstantOnesCollide) {
     return d;
   };
   EXPECT_GT(closest(PeopleModel::kSocialForce), 0.5 * 0.95);  // two 0.25 m bodies never overlap
+  EXPECT_GT(closest(PeopleModel::kOrca), 0.5 - 0.01);
   EXPECT_LT(closest(PeopleModel::kConstant), 0.2);
 }
 
 TEST(People, NobodyWalksThroughAWall) {
   // A wall between everyone and their destinations; people start close to it and push toward it for 20 s.
   const std::vector<Segment> walls = {{Vec2(-5, 0), Vec2(5, 0)}};
-  for (PeopleModel model : {PeopleModel::kSocialForce, PeopleModel::kConstant}) {
+  for (PeopleModel model : {PeopleModel::kSocialForce, PeopleModel::kConstant, PeopleModel::kOrca}) {
     PeopleConfig c;
     c.model = model;
     std::vector<PersonSpec> people;
@@ -188,6 +189,7 @@ TEST(People, BadInputIsNamed) {
   }
   EXPECT_THROW(parsePeopleModel("teleport"), SimConfigError);
   EXPECT_EQ(parsePeopleModel("social_force"), PeopleModel::kSocialForce);
+  EXPECT_EQ(parsePeopleModel("orca"), PeopleModel::kOrca);
   Crowd crowd({walker({0, 0}, {1, 0})}, PeopleConfig{});
   EXPECT_THROW(crowd.step(std::nan(""), {}, kFarRobot, Vec2::Zero()), SimConfigError);
 }

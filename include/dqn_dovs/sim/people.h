@@ -6,7 +6,10 @@
 //   - social_force: the social force model of Helbing and Molnar (1995): a drive toward the destination at the
 //     preferred speed with relaxation time tau, repulsion from other people through their elliptical potential
 //     (stretched along the other's motion, with the anisotropy that weighs what is ahead) and from walls, and a
-//     pull toward the centroid of the person's group.
+//     pull toward the centroid of the person's group;
+//   - orca: reciprocal avoidance among people (ORCA, common/orca_lp.h): each person takes the velocity closest to
+//     its preferred one that keeps half of the avoidance of every other person within orca_neighbor_dist_m over
+//     orca_time_horizon_s (all of it for a robot it sees), and walls as hard constraints.
 // The robot is invisible to people unless PeopleConfig::see_robot, in which case they repel from it like from a
 // person. Legs: two discs beside the body's centre line whose fore-aft offsets swing in opposite phase with a
 // stride that grows with the walking speed, scaled to the scan height (legs pivot at the hip); the phase advances
@@ -24,9 +27,9 @@
 namespace dqn_dovs::sim {
 
 /// How people move.
-enum class PeopleModel { kConstant, kSocialForce };
+enum class PeopleModel { kConstant, kSocialForce, kOrca };
 
-/// "constant", "social_force"; parsePeopleModel throws SimConfigError naming an unknown name.
+/// "constant", "social_force", "orca"; parsePeopleModel throws SimConfigError naming an unknown name.
 const char* peopleModelName(PeopleModel model);
 PeopleModel parsePeopleModel(const std::string& name);
 
@@ -64,8 +67,11 @@ struct PeopleConfig {
   double hip_half_width_m = 0.1;       ///< lateral offset of each leg from the centre line
   /// Height of the LIDAR's scan plane (m): legs pivot at the hip, so the lower the scan the closer the legs.
   double scan_height_m = 0.3;
-  double hip_height_m = 0.9;     ///< height of the hip joint (m)
-  double physics_step_s = 0.05;  ///< longest integration step
+  double hip_height_m = 0.9;          ///< height of the hip joint (m)
+  double physics_step_s = 0.05;       ///< longest integration step
+  double orca_time_horizon_s = 2.0;   ///< orca: horizon of the velocity obstacles of people (and the robot), s
+  double orca_wall_horizon_s = 1.0;   ///< orca: horizon of the velocity obstacles of walls, s
+  double orca_neighbor_dist_m = 4.0;  ///< orca: people farther than this (surface to surface) are ignored, m
 
   /// Empty when consistent, otherwise a message naming the field and why.
   std::string validate() const;
@@ -108,6 +114,9 @@ class Crowd {
  private:
   void substep(double dt, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity);
   Vec2 drive(const Person& p) const;
+  /// The orca model's velocity for person i over a step of dt.
+  Vec2 orcaVelocity(size_t i, double dt, const std::vector<Segment>& walls, const Circle& robot,
+                    const Vec2& robot_velocity) const;
 
   std::vector<Person> people_;
   PeopleConfig config_;
