@@ -4,15 +4,15 @@
 # - every world family (room, crowd, corridor, doorway, clutter, junction) at N = 5, 10 and 15 with the sim LIDAR
 #   and social-force people to whom the robot is invisible: docs/benchmark_worlds/FAMILY_nN/;
 # - crowd at N = 10 with the hokuyo, urg04lx and rplidar_a1 profiles (crowd_n10_PROFILE/; sim is crowd_n10/);
-# - crowd at N = 10 with constant-velocity people (crowd_n10_constant/) and with people who give way to the robot
-#   (crowd_n10_see_robot/).
+# - crowd at N = 10 with people avoiding each other by ORCA (crowd_n10_orca/), constant-velocity people
+#   (crowd_n10_constant/) and people who give way to the robot (crowd_n10_see_robot/).
 # Each run folder keeps results.csv, run.json, summary.json and summary.md; FAMILY_n10/ also keeps dqn_dovs's
 # first trajectory picture. Then python/dqn_dovs_py/worlds_report.py writes the tables and
 # docs/benchmark_worlds/success_by_world.png, including docs/benchmark_worlds_discussion.md (hand-written).
 # A run the tool stops (a world it cannot generate) keeps only failed.txt, its error; the others go on, the report
 # shows it as not run and the script exits 1 at the end.
 # Run from anywhere (make benchmark-worlds does); one progress line per run with its wall time. With the defaults
-# (23 runs x 2 methods x 50 episodes) about 3 min on 2 cores (189 s measured while the machine also compiled; the
+# (24 runs x 2 methods x 50 episodes) about 3 min on 2 cores (189 s measured while the machine also compiled; the
 # doorway and junction runs take 15-20 s each, the others 3-8 s).
 # Environment: EPISODES (50 per run and method), THREADS (2), MODEL (models/dqn_dovs.dqnw), DQN_DOVS_EVAL (default
 # install/lib/dqn_dovs/dqn_dovs_eval), OUT_DIR (docs/benchmark_worlds), OUT_DOC (docs/benchmark_worlds.md).
@@ -37,7 +37,7 @@ export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 [ -f "$model" ] || { echo "benchmark_worlds: model $model not found" >&2; exit 2; }
 [ -x .venv/bin/python ] || { echo "benchmark_worlds: .venv missing; run 'make setup'" >&2; exit 2; }
 
-total_runs=$(( ${#families[@]} * ${#counts[@]} + 5 ))
+total_runs=$(( ${#families[@]} * ${#counts[@]} + 6 ))
 done_runs=0
 failed=()
 
@@ -82,6 +82,7 @@ done
 for sensor in hokuyo urg04lx rplidar_a1; do
   evaluate "crowd_n10_$sensor" 10 0 --world crowd --sensor "$sensor"
 done
+evaluate crowd_n10_orca 10 0 --world crowd --sensor sim --people-model orca
 evaluate crowd_n10_constant 10 0 --world crowd --sensor sim --people-model constant
 evaluate crowd_n10_see_robot 10 0 --world crowd --sensor sim --people-see-robot
 total_end=$(date +%s.%N)

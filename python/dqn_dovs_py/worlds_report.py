@@ -9,7 +9,8 @@ in the loop:
 - FAMILY_nN for every family (room, crowd, corridor, doorway, clutter, junction) and N = 5, 10, 15: LIDAR profile
   sim, social-force people to whom the robot is invisible;
 - crowd_n10_PROFILE for the LIDAR profiles hokuyo, urg04lx and rplidar_a1 (the sim profile is crowd_n10);
-- crowd_n10_constant (people keep their start velocity) and crowd_n10_see_robot (people give way to the robot).
+- crowd_n10_orca (reciprocal avoidance among people), crowd_n10_constant (people keep their start velocity) and
+  crowd_n10_see_robot (people give way to the robot).
 
 The figures are dqn_dovs_py.report's (success / collision / timeout rate, mean time on success; the `all N` row
 averages the per-N rates) and the paired comparison is dqn_dovs_py.benchmark_report's (episodes one method solved
@@ -95,6 +96,8 @@ def people_specs() -> list[tuple[str, RunSpec]]:
     """The rows of the people-model table: a label and the run."""
     base = f"{PROBE_WORLD}_n{PROBE_N}"
     return [("social force, robot invisible to people", family_spec(PROBE_WORLD, PROBE_N)),
+            ("reciprocal avoidance (ORCA), robot invisible to people",
+             RunSpec(f"{base}_orca", PROBE_WORLD, PROBE_N, people_model="orca")),
             ("constant velocity, robot invisible to people",
              RunSpec(f"{base}_constant", PROBE_WORLD, PROBE_N, people_model="constant")),
             ("social force, people give way to the robot",

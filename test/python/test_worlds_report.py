@@ -66,8 +66,8 @@ def make_report(runs: Path, tmp_path: Path, discussion: Path | None = None) -> s
 
 def test_every_run_folder_is_expected(runs: Path):
     names = [s.name for s in wr.all_specs()]
-    assert len(names) == 6 * 3 + 3 + 2  # the sensor table's sim row and the people table's first are crowd_n10
-    assert {"room_n5", "junction_n15", "crowd_n10_rplidar_a1", "crowd_n10_constant",
+    assert len(names) == 6 * 3 + 3 + 3  # the sensor table's sim row and the people table's first are crowd_n10
+    assert {"room_n5", "junction_n15", "crowd_n10_rplidar_a1", "crowd_n10_constant", "crowd_n10_orca",
             "crowd_n10_see_robot"} <= set(names)
     assert "crowd_n10_sim" not in names
 
