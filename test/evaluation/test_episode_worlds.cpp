@@ -1,0 +1,65 @@
+// Episodes in every world family, with the tracker and with perfect information: the DOVS takes the walls of any
+// shape (corridors, doors, furniture) and far goals, the state stays finite and within its clip, and the episode
+// ends with an outcome.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "dqn_dovs/dovs/actions.h"
+#include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/evaluation/episode.h"
+#include "dqn_dovs/sim/worlds.h"
+
+namespace dqn_dovs {
+namespace {
+
+TEST(EpisodeWorlds, EveryFamilyGivesFiniteStatesWallsAndAnOutcome) {
+  for (const std::string& family : sim::worldFamilyNames()) {
+    for (const bool perfect : {false, true}) {
+      sim::WorldFamilyConfig w;
+      w.family = sim::parseWorldFamily(family);
+      w.people = 8;
+      const sim::Scenario scenario = sim::generateWorld(w, 21);
+      EpisodeConfig config;
+      config.perfect_info = perfect;
+      config.tracker.pair_legs = family != "room";
+      config.reward.max_steps = 60;
+      Episode episode(config);
+      episode.reset(scenario, 4);
+      int steps = 0, with_walls = 0;
+      while (!episode.done()) {
+        const Eigen::VectorXf& state = episode.state();
+        ASSERT_EQ(state.size(), kStateSize);
+        for (int i = 0; i < state.size(); ++i) {
+          ASSERT_TRUE(std::isfinite(state[i])) << family << " step " << steps << " entry " << i;
+          ASSERT_LE(std::abs(state[i]), episode.normalization().clip + 1e-6f);
+        }
+        with_walls += episode.observation().segments.empty() ? 0 : 1;
+        int action = kActionKeep;
+        for (int a = 0; a < kNumActions; ++a) {
+          if (episode.actions().valid[static_cast<size_t>(a)]) action = a;  // the last valid: the goal line
+        }
+        episode.stepAction(episode.actions().valid[static_cast<size_t>(action)] ? action : kActionKeep);
+        ++steps;
+      }
+      EXPECT_NE(episode.outcome(), Outcome::kRunning);
+      EXPECT_LE(steps, 60);
+      if (family != "room" && family != "crowd" && steps > 3) {
+        EXPECT_GT(with_walls, 0) << family << " sees no wall";
+      }
+    }
+  }
+  // A goal beyond the distance scale saturates its feature instead of leaving the clip.
+  sim::WorldFamilyConfig corridor;
+  corridor.family = sim::WorldFamily::kCorridor;
+  corridor.people = 0;
+  Episode episode(EpisodeConfig{});
+  episode.reset(sim::generateWorld(corridor, 2), 1);
+  const double distance = (episode.observation().goal - episode.observation().robot_pose.position()).norm();
+  ASSERT_GT(distance, episode.normalization().goal_distance_scale_m);
+  EXPECT_FLOAT_EQ(episode.state()[kStateGridCells + kFeatureGoalDistance], episode.normalization().clip);
+}
+
+}  // namespace
+}  // namespace dqn_dovs
