@@ -21,6 +21,7 @@
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
+#include "dqn_dovs/sim/worlds.h"
 
 namespace py = pybind11;
 using namespace dqn_dovs;
@@ -44,7 +45,8 @@ std::map<std::string, std::string> shieldParameterMap(const ActionShieldConfig& 
 class VecEnv {
  public:
   VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads, bool action_shield,
-         const std::map<std::string, std::string>& shield_parameters)
+         const std::map<std::string, std::string>& shield_parameters,
+         const std::map<std::string, std::string>& world_options)
       : seed_(seed) {
     // The shield as the robot runs it: the named parameters of config/dovs.yaml and config/static_safety.yaml
     // (python/dqn_dovs_py/decision_config.py reads them), then `action_shield` switches it on or off.
@@ -56,7 +58,33 @@ class VecEnv {
     shield_.enabled = action_shield;
     if (const std::string e = shield_.validate(); !e.empty()) throw std::invalid_argument("shield_parameters: " + e);
     if (num_envs < 1 || num_envs > 4096) throw std::invalid_argument("num_envs must be in [1, 4096]");
-    EpisodeConfig config;
+    // The world as dqn_dovs_eval sets it up (applyWorldOptions): family, LIDAR profile, people, odometry.
+    EvalConfig world;
+    for (const auto& [key, value] : world_options) {
+      if (key == "world") {
+        world.world = value;
+      } else if (key == "sensor") {
+        world.sensor = value;
+      } else if (key == "people_model") {
+        world.people_model = value;
+      } else if (key == "people_see_robot") {
+        if (value != "true" && value != "false")
+          throw std::invalid_argument("world_options: people_see_robot must be true or false");
+        world.people_see_robot = value == "true";
+      } else if (key == "odom_noise") {
+        world.odom_noise = value;
+      } else {
+        throw std::invalid_argument("world_options: unknown key '" + key +
+                                    "' (world, sensor, people_model, people_see_robot, odom_noise)");
+      }
+    }
+    try {
+      family_ = sim::parseWorldFamily(world.world);
+      applyWorldOptions(world);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument(std::string("world_options: ") + e.what());
+    }
+    EpisodeConfig config = world.episode;
     config.perfect_info = perfect_info;
     for (int i = 0; i < num_envs; ++i) envs_.push_back(std::make_unique<Env>(config));
     const int hw = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -229,12 +257,24 @@ class VecEnv {
     // episodes teach nothing, so the next scenario of the sequence is drawn instead.
     for (int attempt = 0; attempt < 100; ++attempt) {
       const uint64_t s = sim::mixSeed(seed_ ^ sim::mixSeed(i * 0x100000001B3ULL + env.episodes++));
-      env.current.scenario = sim::generateScenario(generator_, s);
+      env.current.scenario = generate(s);
       env.current.seed = sim::mixSeed(s);
       env.episode.reset(env.current.scenario, env.current.seed);
       if (!env.episode.done()) return;
     }
     throw std::runtime_error("100 scenarios in a row ended before their first step: check the stage settings");
+  }
+
+  /// The scenario of seed s: the stage's room, or a world of the family with the stage's count of people.
+  sim::Scenario generate(uint64_t s) const {
+    if (family_ == sim::WorldFamily::kRoom) return sim::generateScenario(generator_, s);
+    sim::WorldFamilyConfig w;
+    w.family = family_;
+    const int span = generator_.obstacle_count_max - generator_.obstacle_count_min + 1;
+    w.people = generator_.obstacle_type == sim::ObstacleType::kNone
+                   ? 0
+                   : generator_.obstacle_count_min + static_cast<int>(s % static_cast<uint64_t>(std::max(span, 1)));
+    return sim::generateWorld(w, s);
   }
 
   static void copyState(const Episode& ep, float* dst) {
@@ -269,6 +309,7 @@ class VecEnv {
   std::vector<std::unique_ptr<Env>> envs_;
   sim::GeneratorConfig generator_;
   ActionShieldConfig shield_;
+  sim::WorldFamily family_ = sim::WorldFamily::kRoom;
   uint64_t seed_ = 0;
   int threads_ = 1;
 
@@ -289,9 +330,14 @@ PYBIND11_MODULE(_core, m) {
       "default_shield_parameters", [] { return shieldParameterMap(ActionShieldConfig{}); },
       "The C++ defaults of the shield's parameters (what dqn_dovs_eval runs without --shield).");
   py::class_<VecEnv>(m, "VecEnv")
-      .def(py::init<int, uint64_t, bool, int, bool, const std::map<std::string, std::string>&>(), py::arg("num_envs"),
-           py::arg("seed"), py::arg("perfect_info") = false, py::arg("threads") = 0, py::arg("action_shield") = false,
-           py::arg("shield_parameters") = std::map<std::string, std::string>{})
+      .def(py::init<int, uint64_t, bool, int, bool, const std::map<std::string, std::string>&,
+                    const std::map<std::string, std::string>&>(),
+           py::arg("num_envs"), py::arg("seed"), py::arg("perfect_info") = false, py::arg("threads") = 0,
+           py::arg("action_shield") = false, py::arg("shield_parameters") = std::map<std::string, std::string>{},
+           py::arg("world_options") = std::map<std::string, std::string>{},
+           "world_options: the evaluation's world flags by name (world: room, crowd, corridor, doorway, clutter, "
+           "junction, with the stage's obstacle counts as people; sensor; people_model; people_see_robot: true or "
+           "false; odom_noise).")
       .def("shield_parameters", &VecEnv::shieldParameters,
            "The action shield's parameters as the environments run them (name -> value as text).")
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),
