@@ -115,6 +115,19 @@ std::vector<int> beamsOnObstacles(const sim::World& world, const std::vector<Mov
   return counts;
 }
 
+/// Which true obstacles should be reported: those clearly visible (kVisibleBeams beams hit them first) in each of
+/// the last kVisibleScans scans; `streak` counts the scans in a row each has been visible.
+std::vector<bool> shouldSee(const sim::World& world, const std::vector<MovingObstacle>& truths,
+                            std::vector<int>& streak) {
+  const std::vector<int> beams = beamsOnObstacles(world, truths);
+  std::vector<bool> out(truths.size());
+  for (size_t i = 0; i < truths.size(); ++i) {
+    streak[i] = beams[i] >= kVisibleBeams ? streak[i] + 1 : 0;
+    out[i] = streak[i] >= kVisibleScans;
+  }
+  return out;
+}
+
 /// Tracking of people in one world family with one LIDAR profile (see the header).
 struct PeopleRun {
   TrackingSummary summary;
@@ -146,13 +159,8 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
       world.scanInto(scan);
       const TrackerResult result = tracker.update(scan, world.laserPose());
       const std::vector<MovingObstacle> truths = world.groundTruthObstacles();
-      const std::vector<int> beams = beamsOnObstacles(world, truths);
-      std::vector<bool> should_see(truths.size());
-      for (size_t i = 0; i < truths.size(); ++i) {
-        visible_streak[i] = beams[i] >= kVisibleBeams ? visible_streak[i] + 1 : 0;
-        should_see[i] = visible_streak[i] >= kVisibleScans;
-      }
-      const std::vector<int> matched = evaluator.addScan(result.scene, truths, should_see, period);
+      const std::vector<int> matched =
+          evaluator.addScan(result.scene, truths, shouldSee(world, truths, visible_streak), period);
       std::vector<bool> used(result.scene.obstacles.size(), false);
       for (int m : matched) {
         if (m >= 0) used[static_cast<size_t>(m)] = true;
@@ -231,13 +239,7 @@ int main(int argc, char** argv) {
           if (result.status != TrackerStatus::kOk) ++resets_or_rejects;
 
           const std::vector<MovingObstacle> truths = world.groundTruthObstacles();
-          const std::vector<int> beams = beamsOnObstacles(world, truths);
-          std::vector<bool> should_see(truths.size());
-          for (size_t i = 0; i < truths.size(); ++i) {
-            visible_streak[i] = beams[i] >= kVisibleBeams ? visible_streak[i] + 1 : 0;
-            should_see[i] = visible_streak[i] >= kVisibleScans;
-          }
-          evaluator.addScan(result.scene, truths, should_see, kScanPeriodS);
+          evaluator.addScan(result.scene, truths, shouldSee(world, truths, visible_streak), kScanPeriodS);
 
           if ((goal - world.robotPose().position()).norm() < 0.4) {
             // Next goal: the corners of a 5 m square in turn, then back to the scenario's goal.
