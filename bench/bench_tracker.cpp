@@ -298,7 +298,7 @@ int main(int argc, char** argv) {
   std::map<std::string, std::string> targets{{"pos_rmse_m", "<= 0.05"},           {"speed_rmse_mps", "<= 0.10"},
                                              {"heading_err_deg_median", "<= 10"}, {"id_switches_per_min", "< 1"},
                                              {"static_speed_mps_p95", "< 0.05"},  {"latency_ms_p99", "<= 1"}};
-  // People (the worlds issue's targets): centre, speed of tracks older than 1 s, switches, nothing moving on walls.
+  // People's targets: centre, speed of tracks older than 1 s, switches, nothing moving on walls (docs/tracker.md).
   for (const auto& [name, value] : figures) {
     if (name.rfind("people_", 0) != 0) continue;
     for (const auto& [suffix, target] : std::map<std::string, std::string>{{"pos_rmse_m", "<= 0.08"},
