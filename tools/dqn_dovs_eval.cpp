@@ -22,6 +22,8 @@
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/sim/lidar.h"
+#include "dqn_dovs/sim/people.h"
+#include "dqn_dovs/sim/world.h"
 #include "dqn_dovs/sim/worlds.h"
 
 namespace {
@@ -193,10 +195,10 @@ Options parse(int argc, char** argv) {
       checkName(flag, o.eval.sensor, dqn_dovs::sim::LidarConfig::profileNames());
     } else if (flag == "--people-model") {
       o.eval.people_model = value();
-      checkName(flag, o.eval.people_model, {"social_force", "constant", "orca"});
+      checkName(flag, o.eval.people_model, dqn_dovs::sim::peopleModelNames());
     } else if (flag == "--odom-noise") {
       o.eval.odom_noise = value();
-      checkName(flag, o.eval.odom_noise, {"none", "low", "high"});
+      checkName(flag, o.eval.odom_noise, dqn_dovs::sim::OdometryConfig::levelNames());
     } else if (flag == "--people-see-robot") {
       o.eval.people_see_robot = true;
     } else if (flag == "--no-report") {

@@ -104,14 +104,18 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   return {};
 }
 
+std::string staticFrameFault(const Dovs& dovs, const std::string& fixed_frame) {
+  if (dovs.static_segments.empty() && dovs.static_discs.empty()) return {};
+  if (dovs.static_frame == fixed_frame) return {};
+  return "dovs static geometry is in frame '" + dovs.static_frame + "', the planner's fixed_frame is '" + fixed_frame +
+         "'";
+}
+
 std::string staticObservationFromDovs(const Dovs& dovs, const std::string& fixed_frame, const Pose2& robot_pose,
                                       const Twist2& twist, Observation& out) {
-  if (!dovs.static_segments.empty() || !dovs.static_discs.empty()) {
-    if (dovs.static_frame != fixed_frame) {
-      out = Observation();
-      return "dovs static geometry is in frame '" + dovs.static_frame + "', the planner's fixed_frame is '" +
-             fixed_frame + "'";
-    }
+  if (std::string fault = staticFrameFault(dovs, fixed_frame); !fault.empty()) {
+    out = Observation();
+    return fault;
   }
   return staticObservation(dovsDecisionFromMessage(dovs), robot_pose, twist, out);
 }

@@ -53,6 +53,10 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why);
 /// The velocity a choice of chooseAction commands (core choiceVelocity). Throws std::out_of_range for non-choices.
 Twist2 choiceVelocity(const Dovs& dovs, int choice);
 
+/// Why the static geometry of a Dovs message cannot be used in `fixed_frame` ("" when it can: none, or in that
+/// frame).
+std::string staticFrameFault(const Dovs& dovs, const std::string& fixed_frame);
+
 /// The static geometry a Dovs message carries (static_frame), as an observation seen from `robot_pose` (the
 /// robot now, in the same frame) moving at `twist`. Returns why it cannot be used ("" when fine): a frame other
 /// than `fixed_frame`, then the core's staticObservation checks (lengths not a multiple of 4 / 3, NaN/inf values).

@@ -136,7 +136,9 @@ void PlannerNode::onDovs(const Dovs::ConstPtr& msg) {
 
 int PlannerNode::actionForLastDovs(std::string& why) {
   if (chosen_for_ != last_dovs_) {
-    chosen_action_ = chooseAction(*network_, *last_dovs_, chosen_why_);
+    // The message's decision fields, copied once per message; every control period until the next one reads them.
+    chosen_decision_ = dovsDecisionFromMessage(*last_dovs_);
+    chosen_action_ = chooseAction(*network_, chosen_decision_, chosen_why_);
     chosen_for_ = last_dovs_;
   }
   why = chosen_why_;
@@ -231,13 +233,14 @@ Choice PlannerNode::choose(const Pose2& pose) {
   const int a = actionForLastDovs(c.why);
   if (a < 0) return c;
   c.action = a;
-  c.target = limits_.clipToFeasible(choiceVelocity(d, a));
+  c.target = limits_.clipToFeasible(choiceVelocity(chosen_decision_, a));
   if (statics_.enabled) {
     // The last line: the target's braking trajectory, from where the robot is now at the speed last sent, must
     // keep clear of the static geometry the Dovs carries; otherwise the nearest velocity whose does.
     const Twist2 current = supervisor_.command();
     Observation now_seen;
-    const std::string bad = staticObservationFromDovs(d, fixed_frame_, pose, current, now_seen);
+    std::string bad = staticFrameFault(d, fixed_frame_);
+    if (bad.empty()) bad = staticObservation(chosen_decision_, pose, current, now_seen);
     if (!bad.empty()) {
       c.why = bad;
       return c;

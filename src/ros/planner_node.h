@@ -19,6 +19,7 @@
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/common/robot_model.h"
+#include "dqn_dovs/policy/dovs_decision.h"
 #include "dqn_dovs/policy/qnetwork.h"
 #include "dqn_dovs/policy/static_safety.h"
 #include "dqn_dovs/supervision/safety_envelope.h"
@@ -66,7 +67,8 @@ class PlannerNode {
   DecisionHooks hooks_;
 
   Dovs::ConstPtr last_dovs_;
-  Dovs::ConstPtr chosen_for_;  // the message chosen_action_ / chosen_why_ belong to
+  Dovs::ConstPtr chosen_for_;     // the message chosen_decision_, chosen_action_ and chosen_why_ belong to
+  DovsDecision chosen_decision_;  // its decision fields (state, actions, escape, static geometry)
   int chosen_action_ = -1;
   std::string chosen_why_;
   uint32_t stamped_seq_ = 0;  // planner/cmd_vel_stamped sequence

@@ -31,11 +31,13 @@ const char* peopleModelName(PeopleModel model) {
   return "?";
 }
 
+std::vector<std::string> peopleModelNames() { return {"social_force", "orca", "constant"}; }
+
 PeopleModel parsePeopleModel(const std::string& name) {
-  if (name == "constant") return PeopleModel::kConstant;
-  if (name == "social_force") return PeopleModel::kSocialForce;
-  if (name == "orca") return PeopleModel::kOrca;
-  throw SimConfigError("people model '" + name + "' is not one of constant, social_force, orca");
+  for (PeopleModel m : {PeopleModel::kSocialForce, PeopleModel::kOrca, PeopleModel::kConstant}) {
+    if (name == peopleModelName(m)) return m;
+  }
+  throw SimConfigError("people model '" + name + "' is not one of social_force, orca, constant");
 }
 
 std::string PeopleConfig::validate() const {
@@ -246,22 +248,28 @@ void Crowd::legsOf(const Person& p, const PeopleConfig& config, Circle& left, Ci
   right = {p.position - config.hip_half_width_m * side - swing * fwd, config.leg_radius_m};
 }
 
-std::vector<Circle> Crowd::bodies() const {
-  std::vector<Circle> out;
-  out.reserve(people_.size());
-  for (const Person& p : people_) out.push_back({p.position, p.spec.body_radius_m});
-  return out;
-}
-
-std::vector<Circle> Crowd::legs() const {
-  std::vector<Circle> out;
-  out.reserve(2 * people_.size());
+void Crowd::appendSeen(std::vector<Circle>& out, bool legs) const {
   for (const Person& p : people_) {
+    if (!legs) {
+      out.push_back({p.position, p.spec.body_radius_m});
+      continue;
+    }
     Circle l, r;
     legsOf(p, config_, l, r);
     out.push_back(l);
     out.push_back(r);
   }
+}
+
+std::vector<Circle> Crowd::bodies() const {
+  std::vector<Circle> out;
+  appendSeen(out, false);
+  return out;
+}
+
+std::vector<Circle> Crowd::legs() const {
+  std::vector<Circle> out;
+  appendSeen(out, true);
   return out;
 }
 

@@ -440,10 +440,7 @@ void World::scanInto(LaserScan2& out) {
   for (size_t i = 0; i < obstacles_.size(); ++i) {
     lidar_scene_.discs[i] = Circle{obstacles_[i].body.center, obstacles_[i].body.radius};
   }
-  if (!crowd_.people().empty()) {
-    const std::vector<Circle> seen = config_.scan_legs ? crowd_.legs() : crowd_.bodies();
-    lidar_scene_.discs.insert(lidar_scene_.discs.end(), seen.begin(), seen.end());
-  }
+  crowd_.appendSeen(lidar_scene_.discs, config_.scan_legs);
   lidar_.scanInto(laserPose(), lidar_scene_, time_s_, out);
 }
 

@@ -104,7 +104,7 @@ def test_world_flags_are_checked(tmp_path):
     for extra, message in ((["--world", "maze", "--generate", "1"], "--world: 'maze' is not one of room, crowd"),
                            (["--world", "crowd"], "--world crowd needs --generate SEED"),
                            (["--sensor", "sonar"], "--sensor: 'sonar' is not one of sim, hokuyo, urg04lx, rplidar_a1"),
-                           (["--people-model", "boids"], "--people-model: 'boids' is not one of social_force, constant, orca"),
+                           (["--people-model", "boids"], "--people-model: 'boids' is not one of social_force, orca, constant"),
                            (["--odom-noise", "wobbly"], "--odom-noise: 'wobbly' is not one of none, low, high")):
         proc = subprocess.run(base + extra, capture_output=True, text=True, timeout=60, cwd=ROOT)
         assert proc.returncode == 2 and message in proc.stderr, proc.stderr

@@ -32,6 +32,7 @@ enum class PeopleModel { kConstant, kSocialForce, kOrca };
 /// "constant", "social_force", "orca"; parsePeopleModel throws SimConfigError naming an unknown name.
 const char* peopleModelName(PeopleModel model);
 PeopleModel parsePeopleModel(const std::string& name);
+std::vector<std::string> peopleModelNames();
 
 /// One person's initial state and plan.
 struct PersonSpec {
@@ -106,6 +107,9 @@ class Crowd {
   std::vector<Circle> bodies() const;
   /// The two leg discs of every person, left then right (what a LIDAR at leg height sees).
   std::vector<Circle> legs() const;
+  /// Appends what a LIDAR sees of every person to `out`: the legs, or the bodies when !legs (no allocation once
+  /// `out` has room).
+  void appendSeen(std::vector<Circle>& out, bool legs) const;
   /// The bodies as moving obstacles (velocity as speed and heading of motion; turn rate 0).
   std::vector<MovingObstacle> asObstacles() const;
   /// The leg discs of one person.

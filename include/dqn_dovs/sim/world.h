@@ -35,6 +35,8 @@ struct OdometryConfig {
   /// "none", "low" (1 % / 2 % scales, 0.005 rad/s bias, 2 % slip) or "high" (3 %, 5 %, 0.02 rad/s, 5 %); throws
   /// SimConfigError naming another level.
   static OdometryConfig level(const std::string& name);
+  /// The names level() accepts.
+  static std::vector<std::string> levelNames() { return {"none", "low", "high"}; }
   /// Empty when consistent, otherwise a message naming the field and why.
   std::string validate() const;
 };
