@@ -33,7 +33,10 @@
 // (and the clutter's chairs), plus wall_moving_tracks_per_scan: confirmed tracks matched to nobody, within 0.3 m of
 // a wall or piece of furniture, reported moving (>= 0.1 m/s).
 //
-// Usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S]
+// --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000).
+//
+// Usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only PART]
+//                      [--people-seed B]
 #include <sys/stat.h>
 #include <time.h>
 
@@ -134,7 +137,8 @@ struct PeopleRun {
   double wall_moving_tracks_per_scan = 0.0;
 };
 
-PeopleRun trackPeople(const std::string& family, const std::string& sensor, int worlds, double duration_s) {
+PeopleRun trackPeople(const std::string& family, const std::string& sensor, int worlds, double duration_s,
+                      uint64_t seed_base) {
   sim::WorldFamilyConfig f;
   f.family = sim::parseWorldFamily(family);
   f.people = 10;
@@ -146,10 +150,12 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
   TrackingEvaluator evaluator;
   size_t wall_moving = 0, scans = 0;
   for (int k = 1; k <= worlds; ++k) {
-    const sim::Scenario scenario = sim::generateWorld(f, static_cast<uint64_t>(12000 + k));
+    const sim::Scenario scenario = sim::generateWorld(f, seed_base + static_cast<uint64_t>(k));
     sim::World world(scenario, config, static_cast<uint64_t>(k));
     TrackerConfig tracker_config;
     tracker_config.pair_legs = true;
+    tracker_config.range_noise_m = config.lidar.noise_std_m;
+    tracker_config.range_noise_fraction = config.lidar.noise_std_fraction;
     ObstacleTracker tracker(tracker_config);
     evaluator.beginEpisode();
     std::vector<int> visible_streak(world.groundTruthObstacles().size(), 0);
@@ -159,8 +165,8 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
       world.scanInto(scan);
       const TrackerResult result = tracker.update(scan, world.laserPose());
       const std::vector<MovingObstacle> truths = world.groundTruthObstacles();
-      const std::vector<int> matched =
-          evaluator.addScan(result.scene, truths, shouldSee(world, truths, visible_streak), period);
+      const std::vector<bool> see = shouldSee(world, truths, visible_streak);
+      const std::vector<int> matched = evaluator.addScan(result.scene, truths, see, period);
       std::vector<bool> used(result.scene.obstacles.size(), false);
       for (int m : matched) {
         if (m >= 0) used[static_cast<size_t>(m)] = true;
@@ -192,17 +198,31 @@ int main(int argc, char** argv) {
   std::string out_path = "bench/results/tracker.json";
   int episodes = 3;
   double duration_s = 20.0;
+  std::string only;
+  uint64_t people_seed = 12000;
+  const char* usage =
+      "usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only original|people] "
+      "[--people-seed B]\n";
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if ((arg == "--scenarios" || arg == "--out" || arg == "--episodes" || arg == "--duration") && i + 1 < argc) {
+    if ((arg == "--scenarios" || arg == "--out" || arg == "--episodes" || arg == "--duration" || arg == "--only" ||
+         arg == "--people-seed") &&
+        i + 1 < argc) {
       const std::string value = argv[++i];
+      if (arg == "--only") {
+        if (value != "original" && value != "people") {
+          std::cerr << "bench_tracker: --only '" << value << "': expected original or people\n" << usage;
+          return 2;
+        }
+        only = value;
+      }
+      if (arg == "--people-seed") people_seed = std::strtoull(value.c_str(), nullptr, 10);
       if (arg == "--scenarios") scenario_dir = value;
       if (arg == "--out") out_path = value;
       if (arg == "--episodes") episodes = std::max(1, std::atoi(value.c_str()));
       if (arg == "--duration") duration_s = std::max(1.0, std::atof(value.c_str()));
     } else {
-      std::cerr << "bench_tracker: unknown or incomplete argument '" << arg
-                << "'\nusage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S]\n";
+      std::cerr << "bench_tracker: unknown or incomplete argument '" << arg << "'\n" << usage;
       return 2;
     }
   }
@@ -213,7 +233,7 @@ int main(int argc, char** argv) {
   sim::WorldConfig world_config;
   world_config.stop_on_collision = false;
   try {
-    for (int n = 1; n <= 15; ++n) {
+    for (int n = 1; only != "people" && n <= 15; ++n) {
       for (int k = 1; k <= episodes; ++k) {
         const std::string path = scenario_dir + "/1-" + std::to_string(n) + "/" + std::to_string(k) + ".dovs";
         sim::Scenario scenario = sim::loadDovsScenario(path);
@@ -278,11 +298,11 @@ int main(int argc, char** argv) {
       {"non_ok_updates", static_cast<double>(resets_or_rejects)},
   };
   for (const std::string& family : sim::worldFamilyNames()) {
-    if (family == "room") continue;
+    if (family == "room" || only == "original") continue;
     for (const std::string sensor : {"sim", "urg04lx"}) {
       PeopleRun r;
       try {
-        r = trackPeople(family, sensor, episodes, duration_s);
+        r = trackPeople(family, sensor, episodes, duration_s, people_seed);
       } catch (const std::exception& e) {
         std::cerr << "bench_tracker: people in " << family << " with " << sensor << ": " << e.what() << "\n";
         return 1;
@@ -293,6 +313,9 @@ int main(int argc, char** argv) {
       figures[key + "id_switches_per_min"] = r.summary.id_switches_per_min;
       figures[key + "static_speed_mps_p95"] = r.summary.static_speed_mps_p95;
       figures[key + "wall_moving_tracks_per_scan"] = r.wall_moving_tracks_per_scan;
+      figures[key + "false_tracks_per_scan"] = r.summary.false_tracks_per_scan;
+      figures[key + "missed_rate"] = r.summary.missed_rate;
+      figures[key + "heading_err_deg_median"] = r.summary.heading_err_deg_median;
     }
   }
   std::map<std::string, std::string> targets{{"pos_rmse_m", "<= 0.05"},           {"speed_rmse_mps", "<= 0.10"},

@@ -68,6 +68,9 @@ void applyWorldOptions(EvalConfig& config) {
   config.episode.world.people.see_robot = config.people_see_robot;
   // People are seen by their legs: the tracker pairs them (the paper's room has none).
   config.episode.tracker.pair_legs = config.world != "room";
+  // The tracker's straightness thresholds follow the scanner's range noise.
+  config.episode.tracker.range_noise_m = config.episode.world.lidar.noise_std_m;
+  config.episode.tracker.range_noise_fraction = config.episode.world.lidar.noise_std_fraction;
   // One scan every control period / n: the scanner's period, or the next slower one that divides the period.
   const double dt = config.episode.world.robot.dt;
   const int n = std::max(1, static_cast<int>(std::floor(dt / config.episode.world.lidar.scan_period_s + 1e-9)));

@@ -32,6 +32,9 @@ std::string TrackerConfig::validate() const {
   if (max_skipped_beams < 0) return badField("max_skipped_beams", max_skipped_beams, "must be >= 0");
   if (min_cluster_points < 3)
     return badField("min_cluster_points", min_cluster_points, "must be >= 3 (a circle needs 3 points)");
+  if (!nonNegative(range_noise_m)) return badField("range_noise_m", range_noise_m, "must be >= 0 (m)");
+  if (!(nonNegative(range_noise_fraction) && range_noise_fraction < 0.5))
+    return badField("range_noise_fraction", range_noise_fraction, "must be in [0, 0.5)");
   if (!positive(split_distance_m)) return badField("split_distance_m", split_distance_m, "must be > 0 (m)");
   if (!positive(segment_min_length_m)) return badField("segment_min_length_m", segment_min_length_m, "must be > 0 (m)");
   if (!positive(line_max_rms_m)) return badField("line_max_rms_m", line_max_rms_m, "must be > 0 (m)");
@@ -52,6 +55,14 @@ std::string TrackerConfig::validate() const {
     return badField("leg_pair_max_distance_m", leg_pair_max_distance_m, "must be > 0 (m)");
   if (!(positive(person_radius_m) && person_radius_m <= max_circle_radius_m))
     return badField("person_radius_m", person_radius_m, "must be > 0 and at most max_circle_radius_m (m)");
+  if (!nonNegative(structure_memory_s))
+    return badField("structure_memory_s", structure_memory_s, "must be >= 0 (s); 0 disables");
+  if (!positive(structure_cell_m)) return badField("structure_cell_m", structure_cell_m, "must be > 0 (m)");
+  if (structure_min_scans < 1) return badField("structure_min_scans", structure_min_scans, "must be >= 1");
+  if (!(positive(structure_max_fraction) && structure_max_fraction <= 1.0))
+    return badField("structure_max_fraction", structure_max_fraction, "must be in (0, 1]");
+  if (leg_min_points < 1) return badField("leg_min_points", leg_min_points, "must be >= 1");
+  if (!positive(lone_leg_std_m)) return badField("lone_leg_std_m", lone_leg_std_m, "must be > 0 (m)");
   if (!positive(measurement_noise_m)) return badField("measurement_noise_m", measurement_noise_m, "must be > 0 (m)");
   if (!positive(accel_noise_mps2)) return badField("accel_noise_mps2", accel_noise_mps2, "must be > 0 (m/s^2)");
   if (!positive(turn_accel_noise_rps2))
@@ -79,6 +90,10 @@ std::string TrackerConfig::validate() const {
   return {};
 }
 
+double TrackerConfig::rangeNoise_m(double range_m) const {
+  return std::max(range_noise_m, range_noise_fraction * range_m);
+}
+
 const char* toString(TrackerStatus status) {
   switch (status) {
     case TrackerStatus::kOk:
@@ -91,14 +106,22 @@ const char* toString(TrackerStatus status) {
   return "unknown";
 }
 
-ObstacleTracker::ObstacleTracker(const TrackerConfig& config) : config_(config) {
-  const std::string why = config_.validate();
+namespace {
+const TrackerConfig& validated(const TrackerConfig& config) {
+  const std::string why = config.validate();
   if (!why.empty()) throw TrackerConfigError(why);
+  return config;
 }
+}  // namespace
+
+ObstacleTracker::ObstacleTracker(const TrackerConfig& config)
+    : config_(validated(config)),
+      structure_(config.structure_cell_m, config.structure_memory_s > 0.0 ? config.structure_memory_s : 1.0) {}
 
 void ObstacleTracker::reset() {
   tracks_.clear();
   lost_.clear();
+  structure_.clear();
   scene_ = TrackedScene{};
   detections_ = ScanDetections{};
   has_stamp_ = false;
@@ -137,7 +160,8 @@ TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser
     }
   }
 
-  detections_ = detectObstacles(scan, laser_pose, config_);
+  if (config_.structure_memory_s > 0.0) structure_.expire(scan.stamp_s);
+  detections_ = detectObstacles(scan, laser_pose, config_, config_.structure_memory_s > 0.0 ? &structure_ : nullptr);
   result.ignored_beams = detections_.ignored_beams;
   predictTracks(scan.stamp_s);
   associateAndUpdate(detections_, scan.stamp_s);
@@ -172,9 +196,11 @@ Eigen::Matrix2d ObstacleTracker::measurementCovariance(const CircleDetection& de
   return var * Eigen::Matrix2d::Identity();
 }
 
-double ObstacleTracker::associationCost(const Track& track, const Vec2& z, double stamp_s) const {
+double ObstacleTracker::associationCost(const Track& track, const CircleDetection& detection, double stamp_s) const {
   const double inf = std::numeric_limits<double>::infinity();
-  const Eigen::Matrix2d r = config_.measurement_noise_m * config_.measurement_noise_m * Eigen::Matrix2d::Identity();
+  const Vec2& z = detection.circle.center;
+  // The detection's own uncertainty (a lone leg places a person loosely), as in the update.
+  const Eigen::Matrix2d r = measurementCovariance(detection);
   if (track.hits < 2) {
     const Vec2 nu = z - track.first_position;
     if (nu.norm() > config_.gate_max_distance_m) return inf;
@@ -194,7 +220,7 @@ void ObstacleTracker::associateAndUpdate(const ScanDetections& detections, doubl
     for (size_t i = 0; i < nt; ++i) {
       for (size_t j = 0; j < nd; ++j) {
         cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
-            associationCost(tracks_[i], detections.circles[j].circle.center, stamp_s);
+            associationCost(tracks_[i], detections.circles[j], stamp_s);
       }
     }
     track_to_det = solveGatedAssignment(cost, config_.gate_mahalanobis2);

@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "dqn_dovs/perception/circle_fit.h"
+#include "dqn_dovs/perception/static_map.h"
 #include "dqn_dovs/perception/tracker.h"
 
 namespace dqn_dovs {
@@ -26,7 +27,13 @@ std::vector<Vec2> slice(const std::vector<Vec2>& pts, size_t first, size_t last)
 
 /// Index ranges [first, last] (inclusive) of pieces of `pts` that each stay within split_distance_m of
 /// their chord (iterative end-point fit), with neighbouring pieces merged back when their union is straight.
-std::vector<std::pair<size_t, size_t>> splitAndMerge(const std::vector<Vec2>& pts, double split_distance_m) {
+/// The split distance grows to 3 sigma of the range noise at the farther end of each chord.
+std::vector<std::pair<size_t, size_t>> splitAndMerge(const std::vector<Vec2>& pts, const Vec2& laser_xy,
+                                                     const TrackerConfig& config) {
+  auto splitDistance = [&](size_t a, size_t b) {
+    const double range = std::max((pts[a] - laser_xy).norm(), (pts[b] - laser_xy).norm());
+    return std::max(config.split_distance_m, 3.0 * config.rangeNoise_m(range));
+  };
   std::vector<std::pair<size_t, size_t>> pieces;
   std::vector<std::pair<size_t, size_t>> stack{{0, pts.size() - 1}};
   while (!stack.empty()) {
@@ -44,7 +51,7 @@ std::vector<std::pair<size_t, size_t>> splitAndMerge(const std::vector<Vec2>& pt
         }
       }
     }
-    if (worst_d > split_distance_m) {
+    if (worst_d > splitDistance(a, b)) {
       // Push the right half first so that pieces come out in scan order.
       stack.push_back({worst, b});
       stack.push_back({a, worst});
@@ -58,7 +65,7 @@ std::vector<std::pair<size_t, size_t>> splitAndMerge(const std::vector<Vec2>& pt
   for (const auto& piece : pieces) {
     if (!merged.empty()) {
       const auto line = fitLine(slice(pts, merged.back().first, piece.second));
-      if (line && line->max_dev_m <= split_distance_m) {
+      if (line && line->max_dev_m <= splitDistance(merged.back().first, piece.second)) {
         merged.back().second = piece.second;
         continue;
       }
@@ -66,6 +73,19 @@ std::vector<std::pair<size_t, size_t>> splitAndMerge(const std::vector<Vec2>& pt
     merged.push_back(piece);
   }
   return merged;
+}
+
+/// Largest line-fit RMS of a straight piece whose points lie at about `range_m` (line_max_rms_m, or 1.5 sigma of
+/// the range noise there when that is larger).
+double lineMaxRms(const TrackerConfig& config, double range_m) {
+  return std::max(config.line_max_rms_m, 1.5 * config.rangeNoise_m(range_m));
+}
+
+/// Mean distance of points from the laser.
+double meanRange(const std::vector<Vec2>& pts, const Vec2& laser_xy) {
+  double sum = 0.0;
+  for (const Vec2& p : pts) sum += (p - laser_xy).norm();
+  return pts.empty() ? 0.0 : sum / static_cast<double>(pts.size());
 }
 
 /// Classifies one group of consecutive returns (fixed frame) that contains no long wall piece.
@@ -77,7 +97,7 @@ void classifyGroup(const std::vector<Vec2>& pts, const std::vector<std::pair<siz
   const auto line = fitLine(pts);
   if (!line) return;
   const double length = line->extent.length();
-  const bool straight = line->rms_m <= config.line_max_rms_m;
+  const bool straight = line->rms_m <= lineMaxRms(config, meanRange(pts, laser_xy));
   if (straight && length >= config.segment_min_length_m) {
     out.segments.push_back(line->extent);
     return;
@@ -157,6 +177,8 @@ void classifyGroup(const std::vector<Vec2>& pts, const std::vector<std::pair<siz
 void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles) {
   auto isLeg = [&](const CircleDetection& d) {
     if (d.points.size() < 2) return false;
+    if (static_cast<int>(d.points.size()) < config.min_cluster_points)  // a far leg's fragment: by its extent
+      return (d.points.back() - d.points.front()).norm() <= 2.0 * config.leg_max_radius_m;
     // By the extent of its returns (a free fit on a leg's handful of returns can be far off in radius), and
     // curved: a short flat piece is a fragment of a wall or a piece of furniture between occluders.
     const Vec2 chord = d.points.back() - d.points.front();
@@ -211,14 +233,20 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
   for (size_t i : legs) {
     if (used[i]) continue;
     used[i] = true;
+    // A fragment of fewer than min_cluster_points returns alone is too little to start a person.
+    if (static_cast<int>(circles[i].points.size()) < config.min_cluster_points) continue;
     CircleDetection person;
     person.circle = {legCentre(circles[i]), config.person_radius_m};
-    person.fit_rms_m = circles[i].fit_rms_m;
+    // The body's centre is anywhere within half a stride of this leg: a looser measurement.
+    person.fit_rms_m = std::max(circles[i].fit_rms_m, config.lone_leg_std_m);
     person.free_fit = true;
     out.push_back(person);
   }
   for (size_t i = 0; i < circles.size(); ++i) {
-    if (!used[i]) out.push_back(std::move(circles[i]));
+    // Unpaired leg fragments are dropped.
+    if (used[i] || static_cast<int>(circles[i].points.size()) < config.min_cluster_points) continue;
+    CircleDetection& d = circles[i];
+    out.push_back(std::move(d));
   }
   circles = std::move(out);
 }
@@ -226,14 +254,16 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
 /// Classifies one cluster (fixed-frame points in scan order).
 void classifyCluster(const std::vector<Vec2>& pts, const Vec2& laser_xy, const TrackerConfig& config,
                      ScanDetections& out) {
-  const auto pieces = splitAndMerge(pts, config.split_distance_m);
+  const auto pieces = splitAndMerge(pts, laser_xy, config);
   // Long straight pieces are walls; runs of the other pieces between them are classified as groups.
   std::vector<bool> is_wall(pieces.size(), false);
   for (size_t k = 0; k < pieces.size(); ++k) {
     const auto [a, b] = pieces[k];
     if (static_cast<int>(b - a + 1) < config.min_cluster_points) continue;
-    const auto line = fitLine(slice(pts, a, b));
-    if (line && line->rms_m <= config.line_max_rms_m && line->extent.length() >= config.segment_min_length_m) {
+    const std::vector<Vec2> piece = slice(pts, a, b);
+    const auto line = fitLine(piece);
+    if (line && line->rms_m <= lineMaxRms(config, meanRange(piece, laser_xy)) &&
+        line->extent.length() >= config.segment_min_length_m) {
       is_wall[k] = true;
       out.segments.push_back(line->extent);
     }
@@ -284,7 +314,8 @@ std::string checkScan(const LaserScan2& scan) {
   return os.str();
 }
 
-ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config) {
+ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config,
+                               StaticMap* structure) {
   ScanDetections out;
   out.stamp_s = scan.stamp_s;
   const size_t n = scan.ranges.size();
@@ -332,11 +363,46 @@ ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, 
   const Vec2 laser_xy = laser_pose.position();
   std::vector<Vec2> pts;
   for (const auto& cluster : clusters) {
-    if (static_cast<int>(cluster.size()) < config.min_cluster_points) continue;
+    if (static_cast<int>(cluster.size()) < config.min_cluster_points) {
+      // A far leg may return only leg_min_points beams: kept as a leg fragment, used only if it pairs with a leg.
+      if (config.pair_legs && static_cast<int>(cluster.size()) >= config.leg_min_points) {
+        CircleDetection d;
+        Vec2 mid = Vec2::Zero();
+        for (size_t k : cluster) {
+          d.points.push_back(laser_pose.toWorld(beams[k].local));
+          mid += d.points.back();
+        }
+        mid /= static_cast<double>(d.points.size());
+        const Vec2 away = (mid - laser_xy).norm() > 1e-9 ? Vec2((mid - laser_xy).normalized()) : Vec2::UnitX();
+        d.circle = {mid + config.leg_max_radius_m * away, config.leg_max_radius_m};
+        d.free_fit = false;
+        d.fit_rms_m = 0.0;
+        out.circles.push_back(std::move(d));
+      }
+      continue;
+    }
     ++out.clusters;
     pts.clear();
     for (size_t k : cluster) pts.push_back(laser_pose.toWorld(beams[k].local));
     classifyCluster(pts, laser_xy, config, out);
+  }
+  if (structure != nullptr) {
+    // Only long straight pieces teach the memory: a short flat piece may be a still person's legs.
+    for (const Segment& s : out.segments) {
+      if (s.length() >= config.segment_min_length_m) structure->addSegment(s, scan.stamp_s);
+    }
+    // Pieces of known walls (seen between people, at grazing angles, broken by missing returns) are wall.
+    std::vector<CircleDetection> kept;
+    kept.reserve(out.circles.size());
+    for (CircleDetection& d : out.circles) {
+      if (d.points.size() >= 2 &&
+          structure->structureFraction(d.points, config.structure_min_scans) >= config.structure_max_fraction) {
+        out.segments.push_back({d.points.front(), d.points.back()});
+      } else {
+        kept.push_back(std::move(d));
+      }
+    }
+    out.circles = std::move(kept);
   }
   if (config.pair_legs) pairLegs(config, out.circles);
   return out;

@@ -30,6 +30,14 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   c.leg_max_radius_m = param<double>(pnh, p + "leg_max_radius", c.leg_max_radius_m);
   c.leg_pair_max_distance_m = param<double>(pnh, p + "leg_pair_max_distance", c.leg_pair_max_distance_m);
   c.person_radius_m = param<double>(pnh, p + "person_radius", c.person_radius_m);
+  c.leg_min_points = param<int>(pnh, p + "leg_min_points", c.leg_min_points);
+  c.lone_leg_std_m = param<double>(pnh, p + "lone_leg_std", c.lone_leg_std_m);
+  c.range_noise_m = param<double>(pnh, p + "range_noise", c.range_noise_m);
+  c.range_noise_fraction = param<double>(pnh, p + "range_noise_fraction", c.range_noise_fraction);
+  c.structure_memory_s = param<double>(pnh, p + "structure_memory", c.structure_memory_s);
+  c.structure_cell_m = param<double>(pnh, p + "structure_cell", c.structure_cell_m);
+  c.structure_min_scans = param<int>(pnh, p + "structure_min_scans", c.structure_min_scans);
+  c.structure_max_fraction = param<double>(pnh, p + "structure_max_fraction", c.structure_max_fraction);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);
   return c;

@@ -486,3 +486,102 @@ TEST(TrackerConfigTest, ValidateNamesTheField) {
     EXPECT_NE(std::string(e.what()).find("fallback_radius_m"), std::string::npos);
   }
 }
+
+// ---------------------------------------------------------------------------------------------------------
+// Walls, far legs and the scanner's noise
+// ---------------------------------------------------------------------------------------------------------
+
+TEST(TrackerDetection, ANoisyFarWallIsWallWhenTheScannerNoiseIsKnown) {
+  // A Hokuyo-like scanner (0.5 % of the range) 4.5 m from a wall: its returns scatter by ~2 cm, more than a
+  // fixed straightness threshold allows.
+  SyntheticLidar lidar;
+  lidar.noise_std_m = 0.005;
+  lidar.noise_std_fraction = 0.005;
+  const std::vector<Segment> walls{{{4.5, -2.5}, {4.5, 2.5}}};
+  TrackerConfig fixed;  // 1 cm everywhere
+  TrackerConfig known = fixed;
+  known.range_noise_m = 0.005;
+  known.range_noise_fraction = 0.005;
+  size_t circles_fixed = 0, circles_known = 0, segments_known = 0;
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    const LaserScan2 scan = syntheticScan(lidar, {}, {}, walls, 0.1 * seed, rng);
+    circles_fixed += detectObstacles(scan, {}, fixed).circles.size();
+    const ScanDetections d = detectObstacles(scan, {}, known);
+    circles_known += d.circles.size();
+    for (const Segment& s : d.segments) {
+      EXPECT_LT(std::max(pointSegmentDistance(s.a, walls[0]), pointSegmentDistance(s.b, walls[0])), 0.1);
+      if (s.length() >= known.segment_min_length_m) ++segments_known;
+    }
+  }
+  EXPECT_GT(circles_fixed, 5u) << "the fixed threshold breaks the noisy wall into pieces that look like objects";
+  EXPECT_EQ(circles_known, 0u);
+  EXPECT_GE(segments_known, 20u) << "every scan sees the wall as at least one long segment";
+}
+
+TEST(Tracker, PiecesOfARememberedWallNeverBecomeTracks) {
+  // A wall seen whole for a second, then only in short pieces between people (flickering, as their legs
+  // move): with the memory of walls the pieces are wall; without it they start tracks.
+  SyntheticLidar lidar;
+  lidar.noise_std_m = 0.015;
+  const Segment wall{{3.0, -2.0}, {3.0, 2.0}};
+  auto piecesAt = [&](int k) {
+    std::vector<Segment> pieces;
+    for (double y = -1.8 + 0.07 * (k % 3); y < 1.8; y += 0.55) pieces.push_back({{3.0, y}, {3.0, y + 0.22}});
+    return pieces;
+  };
+  auto run = [&](double memory_s) {
+    TrackerConfig config;
+    config.structure_memory_s = memory_s;
+    ObstacleTracker tracker(config);
+    std::mt19937 rng(11);
+    size_t tracked = 0;
+    for (int k = 0; k < 60; ++k) {
+      const std::vector<Segment> walls = k < 10 ? std::vector<Segment>{wall} : piecesAt(k);
+      const TrackerResult r = tracker.update(syntheticScan(lidar, {}, {}, walls, 0.1 * k, rng), {});
+      EXPECT_EQ(r.status, TrackerStatus::kOk) << r.message;
+      if (k >= 10) tracked += r.scene.obstacles.size();
+    }
+    return tracked;
+  };
+  EXPECT_GT(run(0.0), 0u) << "without the memory, pieces of wall are tracked (the test would prove nothing)";
+  EXPECT_EQ(run(30.0), 0u);
+}
+
+TEST(TrackerDetection, FarLegsOfTwoReturnsEachPairIntoAPerson) {
+  // A person 6.5 m away, legs 0.3 m apart across the beams: at 0.5 deg a 12 cm leg returns two or three beams.
+  SyntheticLidar lidar;
+  lidar.noise_std_m = 0.005;
+  TrackerConfig config;
+  config.pair_legs = true;
+  size_t found = 0, found_without = 0, lone_two = 0, phantom = 0;
+  for (unsigned seed = 1; seed <= 20; ++seed) {
+    std::mt19937 rng(seed);
+    const double y = -0.2 + 0.02 * seed;  // the legs slide across the beams
+    const std::vector<Circle> legs{{Vec2(6.5, y - 0.15), 0.06}, {Vec2(6.5, y + 0.15), 0.06}};
+    const LaserScan2 scan = syntheticScan(lidar, {}, legs, {}, 0.0, rng);
+    auto personFound = [&](const TrackerConfig& c) {
+      for (const CircleDetection& d : detectObstacles(scan, {}, c).circles) {
+        if ((d.circle.center - Vec2(6.5, y)).norm() < 0.1) return true;
+      }
+      return false;
+    };
+    found += personFound(config);
+    TrackerConfig without = config;
+    without.leg_min_points = without.min_cluster_points;  // no fragments
+    found_without += personFound(without);
+    // One leg alone (the other hidden): two returns are too little to start a person.
+    std::mt19937 rng2(seed);
+    const LaserScan2 lone = syntheticScan(lidar, {}, {legs[0]}, {}, 0.0, rng2);
+    const auto returns =
+        std::count_if(lone.ranges.begin(), lone.ranges.end(), [](float r) { return std::isfinite(r); });
+    if (returns == 2) {
+      ++lone_two;
+      phantom += detectObstacles(lone, {}, config).circles.size();
+    }
+  }
+  EXPECT_GE(found, 18u);
+  EXPECT_LT(found_without, found) << "fragments of two returns are what finds the far person";
+  EXPECT_GT(lone_two, 0u);
+  EXPECT_EQ(phantom, 0u);
+}

@@ -17,6 +17,8 @@ struct SyntheticLidar {
   double range_min = 0.05;
   double range_max = 10.0;
   double noise_std_m = 0.01;
+  /// Range-proportional noise: the standard deviation is max(noise_std_m, noise_std_fraction * range).
+  double noise_std_fraction = 0.0;
 };
 
 /// One scan from `laser_pose` (fixed frame) of `discs` and `walls`, nearest hit per beam, Gaussian range noise;
@@ -43,7 +45,9 @@ inline LaserScan2 syntheticScan(const SyntheticLidar& lidar, const Pose2& laser_
     for (const Segment& s : walls) {
       if (auto t = raySegment(o, d, s)) best = std::min(best, *t);
     }
-    if (std::isfinite(best) && lidar.noise_std_m > 0.0) best += noise(rng);
+    if (std::isfinite(best) && lidar.noise_std_m > 0.0) {
+      best += noise(rng) * std::max(1.0, lidar.noise_std_fraction * best / lidar.noise_std_m);
+    }
     scan.ranges[static_cast<size_t>(i)] =
         best < lidar.range_max ? static_cast<float>(best) : std::numeric_limits<float>::infinity();
   }

@@ -12,6 +12,7 @@
 #include "dqn_dovs/common/geometry.h"
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/perception/ctrv_ekf.h"
+#include "dqn_dovs/perception/static_map.h"
 
 namespace dqn_dovs {
 
@@ -29,6 +30,14 @@ struct TrackerConfig {
   int max_skipped_beams = 2;
   /// Clusters (and sub-groups) with fewer valid returns are dropped as noise.
   int min_cluster_points = 3;
+
+  // --- sensor --------------------------------------------------------------------------------------------
+  /// The LIDAR's range noise (1 sigma): max(range_noise_m, range_noise_fraction * range). The straightness
+  /// thresholds below never go under 3 sigma (splits) and 1.5 sigma (line RMS) at the range of the points, so
+  /// a noisy far wall stays one wall instead of breaking into small pieces that look like objects.
+  double range_noise_m = 0.01;
+  /// See range_noise_m.
+  double range_noise_fraction = 0.0;
 
   // --- segments (walls) -----------------------------------------------------------------------------
   /// Split-and-merge: a run of points is split at its farthest point from its chord when that distance
@@ -66,12 +75,30 @@ struct TrackerConfig {
   /// radius max(person_radius_m, half the legs' distance + leg radius); a leg left alone (the other one hidden)
   /// is reported as a person of person_radius_m centred on it. Off by default (the paper's discs have no legs).
   bool pair_legs = false;
+  /// Clusters of at least this many (and fewer than min_cluster_points) returns are kept as leg fragments (a far
+  /// leg between beams), used only when they pair with another leg.
+  int leg_min_points = 2;
   /// Largest radius of a leg (m).
   double leg_max_radius_m = 0.1;
   /// Largest distance between the centres of a person's two legs (m): hip width and stride.
   double leg_pair_max_distance_m = 0.6;
   /// Body radius reported for a person (m): what the robot must keep clear of, not the legs' extent.
   double person_radius_m = 0.25;
+  /// Standard deviation of a person's centre placed on a lone leg (m): the body is anywhere within about half
+  /// a stride of it, so the filter leans on its prediction until both legs are seen again.
+  double lone_leg_std_m = 0.2;
+
+  // --- static structure ---------------------------------------------------------------------------------
+  /// Memory of the walls seen (StaticMap): a circle detection with at least structure_max_fraction of its
+  /// returns on cells that wall pieces crossed in structure_min_scans scans of the last structure_memory_s is a
+  /// piece of wall, reported as a segment and never tracked. Off with structure_memory_s = 0.
+  double structure_memory_s = 30.0;
+  /// Cell size of that memory (m): small enough that a leg beside a wall does not share the wall's cells.
+  double structure_cell_m = 0.1;
+  /// Scans in which a cell must have been crossed by a wall piece to count as structure.
+  int structure_min_scans = 2;
+  /// Fraction of a detection's returns on structure above which it is structure.
+  double structure_max_fraction = 0.5;
 
   // --- filter -------------------------------------------------------------------------------------------
   /// Standard deviation of a detected centre, each axis (m).
@@ -130,6 +157,8 @@ struct TrackerConfig {
 
   /// Empty string when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
+  /// Range noise (1 sigma, m) at `range_m` (range_noise_m, range_noise_fraction).
+  double rangeNoise_m(double range_m) const;
 };
 
 /// Bad configuration; the message names the field.
@@ -162,9 +191,13 @@ struct ScanDetections {
 /// limits, NaN stamp, a fan wider than a full turn).
 std::string checkScan(const LaserScan2& scan);
 
+class StaticMap;
+
 /// Clustering and classification of one scan seen from `laser_pose` (fixed frame). Assumes checkScan
-/// passed; invalid beams are skipped.
-ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config);
+/// passed; invalid beams are skipped. With `structure`, the scan's wall pieces are added to it first, then
+/// circle detections lying on structure (TrackerConfig::structure_*) become segments; legs are paired last.
+ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config,
+                               StaticMap* structure = nullptr);
 
 /// How one update went.
 enum class TrackerStatus {
@@ -233,7 +266,7 @@ class ObstacleTracker {
   void pruneTracks(double stamp_s);
   void buildScene(double stamp_s);
   /// Squared Mahalanobis distance of a detection from a track (infinity outside the hard distance cap).
-  double associationCost(const Track& track, const Vec2& z, double stamp_s) const;
+  double associationCost(const Track& track, const CircleDetection& detection, double stamp_s) const;
   TrackedObstacle toTrackedObstacle(const Track& track, double stamp_s) const;
   Eigen::Matrix2d measurementCovariance(const CircleDetection& detection) const;
 
@@ -243,6 +276,8 @@ class ObstacleTracker {
   std::vector<Track> lost_;
   TrackedScene scene_;
   ScanDetections detections_;
+  /// Walls seen recently (TrackerConfig::structure_*).
+  StaticMap structure_;
   bool has_stamp_ = false;
   double last_stamp_s_ = 0.0;
   int next_id_ = 0;
