@@ -4,7 +4,7 @@ SHELL := /bin/bash
 export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
 export PYTHONNOUSERSITE := 1
 JOBS ?= 2
-BENCHES := sim tracker dovs inference training e2e eval-sdovs eval-dqn
+BENCHES := sim env tracker dovs inference training e2e eval-sdovs eval-dqn
 SOAK_SECONDS ?= 3600
 
 .PHONY: all setup build test check format-check test-cpp test-python bench demo clean format help soak fuzz test-asan

@@ -16,7 +16,7 @@ import math
 import os
 import sys
 
-DEFAULT_BENCHES = ["sim", "tracker", "dovs", "inference", "training", "e2e", "eval-sdovs", "eval-dqn"]
+DEFAULT_BENCHES = ["sim", "env", "tracker", "dovs", "inference", "training", "e2e", "eval-sdovs", "eval-dqn"]
 NOT_MEASURED = "not measured"
 
 # (stage, bench, key, label, unit)
@@ -43,6 +43,12 @@ SIM = [
     ("sim", "step_us_median", "physics step, median", "us"),
     ("sim", "scan_us_median", "LIDAR scan, median", "us"),
     ("sim", "scan_us_p95", "LIDAR scan, p95", "us"),
+    ("sim", "crowd_urg04lx_steps_per_s", "world steps per second, crowd of 15 people, URG-04LX", "1/s"),
+    ("sim", "clutter_steps_per_s", "world steps per second, clutter with 15 people", "1/s"),
+    ("env", "min_sim_steps_per_s",
+     "training environment, slowest family and sensor: 0.05 s simulator steps per second, one core", "1/s"),
+    ("env", "crowd_urg04lx_env_steps_per_s", "training environment, crowd of 15, URG-04LX: control periods per second",
+     "1/s"),
 ]
 TRAINING = [
     ("training", "env_steps_per_s", "environment steps per second, learning included", "1/s"),
