@@ -63,6 +63,8 @@ std::string TrackerConfig::validate() const {
     return badField("structure_max_fraction", structure_max_fraction, "must be in (0, 1]");
   if (leg_min_points < 1) return badField("leg_min_points", leg_min_points, "must be >= 1");
   if (!positive(lone_leg_std_m)) return badField("lone_leg_std_m", lone_leg_std_m, "must be > 0 (m)");
+  if (!nonNegative(structure_line_extension_m))
+    return badField("structure_line_extension_m", structure_line_extension_m, "must be >= 0 (m); 0 disables");
   if (!positive(measurement_noise_m)) return badField("measurement_noise_m", measurement_noise_m, "must be > 0 (m)");
   if (!positive(accel_noise_mps2)) return badField("accel_noise_mps2", accel_noise_mps2, "must be > 0 (m/s^2)");
   if (!positive(turn_accel_noise_rps2))

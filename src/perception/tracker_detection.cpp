@@ -391,12 +391,41 @@ ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, 
     for (const Segment& s : out.segments) {
       if (s.length() >= config.segment_min_length_m) structure->addSegment(s, scan.stamp_s);
     }
-    // Pieces of known walls (seen between people, at grazing angles, broken by missing returns) are wall.
+    // Pieces of known walls (seen between people, at grazing angles, broken by missing returns) are wall, and so
+    // are pieces on the line of a long wall of this scan, just beyond its end (the rest of that wall, farther).
+    std::vector<Segment> walls;
+    for (const Segment& s : out.segments) {
+      if (s.length() >= config.segment_min_length_m) walls.push_back(s);
+    }
+    auto onWallLine = [&](const CircleDetection& d) {
+      const double extension = config.structure_line_extension_m;
+      if (extension <= 0.0) return false;
+      for (const Segment& w : walls) {
+        const Vec2 u = (w.b - w.a) / w.length();
+        // Along the wall's line, up to `extension` beyond its ends; across it, nine in ten returns within 3 sigma
+        // of the range noise (a leg beside the wall has none there).
+        size_t near = 0;
+        bool beside = true;
+        for (const Vec2& p : d.points) {
+          const Vec2 rel = p - w.a;
+          const double along = rel.dot(u);
+          if (along < -extension || along > w.length() + extension) {
+            beside = false;
+            break;
+          }
+          const double across = std::abs(rel.x() * u.y() - rel.y() * u.x());
+          if (across <= std::max(0.03, 3.0 * config.rangeNoise_m((p - laser_xy).norm()))) ++near;
+        }
+        if (beside && 10 * near >= 9 * d.points.size()) return true;
+      }
+      return false;
+    };
     std::vector<CircleDetection> kept;
     kept.reserve(out.circles.size());
     for (CircleDetection& d : out.circles) {
       if (d.points.size() >= 2 &&
-          structure->structureFraction(d.points, config.structure_min_scans) >= config.structure_max_fraction) {
+          (structure->structureFraction(d.points, config.structure_min_scans) >= config.structure_max_fraction ||
+           onWallLine(d))) {
         out.segments.push_back({d.points.front(), d.points.back()});
       } else {
         kept.push_back(std::move(d));

@@ -38,6 +38,7 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   c.structure_cell_m = param<double>(pnh, p + "structure_cell", c.structure_cell_m);
   c.structure_min_scans = param<int>(pnh, p + "structure_min_scans", c.structure_min_scans);
   c.structure_max_fraction = param<double>(pnh, p + "structure_max_fraction", c.structure_max_fraction);
+  c.structure_line_extension_m = param<double>(pnh, p + "structure_line_extension", c.structure_line_extension_m);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);
   return c;

@@ -99,6 +99,10 @@ struct TrackerConfig {
   int structure_min_scans = 2;
   /// Fraction of a detection's returns on structure above which it is structure.
   double structure_max_fraction = 0.5;
+  /// A detection whose returns lie on the line of a long wall of the same scan (nine in ten within 3 sigma of the
+  /// range noise, at least 3 cm) and at most this far beyond its ends is the rest of that wall (m): a wall running away
+  /// from the laser breaks into pieces near the end of the range. 0 disables.
+  double structure_line_extension_m = 2.0;
 
   // --- filter -------------------------------------------------------------------------------------------
   /// Standard deviation of a detected centre, each axis (m).
