@@ -23,7 +23,7 @@ help:
 	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information (EPISODES=100)"
 	@echo "make benchmark-worlds  docs/benchmark_worlds.md: dqn_dovs vs s_dovs on every world family, LIDAR profile and people model (EPISODES=50)"
 	@echo "make select-model RUN=runs/NAME  rank a training run's snapshots on held-out generated scenarios"
-	@echo "make demo    the ROS pipeline in simulation on shared scenarios"
+	@echo "make demo    the ROS pipeline in simulation on shared scenarios (WORLD=clutter: a building world with people)"
 	@echo "make soak    the full pipeline in real time over random scenarios for SOAK_SECONDS (3600) s: crashes, RSS, deadlines"
 
 setup:
@@ -69,7 +69,7 @@ bench-run-%:
 	@bash scripts/bench.sh $*
 
 demo: build
-	@bash scripts/demo.sh
+	@WORLD="$(WORLD)" bash scripts/demo.sh
 
 soak: build
 	@SOAK_SECONDS=$(SOAK_SECONDS) bash scripts/soak.sh

@@ -33,10 +33,10 @@ RobotLimits loadRobotLimits(const ros::NodeHandle& pnh) {
 
 namespace dqn_dovs {
 
-bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits, const std::string& base_frame,
-                           const std::string& laser_frame) {
+std::optional<RobotGeometry> loadRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
+                                                  const std::string& base_frame, const std::string& laser_frame) {
   std::string xml;
-  if (!nh.getParam("robot_description", xml)) return false;
+  if (!nh.getParam("robot_description", xml)) return std::nullopt;
   RobotGeometry g;
   try {
     g = readRobotGeometry(xml, base_frame, laser_frame);
@@ -49,7 +49,12 @@ bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
        << g.radius_m << " m";
     throw ParameterError(os.str());
   }
-  return true;
+  return g;
+}
+
+bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits, const std::string& base_frame,
+                           const std::string& laser_frame) {
+  return loadRobotDescription(nh, limits, base_frame, laser_frame).has_value();
 }
 
 namespace {

@@ -53,7 +53,16 @@ ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh);
 
 }  // namespace dqn_dovs
 
+#include <optional>
+
+#include "robot_description.h"
+
 namespace dqn_dovs {
+/// The robot geometry of `robot_description` when it is on the parameter server, std::nullopt when there is
+/// none. Throws ParameterError when the description cannot be read or its footprint radius differs from
+/// limits.radius (naming both values).
+std::optional<RobotGeometry> loadRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
+                                                  const std::string& base_frame, const std::string& laser_frame);
 /// When `robot_description` is on the parameter server, checks that its footprint radius equals
 /// limits.radius (throws ParameterError naming both values otherwise). Returns false when there is none.
 bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits, const std::string& base_frame,

@@ -7,6 +7,9 @@
 #include <sensor_msgs/LaserScan.h>
 
 #include <cmath>
+#include <optional>
+#include <sstream>
+#include <vector>
 
 #include "conversions.h"
 #include "dqn_dovs/SimStatus.h"
@@ -35,12 +38,47 @@ sim::LidarConfig loadLidarConfig(const ros::NodeHandle& pnh) {
   c.dropout_probability = param<double>(pnh, "lidar/dropout_probability", c.dropout_probability);
   c.grazing_limit_rad = param<double>(pnh, "lidar/grazing_limit", c.grazing_limit_rad);
   c.mixed_pixel_probability = param<double>(pnh, "lidar/mixed_pixel_probability", c.mixed_pixel_probability);
-  c.mount.x = param<double>(pnh, "lidar/mount_x", c.mount.x);
-  c.mount.y = param<double>(pnh, "lidar/mount_y", c.mount.y);
-  c.mount.theta = param<double>(pnh, "lidar/mount_yaw", c.mount.theta);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("lidar") + ": " + error);
   return c;
+}
+
+/// The LIDAR's mount on the base and the height of its scan plane (the people's legs are cut there): the robot
+/// description's laser link when there is one, else the profile's mount and the people model's default height.
+/// An explicitly set lidar/mount_x, mount_y, mount_yaw or mount_height wins over the description, with a warning
+/// naming both values.
+void loadLaserMount(const ros::NodeHandle& pnh, const std::optional<RobotGeometry>& description,
+                    const std::string& laser_frame, sim::WorldConfig& c) {
+  if (description) {
+    if (!(description->laser_height_m >= 0.0)) {
+      std::ostringstream os;
+      os << "robot_description: link '" << laser_frame << "' is " << -description->laser_height_m
+         << " m below the base frame: the LIDAR must scan above the floor";
+      throw ParameterError(os.str());
+    }
+    c.lidar.mount = description->laser_mount;
+    c.people.scan_height_m = description->laser_height_m;
+  }
+  struct MountField {
+    const char* name;
+    const char* unit;
+    double* value;
+  };
+  for (const MountField& f :
+       {MountField{"lidar/mount_x", "m", &c.lidar.mount.x}, MountField{"lidar/mount_y", "m", &c.lidar.mount.y},
+        MountField{"lidar/mount_yaw", "rad", &c.lidar.mount.theta},
+        MountField{"lidar/mount_height", "m", &c.people.scan_height_m}}) {
+    if (!pnh.hasParam(f.name)) continue;
+    const double value = f.value == &c.people.scan_height_m ? paramInRange(pnh, f.name, *f.value, 0.0, 10.0)
+                                                            : param<double>(pnh, f.name, *f.value);
+    if (description && std::abs(value - *f.value) > 1e-9) {
+      ROS_WARN(
+          "simulator: parameter '%s' = %g %s differs from the robot description's link '%s' (%g %s); the "
+          "parameter wins",
+          pnh.resolveName(f.name).c_str(), value, f.unit, laser_frame.c_str(), *f.value, f.unit);
+    }
+    *f.value = value;
+  }
 }
 
 geometry_msgs::TransformStamped makeTransform(const Pose2& p, const ros::Time& stamp, const std::string& parent,
@@ -65,6 +103,15 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   if (odom_frame_.empty() || base_frame_.empty() || laser_frame_.empty()) {
     throw ParameterError("frame parameters (odom_frame, base_frame, laser_frame) must not be empty");
   }
+  // Empty: no map frame, and the odom frame is the room frame (which it then is only without odometry drift).
+  map_frame_ = param<std::string>(pnh_, "map_frame", "");
+  if (!map_frame_.empty() && (map_frame_ == odom_frame_ || map_frame_ == base_frame_ || map_frame_ == laser_frame_)) {
+    throw ParameterError("parameter '" + pnh_.resolveName("map_frame") + "' = '" + map_frame_ +
+                         "' must differ from odom_frame, base_frame and laser_frame");
+  }
+  truth_frame_ = map_frame_.empty() ? odom_frame_ : map_frame_;
+  // false where robot_state_publisher publishes the robot description's base -> laser chain (sim.launch).
+  publish_laser_tf_ = param<bool>(pnh_, "publish_laser_tf", true);
   period_s_ = paramInRange(pnh_, "period", 0.05, 1e-3, 0.5);
   realtime_factor_ = paramInRange(pnh_, "realtime_factor", 1.0, 0.0, 1000.0);
   cmd_timeout_s_ = paramInRange(pnh_, "cmd_timeout", 0.5, 0.05, 10.0);
@@ -73,6 +120,21 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
 
   world_config_.robot = loadRobotLimits(pnh_);
   world_config_.lidar = loadLidarConfig(pnh_);
+  const std::optional<RobotGeometry> description =
+      loadRobotDescription(nh_, world_config_.robot, base_frame_, laser_frame_);
+  loadLaserMount(pnh_, description, laser_frame_, world_config_);
+  const std::string odometry_level = param<std::string>(pnh_, "odometry/level", "none");
+  try {
+    world_config_.odometry = sim::OdometryConfig::level(odometry_level);
+  } catch (const sim::SimConfigError& e) {
+    throw ParameterError("parameter '" + pnh_.resolveName("odometry/level") + "': " + e.what());
+  }
+  if (world_config_.odometry.enabled() && map_frame_.empty()) {
+    ROS_WARN(
+        "simulator: odometry/level '%s' makes '%s' drift from the room frame, but map_frame is empty: the ground "
+        "truth and sim/status, in the room frame, are stamped '%s'; set map_frame to name the room frame",
+        odometry_level.c_str(), odom_frame_.c_str(), odom_frame_.c_str());
+  }
   // The scanner's own period unless overridden.
   scan_period_s_ = paramInRange(pnh_, "scan_period", world_config_.lidar.scan_period_s, period_s_, 1.0);
   world_config_.stop_on_collision = param<bool>(pnh_, "stop_on_collision", true);
@@ -109,6 +171,7 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 5);
   odom_pub_ = nh_.advertise<nav_msgs::Odometry>("odom", 10);
   truth_pub_ = nh_.advertise<TrackedObstacleArray>("ground_truth/obstacles", 5);
+  truth_odom_pub_ = nh_.advertise<nav_msgs::Odometry>("ground_truth/odom", 10);
   truth_markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("ground_truth/markers", 5);
   // Latched: the scenario's goal, for the planner when publish_goal is set (sim.launch), else for tools.
   const bool publish_goal = param<bool>(pnh_, "publish_goal", false);
@@ -123,6 +186,14 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   load_srv_ = pnh_.advertiseService("load_scenario", &SimulatorNode::onLoadScenario, this);
   ROS_INFO("simulator: scenario '%s' with %zu obstacles, step %.3f s, scan every %.3f s%s", scenario_.name.c_str(),
            scenario_.obstacles.size(), period_s_, scan_period_s_, publish_clock_ ? ", publishing /clock" : "");
+  const Pose2& mount = world_config_.lidar.mount;
+  ROS_INFO(
+      "simulator: LIDAR at (%.3f m, %.3f m, %.3f rad) on '%s', scanning %.3f m above the floor (%s); %s the "
+      "'%s' -> '%s' transform; odometry drift '%s'%s%s",
+      mount.x, mount.y, mount.theta, base_frame_.c_str(), world_config_.people.scan_height_m,
+      description ? "robot description" : "parameters", publish_laser_tf_ ? "publishing" : "not publishing",
+      base_frame_.c_str(), laser_frame_.c_str(), odometry_level.c_str(), map_frame_.empty() ? "" : ", ground truth in ",
+      map_frame_.c_str());
 }
 
 sim::Scenario SimulatorNode::loadFile(const std::string& path, double dynamic_fraction) const {
@@ -162,6 +233,8 @@ void SimulatorNode::loadScenario(const sim::Scenario& scenario, uint64_t seed) {
   command_stamp_s_ = -1e9;
   next_scan_s_ = 0.0;
   collided_reported_ = false;
+  // In the odom frame, which coincides with the room frame at the start of an episode (the odometry starts on the
+  // true pose): the planner takes the goal without waiting for a map -> odom transform.
   geometry_msgs::PoseStamped goal;
   goal.header.stamp = simNow();
   goal.header.frame_id = odom_frame_;
@@ -237,17 +310,26 @@ void SimulatorNode::publishState(bool with_scan) {
     clock.clock = stamp;
     clock_pub_.publish(clock);
   }
-  const Pose2 pose = world_->robotPose();
+  const Pose2 pose = world_->robotPose();  // the truth, in the room frame
+  const Pose2 odom_pose = world_->odomPose();
   const Twist2 twist = world_->robotTwist();
 
-  tf_broadcaster_.sendTransform({makeTransform(pose, stamp, odom_frame_, base_frame_),
-                                 makeTransform(world_config_.lidar.mount, stamp, base_frame_, laser_frame_)});
+  // odom -> base is the wheel odometry; map -> odom closes the loop to the truth (map -> base = truth), as a
+  // localisation would.
+  std::vector<geometry_msgs::TransformStamped> transforms{makeTransform(odom_pose, stamp, odom_frame_, base_frame_)};
+  if (!map_frame_.empty()) {
+    transforms.push_back(makeTransform(pose.compose(odom_pose.inverse()), stamp, map_frame_, odom_frame_));
+  }
+  if (publish_laser_tf_) {
+    transforms.push_back(makeTransform(world_config_.lidar.mount, stamp, base_frame_, laser_frame_));
+  }
+  tf_broadcaster_.sendTransform(transforms);
 
   nav_msgs::Odometry odom;
   odom.header.stamp = stamp;
   odom.header.frame_id = odom_frame_;
   odom.child_frame_id = base_frame_;
-  odom.pose.pose = poseToMsg(pose);
+  odom.pose.pose = poseToMsg(odom_pose);
   odom.twist.twist.linear.x = twist.v;
   odom.twist.twist.angular.z = twist.w;
   for (int i = 0; i < 6; ++i) {
@@ -255,6 +337,13 @@ void SimulatorNode::publishState(bool with_scan) {
     odom.twist.covariance[static_cast<size_t>(i * 7)] = 1e-4;
   }
   odom_pub_.publish(odom);
+  if (truth_odom_pub_.getNumSubscribers() > 0) {
+    odom.header.frame_id = truth_frame_;
+    odom.pose.pose = poseToMsg(pose);
+    odom.pose.covariance = {};
+    odom.twist.covariance = {};
+    truth_odom_pub_.publish(odom);
+  }
 
   if (with_scan && scan_pub_.getNumSubscribers() > 0) {
     sensor_msgs::LaserScan scan;
@@ -267,7 +356,7 @@ void SimulatorNode::publishState(bool with_scan) {
   if (with_scan && (truth_pub_.getNumSubscribers() > 0 || truth_markers_pub_.getNumSubscribers() > 0)) {
     TrackedObstacleArray truth = movingObstaclesToMsg(world_->groundTruthObstacles(), world_->walls());
     truth.header.stamp = stamp;
-    truth.header.frame_id = odom_frame_;
+    truth.header.frame_id = truth_frame_;
     truth_pub_.publish(truth);
     if (truth_markers_pub_.getNumSubscribers() > 0) {
       truth_markers_pub_.publish(obstacleMarkers(truth, "ground_truth", 0.2f, 0.8f, 0.2f));
@@ -276,7 +365,7 @@ void SimulatorNode::publishState(bool with_scan) {
 
   SimStatus status;
   status.header.stamp = stamp;
-  status.header.frame_id = odom_frame_;
+  status.header.frame_id = truth_frame_;
   status.scenario = scenario_.name;
   status.collided = world_->collided();
   if (status.collided) {

@@ -1,5 +1,6 @@
-// ROS wrapper of the simulator core: steps the world at a fixed period; cmd_vel in; scan, odom, tf,
-// ground-truth obstacles and (optionally) /clock out; services to reset and to load a scenario.
+// ROS wrapper of the simulator core: steps the world at a fixed period; cmd_vel in; scan, odom (the wheel
+// odometry, drifting when asked), tf, the ground truth (robot and obstacles) and (optionally) /clock out; services
+// to reset and to load a scenario.
 #pragma once
 
 #include <geometry_msgs/Twist.h>
@@ -39,6 +40,9 @@ class SimulatorNode {
 
   ros::NodeHandle nh_, pnh_;
   std::string odom_frame_, base_frame_, laser_frame_;
+  std::string map_frame_;    // empty: no map -> odom transform
+  std::string truth_frame_;  // the frame of the ground truth and sim/status: map_frame_, else odom_frame_
+  bool publish_laser_tf_ = true;
   double period_s_ = 0.05, scan_period_s_ = 0.1, realtime_factor_ = 1.0, cmd_timeout_s_ = 0.5;
   double dynamic_fraction_ = 0.85;
   double obstacle_radius_m_ = 0.2;
@@ -58,7 +62,8 @@ class SimulatorNode {
   bool collided_reported_ = false;
 
   ros::Subscriber cmd_sub_;
-  ros::Publisher scan_pub_, odom_pub_, truth_pub_, truth_markers_pub_, clock_pub_, goal_pub_, status_pub_;
+  ros::Publisher scan_pub_, odom_pub_, truth_odom_pub_, truth_pub_, truth_markers_pub_, clock_pub_, goal_pub_,
+      status_pub_;
   ros::ServiceServer reset_srv_, load_srv_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
 };

@@ -147,7 +147,7 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
   struct Case {
     const char *exe, *culprit, *args;
   };
-  const std::array<Case, 8> cases = {{
+  const std::array<Case, 10> cases = {{
       {"dovs_node", "max_input_age", "_max_input_age:=0.0"},
       {"dovs_node", "v_max", "_robot/v_max:=-1.0"},
       // The shield's parameters, read by name (shieldParameterNames): the setter's and the validation's refusals.
@@ -157,6 +157,8 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
       {"obstacle_tracker_node", "tf_timeout", "_tf_timeout:=9.0"},
       {"simulator_node", "period", "_period:=0.0"},
       {"simulator_node", "realtime_factor", "_realtime_factor:=-1.0"},
+      {"simulator_node", "odometry/level", "_odometry/level:=medium"},
+      {"simulator_node", "map_frame", "_map_frame:=odom"},
   }};
   int k = 0;
   for (const Case& c : cases) {
