@@ -61,6 +61,41 @@ void laserScanToMsg(const LaserScan2& scan, sensor_msgs::LaserScan& msg) {
   msg.intensities.clear();
 }
 
+std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::OccupancyMap& out) {
+  std::ostringstream os;
+  const auto& info = msg.info;
+  geometry_msgs::Transform origin;
+  origin.translation.x = info.origin.position.x;
+  origin.translation.y = info.origin.position.y;
+  origin.rotation = info.origin.orientation;
+  Pose2 origin_pose;
+  if (msg.header.frame_id.empty()) {
+    os << "map has an empty frame_id";
+  } else if (!std::isfinite(info.resolution) || info.resolution <= 0.0f) {
+    os << "map resolution " << info.resolution << " m is not a positive number";
+  } else if (info.width == 0 || info.height == 0) {
+    os << "map has no cells (" << info.width << " x " << info.height << ")";
+  } else if (msg.data.size() != static_cast<size_t>(info.width) * info.height) {
+    os << "map data has " << msg.data.size() << " cells, width x height is " << info.width << " x " << info.height;
+  } else if (!poseFromTransform(origin, origin_pose)) {
+    os << "map origin is not finite";
+  }
+  if (!os.str().empty()) return os.str();
+  out = sim::OccupancyMap{};
+  out.name = "map in frame '" + msg.header.frame_id + "'";
+  out.resolution_m = info.resolution;
+  out.origin = origin_pose;
+  out.width = static_cast<int>(info.width);
+  out.height = static_cast<int>(info.height);
+  out.cells.resize(msg.data.size());
+  for (size_t i = 0; i < msg.data.size(); ++i) {
+    const int v = msg.data[i];
+    out.cells[i] =
+        v >= 65 ? sim::MapCell::kOccupied : (v >= 0 && v < 20 ? sim::MapCell::kFree : sim::MapCell::kUnknown);
+  }
+  return {};
+}
+
 bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out) {
   const auto& q = t.rotation;
   if (!std::isfinite(t.translation.x) || !std::isfinite(t.translation.y) || !std::isfinite(q.x) ||

@@ -3,6 +3,7 @@
 
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <sensor_msgs/LaserScan.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -11,6 +12,7 @@
 
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/common/types.h"
+#include "dqn_dovs/sim/map.h"
 
 namespace dqn_dovs {
 
@@ -21,6 +23,11 @@ std::string laserScanFromMsg(const sensor_msgs::LaserScan& msg, LaserScan2& out,
 
 /// Fills a LaserScan message (frame and stamp set by the caller).
 void laserScanToMsg(const LaserScan2& scan, sensor_msgs::LaserScan& msg);
+
+/// An occupancy grid message as the core's map (values >= 65 occupied, 0..19 free, the rest and -1 unknown, as
+/// map_server thresholds them). Returns why the message is unusable (empty or unknown frame, a resolution that
+/// is not a positive number, no cells, a data size other than width x height, a non-finite origin), else "".
+std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::OccupancyMap& out);
 
 /// Planar pose of a transform (yaw only). Returns false when the transform has NaN/inf.
 bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out);

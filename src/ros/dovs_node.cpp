@@ -11,6 +11,7 @@
 #include "conversions.h"
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/render/dovs_render.h"
+#include "dqn_dovs/sim/map.h"
 #include "pipeline_steps.h"
 #include "ros_params.h"
 
@@ -38,6 +39,10 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   odom_sub_ = nh_.subscribe("odom", 10, &DovsNode::onOdom, this, ros::TransportHints().tcpNoDelay());
   goal_sub_ = nh_.subscribe("move_base_simple/goal", 2, &DovsNode::onGoal, this);
   action_sub_ = nh_.subscribe("planner/action", 2, &DovsNode::onChosenAction, this);
+  use_map_ = param<bool>(pnh_, "use_map", false);
+  map_range_m_ = paramInRange(pnh_, "map_range", 4.0, 0.5, 50.0);
+  map_unknown_is_occupied_ = param<bool>(pnh_, "map_unknown_is_occupied", false);
+  if (use_map_) map_sub_ = nh_.subscribe("map", 1, &DovsNode::onMap, this);
   ROS_INFO("dovs: robot frame '%s' in '%s', %d trajectories, horizon %.1f s", base_frame_.c_str(), fixed_frame_.c_str(),
            builder_.config().num_trajectories, builder_.config().time_horizon_s);
 }
@@ -80,6 +85,47 @@ void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
   ROS_INFO("dovs: goal (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
 }
 
+void DovsNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
+  sim::OccupancyMap map;
+  const std::string error = occupancyMapFromMsg(*msg, map);
+  if (!error.empty()) {
+    ROS_ERROR("dovs: map ignored (the previous one, if any, is kept): %s", error.c_str());
+    return;
+  }
+  map_walls_ = sim::mapSegments(map, map_unknown_is_occupied_);
+  map_frame_ = msg->header.frame_id;
+  ROS_INFO("dovs: map of %d x %d cells at %.3f m in '%s': %zu wall segments", map.width, map.height, map.resolution_m,
+           map_frame_.c_str(), map_walls_.size());
+}
+
+void DovsNode::addMapWalls(TrackedObstacleArray& obstacles, const Pose2& robot, const ros::Time& stamp) {
+  if (map_walls_.empty()) return;
+  geometry_msgs::TransformStamped tf;
+  try {
+    tf = tf_buffer_.lookupTransform(fixed_frame_, map_frame_, stamp, ros::Duration(tf_timeout_s_));
+  } catch (const tf2::TransformException& e) {
+    ROS_WARN_THROTTLE(2.0, "dovs: map walls left out: no transform %s <- %s at the obstacles' stamp: %s",
+                      fixed_frame_.c_str(), map_frame_.c_str(), e.what());
+    return;
+  }
+  Pose2 map_in_fixed;
+  if (!poseFromTransform(tf.transform, map_in_fixed)) {
+    ROS_WARN_THROTTLE(2.0, "dovs: map walls left out: the %s <- %s transform has NaN/inf", fixed_frame_.c_str(),
+                      map_frame_.c_str());
+    return;
+  }
+  for (const Segment& wall : map_walls_) {
+    const Segment s{map_in_fixed.toWorld(wall.a), map_in_fixed.toWorld(wall.b)};
+    if (pointSegmentDistance(robot.position(), s) > map_range_m_) continue;
+    ObstacleSegment m;
+    m.first_point.x = s.a.x();
+    m.first_point.y = s.a.y();
+    m.last_point.x = s.b.x();
+    m.last_point.y = s.b.y();
+    obstacles.segments.push_back(m);
+  }
+}
+
 void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   if (msg->header.frame_id != fixed_frame_) {
     ROS_WARN_THROTTLE(2.0, "dovs: obstacles in frame '%s', expected the fixed frame '%s'; dropped",
@@ -114,9 +160,17 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
     ROS_WARN_THROTTLE(2.0, "dovs: odom velocity (%.2f m/s, %.2f rad/s) is outside the robot limits; clipped",
                       odom_twist.v, odom_twist.w);
   }
+  // The map's walls join the scan's (a copy of the message only when there are any to add).
+  TrackedObstacleArray with_map;
+  const TrackedObstacleArray* obstacles = msg.get();
+  if (use_map_ && !map_walls_.empty()) {
+    with_map = *msg;
+    addMapWalls(with_map, robot_pose, msg->header.stamp);
+    obstacles = &with_map;
+  }
   DovsStep step;
   try {
-    const std::string obstacle_error = buildDovsStep(*msg, robot_pose, odom_twist, goal_, limits_, normalization_,
+    const std::string obstacle_error = buildDovsStep(*obstacles, robot_pose, odom_twist, goal_, limits_, normalization_,
                                                      shield_, base_frame_, builder_, dovs_, step);
     if (!obstacle_error.empty()) {
       ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());

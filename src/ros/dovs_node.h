@@ -3,6 +3,7 @@
 #pragma once
 
 #include <geometry_msgs/PoseStamped.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <std_msgs/Int8.h>
@@ -11,6 +12,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/dovs/actions.h"
@@ -30,6 +32,10 @@ class DovsNode {
   void onOdom(const nav_msgs::Odometry::ConstPtr& msg);
   void onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg);
   void onChosenAction(const std_msgs::Int8::ConstPtr& msg);
+  void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg);
+  /// The map's walls within map_range_m of `robot` (fixed frame), in the fixed frame at `stamp`, appended to
+  /// `obstacles`. No map, or no transform from it: nothing appended (the scan's own walls still count).
+  void addMapWalls(TrackedObstacleArray& obstacles, const Pose2& robot, const ros::Time& stamp);
 
   ros::NodeHandle nh_, pnh_;
   std::string fixed_frame_, base_frame_;
@@ -41,6 +47,13 @@ class DovsNode {
   ActionShieldConfig shield_;
   VelocitySpace dovs_;
 
+  // The map's walls (map frame), when `use_map`: static geometry beside the scan's, for what the LIDAR cannot see.
+  bool use_map_ = false;
+  double map_range_m_ = 4.0;
+  bool map_unknown_is_occupied_ = false;
+  std::string map_frame_;
+  std::vector<Segment> map_walls_;
+
   std::optional<Vec2> goal_;  // in fixed_frame_
   nav_msgs::Odometry last_odom_;
   bool have_odom_ = false;
@@ -48,7 +61,7 @@ class DovsNode {
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber obstacles_sub_, odom_sub_, goal_sub_, action_sub_;
+  ros::Subscriber obstacles_sub_, odom_sub_, goal_sub_, action_sub_, map_sub_;
   ros::Publisher dovs_pub_, image_pub_;
 };
 
