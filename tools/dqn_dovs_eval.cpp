@@ -37,7 +37,8 @@ const char* kUsage =
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
     "                     [--odom-noise LEVEL]\n"
     "                     [--no-report]\n"
-    "  --methods           planners to evaluate, comma-separated (default s_dovs)\n"
+    "  --methods           planners to evaluate, comma-separated (default s_dovs); oracle: the physical limit,\n"
+    "                      a search that reads the simulator's future (not deployable)\n"
     "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
     "  --generate SEED     seeded random scenarios instead of a folder\n"
     "  --obstacles A-B     obstacle counts A..B, or a single count (default 1-15)\n"
@@ -140,7 +141,7 @@ Options parse(int argc, char** argv) {
       o.help = true;
     } else if (flag == "--methods") {
       o.eval.methods = splitList(flag, value());
-      const std::vector<std::string> known = dqn_dovs::plannerNames();
+      const std::vector<std::string> known = dqn_dovs::evalMethodNames();
       for (const std::string& m : o.eval.methods) {
         if (std::find(known.begin(), known.end(), m) == known.end()) {
           std::string list;

@@ -1,4 +1,5 @@
 #include "dqn_dovs/evaluation/eval.h"
+#include "dqn_dovs/evaluation/oracle.h"
 
 #include <algorithm>
 #include <atomic>
@@ -150,10 +151,28 @@ struct Worker {
 
 }  // namespace
 
+std::vector<std::string> evalMethodNames() {
+  std::vector<std::string> names = plannerNames();
+  names.push_back("oracle");
+  return names;
+}
+
+std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalConfig& config) {
+  if (method == "oracle") {
+    OracleConfig oracle;
+    oracle.goal_tolerance_m = config.episode.reward.goal_tolerance_m;
+    oracle.goal_speed_mps = config.episode.reward.goal_speed_mps;
+    return std::make_unique<OraclePlanner>(oracle);
+  }
+  return makePlanner(method, config.model_path, &config.shield);
+}
+
 EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& method, const EvalScenario& s,
                          bool keep_paths) {
   planner.reset();
   ep.reset(s.scenario, s.seed);
+  // The oracle reads the world itself (its future); every other planner sees only the observation.
+  if (auto* oracle = dynamic_cast<OraclePlanner*>(&planner)) oracle->setWorld(&ep.world());
   EpisodeRecord r;
   r.method = method;
   r.obstacles = s.obstacles;
@@ -219,7 +238,7 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
     Worker w;
     try {
       for (const std::string& m : config.methods)
-        w.planners.push_back(makePlanner(m, config.model_path, &config.shield));
+        w.planners.push_back(makeEvalPlanner(m, config));
       w.episode = std::make_unique<Episode>(config.episode);
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex);

@@ -82,6 +82,7 @@ void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
     return;
   }
   goal_ = Vec2(in_fixed.pose.position.x, in_fixed.pose.position.y);
+  goal_stamp_ = msg->header.stamp;
   ROS_INFO("dovs: goal (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
 }
 
@@ -180,6 +181,10 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
     ROS_ERROR_THROTTLE(2.0, "dovs: cannot build the velocity space: %s", e.what());
     return;
   }
+  // The goal it was built for: the planner acts only on velocity spaces of its own goal.
+  step.msg.goal_stamp = goal_stamp_;
+  step.msg.goal_x = goal_ ? goal_->x() : 0.0;
+  step.msg.goal_y = goal_ ? goal_->y() : 0.0;
   const Dovs& out = step.msg;
   dovs_pub_.publish(out);
 

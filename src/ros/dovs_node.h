@@ -55,6 +55,7 @@ class DovsNode {
   std::vector<Segment> map_walls_;
 
   std::optional<Vec2> goal_;  // in fixed_frame_
+  ros::Time goal_stamp_;      // header.stamp of the goal message
   nav_msgs::Odometry last_odom_;
   bool have_odom_ = false;
   int chosen_action_ = -1;

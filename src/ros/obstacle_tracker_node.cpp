@@ -94,7 +94,7 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
     return;
   }
   if (!reset_note.empty()) {
-    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: tracks reset: %s", reset_note.c_str());
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: %s", reset_note.c_str());  // the note begins "tracks reset: "
   }
 
   obstacles_pub_.publish(out);

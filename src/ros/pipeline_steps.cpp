@@ -1,6 +1,7 @@
 #include "pipeline_steps.h"
 
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include "conversions.h"
@@ -101,6 +102,20 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   const StateVector state = buildState(dovs, obs, normalization);
   m.state.assign(state.data(), state.data() + state.size());
   for (const auto& field : normalization.fields()) m.state_normalization.push_back(field.second);
+  return {};
+}
+
+std::string dovsGoalFault(const Dovs& dovs, double goal_stamp_s, const Vec2& goal, double tolerance_m) {
+  if (!dovs.has_goal) return "dovs has no goal yet";
+  const double stamp_s = dovs.goal_stamp.toSec();
+  const Vec2 built_for(dovs.goal_x, dovs.goal_y);
+  if (stamp_s != goal_stamp_s || !built_for.allFinite() || (built_for - goal).norm() > tolerance_m) {
+    std::ostringstream os;
+    os.precision(3);
+    os << std::fixed << "dovs was built for another goal ((" << built_for.x() << ", " << built_for.y() << ") stamped "
+       << stamp_s << " s; the goal is (" << goal.x() << ", " << goal.y() << ") stamped " << goal_stamp_s << " s)";
+    return os.str();
+  }
   return {};
 }
 

@@ -53,6 +53,11 @@ int chooseAction(const QNetwork& network, const Dovs& dovs, std::string& why);
 /// The velocity a choice of chooseAction commands (core choiceVelocity). Throws std::out_of_range for non-choices.
 Twist2 choiceVelocity(const Dovs& dovs, int choice);
 
+/// Why a Dovs message was not built for the planner's goal (`goal_stamp`, `goal` in the fixed frame): it has no
+/// goal, another goal stamp, or a goal more than `tolerance_m` away. "" when it was. Right after a new goal the
+/// previous goal's velocity space is still in flight; acting on it would steer toward the old goal.
+std::string dovsGoalFault(const Dovs& dovs, double goal_stamp_s, const Vec2& goal, double tolerance_m = 0.25);
+
 /// Why the static geometry of a Dovs message cannot be used in `fixed_frame` ("" when it can: none, or in that
 /// frame).
 std::string staticFrameFault(const Dovs& dovs, const std::string& fixed_frame);

@@ -72,7 +72,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   hooks_.robot_pose = [this](double wait_s) { return robotPose(wait_s); };
   hooks_.space_fault = [this]() -> std::string {
     if (!last_dovs_) return "dovs is stale or missing";
-    if (!last_dovs_->has_goal) return "dovs has no goal yet";
+    if (const std::string other = dovsGoalFault(*last_dovs_, goal_stamp_s_, goal_fixed_); !other.empty()) return other;
     if (last_dovs_->state.size() != static_cast<size_t>(QNetwork::kStateSize)) return "dovs state has the wrong size";
     return {};
   };
@@ -114,7 +114,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   decide_timer_ = nh_.createTimer(ros::Duration(limits_.dt), &PlannerNode::onDecide, this);
   ramp_timer_ = nh_.createTimer(ros::Duration(1.0 / supervisor_.config().ramp_rate_hz), &PlannerNode::onRamp, this);
   ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz", model_path.c_str(),
-           network_->metadata().substr(0, 80).c_str(), limits_.dt, supervisor_.config().ramp_rate_hz);
+           network_->metadata().c_str(), limits_.dt, supervisor_.config().ramp_rate_hz);
   publishStatus(ros::Time::now(), 0.0);
 }
 
@@ -123,7 +123,8 @@ void PlannerNode::onDovs(const Dovs::ConstPtr& msg) {
   // Choose the action as soon as the velocity space arrives: the control timer then applies it without
   // running the network, and planner/latency reports how old the scan behind the choice is.
   supervisor_.space(msg->header.stamp.toSec());
-  if (supervisor_.hasGoal() && supervisor_.state() != GoalState::kReached && msg->has_goal) {
+  if (supervisor_.hasGoal() && supervisor_.state() != GoalState::kReached &&
+      dovsGoalFault(*msg, goal_stamp_s_, goal_fixed_).empty()) {
     std::string why;
     actionForLastDovs(why);
     if (latency_pub_.getNumSubscribers() > 0) {
@@ -195,6 +196,8 @@ void PlannerNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
     return;
   }
   const Vec2 goal(in_fixed.pose.position.x, in_fixed.pose.position.y);
+  goal_stamp_s_ = msg->header.stamp.toSec();
+  goal_fixed_ = goal;
   supervisor_.newGoal(goal);
   ROS_INFO("planner: new goal (%.2f, %.2f) in '%s'", goal.x(), goal.y(), fixed_frame_.c_str());
 }

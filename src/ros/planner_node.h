@@ -67,6 +67,9 @@ class PlannerNode {
   DecisionHooks hooks_;
 
   Dovs::ConstPtr last_dovs_;
+  // The goal as this node accepted it (fixed frame, its message's stamp): a Dovs built for another is not used.
+  double goal_stamp_s_ = 0.0;
+  Vec2 goal_fixed_ = Vec2::Zero();
   Dovs::ConstPtr chosen_for_;     // the message chosen_decision_, chosen_action_ and chosen_why_ belong to
   DovsDecision chosen_decision_;  // its decision fields (state, actions, escape, static geometry)
   int chosen_action_ = -1;

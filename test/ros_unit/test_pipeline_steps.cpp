@@ -214,3 +214,30 @@ TEST(PipelineSteps, TheRobotsPathChoosesAsTheEvaluationDoes) {
 
 }  // namespace
 }  // namespace dqn_dovs
+
+namespace dqn_dovs {
+namespace {
+
+TEST(PipelineSteps, ThePlannerActsOnlyOnVelocitySpacesBuiltForItsGoal) {
+  Dovs d;
+  EXPECT_NE(dovsGoalFault(d, 0.0, Vec2::Zero()).find("no goal"), std::string::npos);
+  d.has_goal = true;
+  d.goal_stamp = ros::Time(100.0);
+  d.goal_x = 4.0;
+  d.goal_y = -1.0;
+  EXPECT_EQ(dovsGoalFault(d, 100.0, Vec2(4.0, -1.0)), "");
+  EXPECT_EQ(dovsGoalFault(d, 100.0, Vec2(4.1, -1.05)), "") << "the same goal, transformed a little differently";
+  // A new goal message (a later stamp), even at the same place: the space in flight is the old goal's.
+  const std::string later = dovsGoalFault(d, 101.5, Vec2(4.0, -1.0));
+  EXPECT_NE(later.find("another goal"), std::string::npos) << later;
+  EXPECT_NE(later.find("101.5"), std::string::npos) << later;
+  // Unstamped goals (rostopic pub): told apart by where they are.
+  d.goal_stamp = ros::Time();
+  EXPECT_EQ(dovsGoalFault(d, 0.0, Vec2(4.0, -1.0)), "");
+  EXPECT_NE(dovsGoalFault(d, 0.0, Vec2(-3.0, 2.0)).find("another goal"), std::string::npos);
+  d.goal_x = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(dovsGoalFault(d, 0.0, Vec2(4.0, -1.0)), "");
+}
+
+}  // namespace
+}  // namespace dqn_dovs

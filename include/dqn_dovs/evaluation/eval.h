@@ -125,6 +125,14 @@ struct EpisodeRecord {
 /// Throws EvalError naming the file or the generator failure.
 std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config);
 
+/// The methods the evaluation runs: every planner of makePlanner, plus `oracle` (evaluation/oracle.h: the physical
+/// limit, reading the simulator's future).
+std::vector<std::string> evalMethodNames();
+
+/// Builds the planner of one method for `config` (the oracle with the episode's success rule). Throws PlannerError
+/// for an unknown name.
+std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalConfig& config);
+
 /// Runs one episode of `scenario` with `planner` in `episode` (both reset first) as runEvaluation does: the
 /// planner decides every control period, and a planner that throws PlannerError makes the robot decelerate.
 /// Paths are kept when `keep_paths`.

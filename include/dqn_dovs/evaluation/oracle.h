@@ -1,0 +1,74 @@
+// The physical limit of a benchmark episode: a planner that knows the future exactly.
+//
+// In the simulator the obstacles and the people ignore the robot (unless people are told to see it), so their
+// future is fixed by the scenario and the seed. At every control period the oracle copies the world, rolls the
+// obstacles and people forward over its horizon with the robot standing aside, and searches the robot's dynamic
+// window period by period (a time-expanded kinodynamic search under the same limits, the same integration and the
+// same success rule as the episode) for the command sequence that reaches the goal soonest without touching
+// anything; it executes the first command and searches again at the next period. Static geometry is kept in a
+// clearance field and the cost to go is the shortest path around the walls (not the straight line), so rooms,
+// corridors and doorways do not trap it.
+//
+// It is not deployable (it reads the simulator's future); it bounds what any planner could do on the same
+// episodes. The search is a beam search: an episode it solves is solvable; one it fails is, with high
+// probability, unsolvable for the robot's kinodynamics (`note` says when every searched trajectory collided).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/planning/planner.h"
+#include "dqn_dovs/sim/world.h"
+
+namespace dqn_dovs {
+
+struct OracleConfig {
+  int horizon_periods = 20;       ///< control periods searched ahead (20 x 0.2 s = 4 s)
+  int beam_width = 160;           ///< nodes kept per period
+  int window_samples = 2;         ///< lattice steps per half-diagonal of the dynamic window (13 commands at 2)
+  double grid_cell_m = 0.1;       ///< clearance field and path-length grid
+  double clearance_margin_m = 0.02;  ///< clearance kept beyond touching (m): the search checks 4 instants a period
+  double goal_tolerance_m = 0.15;   ///< success as the episode counts it: this close to the goal ...
+  double goal_speed_mps = 0.2;      ///< ... and slower than this
+  std::string validate() const;
+};
+
+class OraclePlanner : public Planner {
+ public:
+  explicit OraclePlanner(const OracleConfig& config = OracleConfig{});
+  std::string name() const override { return "oracle"; }
+  void reset() override;
+  /// The world it may read at the next decision (the episode's, true state). Must be set before decide().
+  void setWorld(const sim::World* world) { world_ = world; }
+  /// Throws PlannerError when no world was set.
+  PlannerDecision decide(const PlannerInput& input) override;
+
+ private:
+  struct Node {
+    Pose2 pose;
+    Twist2 twist;
+    double cost = 0.0;  ///< time so far + cost to go
+    int first = -1;     ///< index of the first command of its sequence
+  };
+  /// Static geometry of the episode: clearance to the walls and path length to the goal on a grid.
+  void prepareStatics(const sim::World& world);
+  double wallClearance(const Vec2& p) const;
+  double pathToGoal(const Vec2& p) const;
+  /// The obstacles' and people's bodies at every physics sub-step of the horizon.
+  void rollObstacles(const sim::World& world, double sub_dt, int substeps);
+
+  OracleConfig config_;
+  const sim::World* world_ = nullptr;
+  bool statics_ready_ = false;
+  Vec2 goal_ = Vec2::Zero();
+  // Grids (row-major, origin at grid_origin_).
+  Vec2 grid_origin_ = Vec2::Zero();
+  int grid_w_ = 0, grid_h_ = 0;
+  std::vector<float> clearance_;  ///< m to the nearest wall, per cell centre
+  std::vector<float> to_goal_;    ///< m of free path to the goal, per cell centre (inf: unreachable)
+  std::vector<std::vector<Circle>> future_;  ///< bodies per sub-step (index 0 = now + sub_dt)
+};
+
+}  // namespace dqn_dovs

@@ -1,0 +1,237 @@
+#include "dqn_dovs/evaluation/oracle.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+#include <sstream>
+#include <unordered_map>
+
+#include "dqn_dovs/common/robot_model.h"
+
+namespace dqn_dovs {
+namespace {
+
+constexpr int kSubsteps = 4;  // collision checks per control period
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+}  // namespace
+
+std::string OracleConfig::validate() const {
+  std::ostringstream os;
+  if (horizon_periods < 1 || horizon_periods > 100) os << "oracle horizon_periods " << horizon_periods << " not in [1, 100]";
+  else if (beam_width < 1) os << "oracle beam_width " << beam_width << " must be >= 1";
+  else if (window_samples < 1 || window_samples > 10) os << "oracle window_samples " << window_samples << " not in [1, 10]";
+  else if (!(grid_cell_m > 0.0 && std::isfinite(grid_cell_m))) os << "oracle grid_cell_m " << grid_cell_m << " must be > 0";
+  else if (!(clearance_margin_m >= 0.0 && std::isfinite(clearance_margin_m)))
+    os << "oracle clearance_margin_m " << clearance_margin_m << " must be >= 0";
+  else if (!(goal_tolerance_m > 0.0) || !(goal_speed_mps > 0.0))
+    os << "oracle goal_tolerance_m and goal_speed_mps must be > 0";
+  return os.str();
+}
+
+OraclePlanner::OraclePlanner(const OracleConfig& config) : config_(config) {
+  if (const std::string e = config_.validate(); !e.empty()) throw PlannerError(e);
+}
+
+void OraclePlanner::reset() {
+  statics_ready_ = false;
+  future_.clear();
+}
+
+void OraclePlanner::prepareStatics(const sim::World& world) {
+  goal_ = world.goal();
+  const double radius = world.config().robot.radius + config_.clearance_margin_m;
+  Vec2 lo = world.robotPose().position().cwiseMin(goal_), hi = world.robotPose().position().cwiseMax(goal_);
+  for (const Segment& w : world.walls()) {
+    lo = lo.cwiseMin(w.a).cwiseMin(w.b);
+    hi = hi.cwiseMax(w.a).cwiseMax(w.b);
+  }
+  const double h = config_.grid_cell_m;
+  grid_origin_ = lo - Vec2(0.5, 0.5);
+  grid_w_ = static_cast<int>(std::ceil((hi.x() - lo.x() + 1.0) / h)) + 1;
+  grid_h_ = static_cast<int>(std::ceil((hi.y() - lo.y() + 1.0) / h)) + 1;
+  const size_t n = static_cast<size_t>(grid_w_) * static_cast<size_t>(grid_h_);
+  clearance_.assign(n, kInf);
+  for (int j = 0; j < grid_h_; ++j) {
+    for (int i = 0; i < grid_w_; ++i) {
+      const Vec2 c = grid_origin_ + Vec2((i + 0.5) * h, (j + 0.5) * h);
+      float best = kInf;
+      for (const Segment& w : world.walls()) best = std::min(best, static_cast<float>(pointSegmentDistance(c, w)));
+      clearance_[static_cast<size_t>(j) * grid_w_ + i] = best;
+    }
+  }
+  // Shortest free path to the goal (8-connected Dijkstra over cells the robot's centre may occupy).
+  to_goal_.assign(n, kInf);
+  using Item = std::pair<float, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
+  const int gi = std::clamp(static_cast<int>((goal_.x() - grid_origin_.x()) / h), 0, grid_w_ - 1);
+  const int gj = std::clamp(static_cast<int>((goal_.y() - grid_origin_.y()) / h), 0, grid_h_ - 1);
+  to_goal_[static_cast<size_t>(gj) * grid_w_ + gi] = 0.0f;
+  open.push({0.0f, gj * grid_w_ + gi});
+  const float diagonal = static_cast<float>(std::sqrt(2.0) * h);
+  while (!open.empty()) {
+    const auto [d, k] = open.top();
+    open.pop();
+    if (d > to_goal_[static_cast<size_t>(k)]) continue;
+    const int i = k % grid_w_, j = k / grid_w_;
+    for (int dj = -1; dj <= 1; ++dj) {
+      for (int di = -1; di <= 1; ++di) {
+        if (di == 0 && dj == 0) continue;
+        const int ni = i + di, nj = j + dj;
+        if (ni < 0 || nj < 0 || ni >= grid_w_ || nj >= grid_h_) continue;
+        const size_t nk = static_cast<size_t>(nj) * grid_w_ + ni;
+        if (clearance_[nk] < radius) continue;
+        const float nd = d + (di != 0 && dj != 0 ? diagonal : static_cast<float>(h));
+        if (nd < to_goal_[nk]) {
+          to_goal_[nk] = nd;
+          open.push({nd, static_cast<int>(nk)});
+        }
+      }
+    }
+  }
+  statics_ready_ = true;
+}
+
+double OraclePlanner::wallClearance(const Vec2& p) const {
+  const int i = static_cast<int>(std::floor((p.x() - grid_origin_.x()) / config_.grid_cell_m));
+  const int j = static_cast<int>(std::floor((p.y() - grid_origin_.y()) / config_.grid_cell_m));
+  if (i < 0 || j < 0 || i >= grid_w_ || j >= grid_h_) return 0.0;
+  // The cell centre's clearance, less half a cell diagonal: never more than the point's own.
+  return clearance_[static_cast<size_t>(j) * grid_w_ + i] - 0.7072 * config_.grid_cell_m;
+}
+
+double OraclePlanner::pathToGoal(const Vec2& p) const {
+  const int i = static_cast<int>(std::floor((p.x() - grid_origin_.x()) / config_.grid_cell_m));
+  const int j = static_cast<int>(std::floor((p.y() - grid_origin_.y()) / config_.grid_cell_m));
+  const double straight = (p - goal_).norm();
+  if (i < 0 || j < 0 || i >= grid_w_ || j >= grid_h_) return straight + 100.0;
+  const float d = to_goal_[static_cast<size_t>(j) * grid_w_ + i];
+  return std::isfinite(d) ? std::max<double>(d, straight) : straight + 100.0;
+}
+
+void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int substeps) {
+  sim::World future = world;  // the robot stands aside; the obstacles ignore it
+  future_.resize(static_cast<size_t>(substeps));
+  for (int k = 0; k < substeps; ++k) {
+    future.step(Twist2{}, sub_dt);
+    std::vector<Circle>& bodies = future_[static_cast<size_t>(k)];
+    bodies.clear();
+    for (const MovingObstacle& o : future.groundTruthObstacles()) bodies.push_back({o.center, o.radius});
+  }
+}
+
+PlannerDecision OraclePlanner::decide(const PlannerInput& input) {
+  if (world_ == nullptr) throw PlannerError("oracle: no world to read (setWorld)");
+  const sim::World& world = *world_;
+  if (!statics_ready_) prepareStatics(world);
+  const RobotLimits& limits = world.config().robot;
+  const double dt = limits.dt, sub_dt = dt / kSubsteps;
+  const int periods = config_.horizon_periods;
+  rollObstacles(world, sub_dt, periods * kSubsteps);
+  const double radius = limits.radius + config_.clearance_margin_m;
+  const bool ramp = world.config().ramp_velocity;
+  (void)input;
+
+  // Commands of the first period (the window around the current twist), then expansions per node.
+  struct Key {
+    int64_t v;
+    bool operator==(const Key& o) const { return v == o.v; }
+  };
+  auto keyOf = [](const Node& n) {
+    const auto q = [](double x, double s) { return static_cast<int64_t>(std::llround(x / s)) & 0xfff; };
+    return (q(n.pose.x, 0.05) << 48) | (q(n.pose.y, 0.05) << 36) | (q(n.pose.theta, kPi / 24.0) << 24) |
+           (q(n.twist.v, 0.05) << 12) | q(n.twist.w, 0.2);
+  };
+  const Twist2 now_twist = world.robotTwist();
+  std::vector<Twist2> first_commands = makeDynamicWindow(now_twist, limits).samples(config_.window_samples, limits);
+  if (first_commands.empty()) first_commands.push_back(decelerationCommand(now_twist, limits));
+
+  std::vector<Node> beam{Node{world.robotPose(), now_twist, 0.0, -1}};
+  int best_dead_first = -1, deepest = -1;
+  bool all_dead = false;
+  double best_dead_cost = std::numeric_limits<double>::infinity();
+  std::vector<Node> next;
+  std::unordered_map<int64_t, size_t> seen;
+  for (int depth = 0; depth < periods; ++depth) {
+    next.clear();
+    seen.clear();
+    const double t_end = (depth + 1) * dt;
+    for (const Node& node : beam) {
+      const std::vector<Twist2> commands =
+          depth == 0 ? first_commands : makeDynamicWindow(node.twist, limits).samples(config_.window_samples, limits);
+      for (size_t c = 0; c < commands.size(); ++c) {
+        Node child;
+        child.first = depth == 0 ? static_cast<int>(c) : node.first;
+        child.twist = node.twist;
+        child.pose = node.pose;
+        if (!ramp) child.twist = applyAccelerationLimits(node.twist, commands[c], limits, dt);
+        bool hit = false;
+        for (int s = 0; s < kSubsteps && !hit; ++s) {
+          if (ramp) child.twist = applyAccelerationLimits(child.twist, commands[c], limits, sub_dt);
+          child.pose = integrateUnicycle(child.pose, child.twist.v, child.twist.w, sub_dt);
+          const Vec2 p = child.pose.position();
+          if (wallClearance(p) < radius) hit = true;
+          for (const Circle& b : future_[static_cast<size_t>(depth * kSubsteps + s)]) {
+            if ((p - b.center).squaredNorm() < (radius + b.radius) * (radius + b.radius)) {
+              hit = true;
+              break;
+            }
+          }
+        }
+        if (hit) {
+          // The trajectory that stays free longest, should every one collide.
+          const double cost = node.cost;
+          if (depth > deepest || (depth == deepest && cost < best_dead_cost)) {
+            deepest = depth;
+            best_dead_cost = cost;
+            best_dead_first = child.first;
+          }
+          continue;
+        }
+        const double to_go = pathToGoal(child.pose.position());
+        if (to_go < config_.goal_tolerance_m && child.twist.v < config_.goal_speed_mps &&
+            (child.pose.position() - goal_).norm() < config_.goal_tolerance_m) {
+          PlannerDecision d;
+          d.command = first_commands[static_cast<size_t>(child.first)];
+          d.note = "oracle: goal in " + std::to_string(depth + 1) + " periods";
+          return d;
+        }
+        child.cost = t_end + to_go / limits.v_max;
+        const int64_t k = keyOf(child);
+        const auto it = seen.find(k);
+        if (it == seen.end()) {
+          seen.emplace(k, next.size());
+          next.push_back(child);
+        } else if (child.cost < next[it->second].cost) {
+          next[it->second] = child;
+        }
+      }
+    }
+    if (next.empty()) {
+      all_dead = true;
+      break;
+    }
+    if (static_cast<int>(next.size()) > config_.beam_width) {
+      std::nth_element(next.begin(), next.begin() + config_.beam_width, next.end(),
+                       [](const Node& a, const Node& b) { return a.cost < b.cost; });
+      next.resize(static_cast<size_t>(config_.beam_width));
+    }
+    beam.swap(next);
+  }
+  PlannerDecision d;
+  if (!all_dead) {
+    const auto best =
+        std::min_element(beam.begin(), beam.end(), [](const Node& a, const Node& b) { return a.cost < b.cost; });
+    d.command = first_commands[static_cast<size_t>(best->first)];
+    d.note = "oracle: best progress over the horizon";
+    return d;
+  }
+  // Every searched trajectory collides: the one that stays free longest.
+  d.command = best_dead_first >= 0 ? first_commands[static_cast<size_t>(best_dead_first)]
+                                   : decelerationCommand(now_twist, limits);
+  d.note = "oracle: every searched trajectory collides";
+  return d;
+}
+
+}  // namespace dqn_dovs
