@@ -61,8 +61,7 @@ class SumTree:
 
     Leaves are padded to a power of two and stored in flat arrays, so a batch of
     updates or look-ups walks the tree level by level with numpy instead of one
-    Python loop per element. The minimum is kept for the importance-sampling weight
-    normalisation, which needs the smallest sampling probability in the buffer.
+    Python loop per element. The minimum over the leaves is kept as well (min_priority).
     """
 
     def __init__(self, capacity: int):
@@ -152,7 +151,7 @@ class SampledBatch:
     """A prioritized sample: the transitions, their buffer slots and IS weights."""
 
     indices: np.ndarray  # int64 [B], slots to pass back to update_priorities
-    weights: np.ndarray  # float32 [B], importance-sampling weights, max over the buffer = 1
+    weights: np.ndarray  # float32 [B], importance-sampling weights, max over the batch = 1
     transitions: Transitions
 
 
@@ -163,8 +162,10 @@ class PrioritizedReplay:
     (|td_i| + priority_eps) ** alpha; new transitions get the largest priority seen so
     far so that each is replayed at least once soon. Sampling is stratified (one
     uniform draw per equal slice of the total priority), and the importance weights
-    (N P(i)) ** -beta are divided by their largest possible value (from the smallest
-    priority in the buffer), so they only ever scale updates down.
+    (N P(i)) ** -beta are divided by the largest weight in the sampled batch (Schaul et
+    al.'s normalisation), so they lie in (0, 1] and only ever scale updates down. A single
+    tiny priority elsewhere in the buffer does not shrink them: normalising by the weight
+    of the smallest priority in the whole buffer would scale every batch by that outlier.
 
     States are stored compactly: the 400 grid cells as int8 (they are exactly +1 or -1)
     and the 8 features as float32, i.e. 432 bytes instead of 1632 per state.
@@ -246,8 +247,9 @@ class PrioritizedReplay:
         # returning slots that were never written.
         indices = np.minimum(indices, self._size - 1)
         probs = self._tree.get(indices) / total
-        min_prob = self._tree.min_priority / total
-        weights = (probs / min_prob) ** (-beta)
+        # (N P(i))^-beta / max_j (N P(j))^-beta over the batch: N cancels, and the largest weight
+        # is that of the batch's smallest probability.
+        weights = (probs / probs.min()) ** (-beta)
         return SampledBatch(indices=indices, weights=weights.astype(np.float32), transitions=self.gather(indices))
 
     def gather(self, indices: np.ndarray) -> Transitions:
