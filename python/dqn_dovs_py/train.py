@@ -104,9 +104,10 @@ class EvalConfig:
 
     # Training episodes between evaluations (0: only the final one).
     every_episodes: int = 250
-    # Episodes per evaluation.
+    # Episodes per evaluation, split evenly over the environments: environment i plays the first
+    # episodes of its own fixed scenario sequence, each to its end (evaluation_quota).
     episodes: int = 32
-    # Environments used by the evaluation.
+    # Environments used by the evaluation (at most `episodes` of them are created).
     num_envs: int = 8
     # Seed of the evaluation environments; the same for every evaluation.
     seed: int = 100003
@@ -361,6 +362,47 @@ def _fmt(value: Any) -> Any:
     return value
 
 
+# ---- evaluation ----------------------------------------------------------------------------
+
+
+def evaluation_quota(episodes: int, num_envs: int) -> np.ndarray:
+    """Episodes each evaluation environment plays: `episodes` split as evenly as possible over
+    min(num_envs, episodes) environments, the first ones taking one more where it does not divide."""
+    n = max(1, min(int(num_envs), int(episodes)))
+    quota = np.full(n, int(episodes) // n, np.int64)
+    quota[:int(episodes) % n] += 1
+    return quota
+
+
+def play_fixed_episodes(env: VecEnv, policy: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                        quota: np.ndarray) -> list[tuple[int, float, int]]:
+    """Plays the first quota[i] episodes of environment i, each to its end, acting with
+    `policy(state, mask)`; returns (outcome, return, steps) per episode, environment by environment.
+
+    Each environment draws its scenarios from a fixed sequence (its seed, its index and its episode
+    count), so this is the same set of episodes whatever the policy does: successive evaluations are
+    comparable. Counting the first episodes to finish over all environments instead would favour short
+    episodes (quick collisions, near goals). Environments done with their share keep stepping (they are
+    stepped together) but their further episodes are not counted."""
+    quota = np.asarray(quota, np.int64)
+    if quota.shape != (env.num_envs,):
+        raise ValueError(f"play_fixed_episodes: quota has shape {quota.shape}, expected ({env.num_envs},)")
+    state, mask = env.reset()
+    returns = np.zeros(env.num_envs)
+    played = np.zeros(env.num_envs, np.int64)
+    results: list[list[tuple[int, float, int]]] = [[] for _ in range(env.num_envs)]
+    while np.any(played < quota):
+        out = env.step(policy(state, mask))
+        returns += out.reward
+        for i in np.flatnonzero(out.terminated | out.truncated):
+            if played[i] < quota[i]:
+                results[i].append((int(out.outcome[i]), float(returns[i]), int(out.episode_steps[i])))
+                played[i] += 1
+            returns[i] = 0.0
+        state, mask = out.state, out.mask
+    return [r for per_env in results for r in per_env]
+
+
 # ---- the trainer -------------------------------------------------------------------------
 
 
@@ -599,23 +641,15 @@ class Trainer:
 
     def _evaluate(self, log: _CsvLog, force_stage: int | None = None) -> dict:
         """Greedy episodes on fresh environments with the fixed evaluation seed, under the
-        current stage's settings at its end (the stage's hardest), or `force_stage`'s."""
+        current stage's settings at its end (the stage's hardest), or `force_stage`'s: the same
+        fixed set of episodes at every evaluation of a stage (play_fixed_episodes)."""
         t0 = time.perf_counter()
         ec = self.config.evaluation
         stage = self.curriculum.locate(self.episodes_done)[0] if force_stage is None else force_stage
-        env = self._env_factory(ec.num_envs, ec.seed, self.config.perfect_info)
+        quota = evaluation_quota(ec.episodes, ec.num_envs)
+        env = self._env_factory(quota.size, ec.seed, self.config.perfect_info)
         env.set_stage(self.curriculum.stages[stage].settings(1.0))
-        state, mask = env.reset()
-        returns = np.zeros(ec.num_envs)
-        results: list[tuple[int, float, int]] = []
-        while len(results) < ec.episodes:
-            out = env.step(self.agent.greedy(state, mask))
-            returns += out.reward
-            for i in np.flatnonzero(out.terminated | out.truncated):
-                if len(results) < ec.episodes:
-                    results.append((int(out.outcome[i]), float(returns[i]), int(out.episode_steps[i])))
-                returns[i] = 0.0
-            state, mask = out.state, out.mask
+        results = play_fixed_episodes(env, self.agent.greedy, quota)
         outcomes = np.array([r[0] for r in results])
         steps = np.array([r[2] for r in results], float)
         success = outcomes == OUTCOME_SUCCESS
