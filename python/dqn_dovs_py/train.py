@@ -28,7 +28,8 @@ import yaml
 from .agent import AgentConfig, DQNAgent
 from .curriculum import Curriculum, CurriculumError
 from .decision_config import DecisionConfigError, load_shield_parameters
-from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
+from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, StepResult, VecEnv
+from .escape import RobotLimits, RobotLimitsError, executed_actions, load_robot_limits, one_action_masks
 from .export import WeightFileError
 from .replay import NStepAccumulator, PrioritizedReplay
 
@@ -451,7 +452,12 @@ class Trainer:
         rc = config.replay
         self.replay = PrioritizedReplay(rc.capacity, alpha=rc.alpha, priority_eps=rc.priority_eps,
                                         seed=config.seed + 2, compact_states=rc.compact_states)
-        self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma)
+        # With the shield, the environment may run its escape instead of the chosen action: the transition
+        # then stores the action executed with a one-action mask, and the n-step targets that bootstrap on
+        # such a state wait one step for that mask (NStepAccumulator, defer_bootstrap).
+        self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma,
+                                      defer_bootstrap=config.action_shield)
+        self._robot_limits: RobotLimits | None = None
 
         self.episodes_done = 0
         self.env_steps = 0
@@ -495,6 +501,8 @@ class Trainer:
         limit = self.total_episodes if stop_at is None else min(int(stop_at), self.total_episodes)
         env = self._env_factory(cfg.num_envs, env_seed(cfg.seed, self.episodes_done), cfg.perfect_info)
         self._normalization = env.normalization()
+        if cfg.action_shield and self._robot_limits is None:
+            self._robot_limits = self._load_robot_limits()  # needed for escapes: fail before training, not during
         e = cfg.num_envs
         env.set_stage(self.curriculum.settings_at(self.episodes_done))
         state, mask = env.reset()
@@ -523,7 +531,8 @@ class Trainer:
                 t1 = perf()
                 out = env.step(actions)
                 t2 = perf()
-                self.replay.add(self.nstep.push(state, mask, actions, out.reward, out.next_state, out.next_mask,
+                acted, acted_mask = self._executed(state, mask, actions, out)
+                self.replay.add(self.nstep.push(state, acted_mask, acted, out.reward, out.next_state, out.next_mask,
                                                 out.terminated, out.truncated))
                 t3 = perf()
                 self._timing["act_s"] += t1 - t0
@@ -579,6 +588,31 @@ class Trainer:
         with open(os.path.join(self.out_dir, SUMMARY), "w") as f:
             json.dump(summary, f, indent=2)
         return summary
+
+    def _executed(self, state: np.ndarray, mask: np.ndarray, actions: np.ndarray,
+                  out: StepResult) -> tuple[np.ndarray, np.ndarray]:
+        """The (action, mask) to store for each environment's step: the chosen ones, except where the environment
+        ran the shield's escape instead (out.escaped). There the action is the one whose velocity is nearest
+        to the escape velocity the robot executed (escape.executed_actions: the environment reports the
+        escape by a flag only), under a mask allowing only it, so that replay learns what the robot did."""
+        if out.escaped is None or not out.escaped.any():
+            return actions, mask
+        if self._robot_limits is None:
+            self._robot_limits = self._load_robot_limits()
+        escaped = np.flatnonzero(out.escaped)
+        executed = executed_actions(state[escaped], out.next_state[escaped], self._normalization,
+                                    self._robot_limits, chosen=actions[escaped])
+        acted = np.array(actions, np.int64, copy=True)
+        acted[escaped] = executed
+        acted_mask = np.array(mask, bool, copy=True)
+        acted_mask[escaped] = one_action_masks(executed, acted_mask.shape[1])
+        return acted, acted_mask
+
+    def _load_robot_limits(self) -> RobotLimits:
+        try:
+            return load_robot_limits(self._normalization or {})
+        except RobotLimitsError as error:
+            raise ConfigError(str(error)) from None
 
     def _learn(self, new_transitions: int) -> None:
         rc = self.config.replay
