@@ -61,8 +61,7 @@ class SumTree:
 
     Leaves are padded to a power of two and stored in flat arrays, so a batch of
     updates or look-ups walks the tree level by level with numpy instead of one
-    Python loop per element. The minimum is kept for the importance-sampling weight
-    normalisation, which needs the smallest sampling probability in the buffer.
+    Python loop per element. The minimum over the leaves is kept as well (min_priority).
     """
 
     def __init__(self, capacity: int):
@@ -152,7 +151,7 @@ class SampledBatch:
     """A prioritized sample: the transitions, their buffer slots and IS weights."""
 
     indices: np.ndarray  # int64 [B], slots to pass back to update_priorities
-    weights: np.ndarray  # float32 [B], importance-sampling weights, max over the buffer = 1
+    weights: np.ndarray  # float32 [B], importance-sampling weights, max over the batch = 1
     transitions: Transitions
 
 
@@ -163,8 +162,10 @@ class PrioritizedReplay:
     (|td_i| + priority_eps) ** alpha; new transitions get the largest priority seen so
     far so that each is replayed at least once soon. Sampling is stratified (one
     uniform draw per equal slice of the total priority), and the importance weights
-    (N P(i)) ** -beta are divided by their largest possible value (from the smallest
-    priority in the buffer), so they only ever scale updates down.
+    (N P(i)) ** -beta are divided by the largest weight in the sampled batch (Schaul et
+    al.'s normalisation), so they lie in (0, 1] and only ever scale updates down. A single
+    tiny priority elsewhere in the buffer does not shrink them: normalising by the weight
+    of the smallest priority in the whole buffer would scale every batch by that outlier.
 
     States are stored compactly: the 400 grid cells as int8 (they are exactly +1 or -1)
     and the 8 features as float32, i.e. 432 bytes instead of 1632 per state.
@@ -246,8 +247,9 @@ class PrioritizedReplay:
         # returning slots that were never written.
         indices = np.minimum(indices, self._size - 1)
         probs = self._tree.get(indices) / total
-        min_prob = self._tree.min_priority / total
-        weights = (probs / min_prob) ** (-beta)
+        # (N P(i))^-beta / max_j (N P(j))^-beta over the batch: N cancels, and the largest weight
+        # is that of the batch's smallest probability.
+        weights = (probs / probs.min()) ** (-beta)
         return SampledBatch(indices=indices, weights=weights.astype(np.float32), transitions=self.gather(indices))
 
     def gather(self, indices: np.ndarray) -> Transitions:
@@ -345,10 +347,18 @@ class NStepAccumulator:
     collision) with no bootstrap (discount 0); after a truncation (timeout) with
     gamma**k from the final successor, since the state itself is not terminal. The
     window is then cleared, so no return ever mixes two episodes.
+
+    With `defer_bootstrap`, a running episode's transition waits one more step, until its
+    bootstrap state has itself been pushed, and bootstraps under the mask pushed with that
+    state (the mask it was really acted on under) instead of the `next_mask` of the step
+    that reached it. The trainer pushes a one-action mask where the environment ran the
+    action shield's escape instead of the chosen action, so a target never takes the
+    maximum over choices that state did not have. The transitions are otherwise the same;
+    ends of episodes flush as above (a final successor is never acted on).
     """
 
     def __init__(self, num_envs: int, n: int, gamma: float, state_dim: int = STATE_DIM,
-                 num_actions: int = NUM_ACTIONS):
+                 num_actions: int = NUM_ACTIONS, defer_bootstrap: bool = False):
         if num_envs < 1:
             raise ValueError(f"NStepAccumulator: num_envs must be >= 1, got {num_envs}")
         if n < 1:
@@ -357,18 +367,21 @@ class NStepAccumulator:
             raise ValueError(f"NStepAccumulator: gamma must be in [0, 1], got {gamma}")
         self.num_envs, self.n, self.gamma = int(num_envs), int(n), float(gamma)
         self.state_dim, self.num_actions = int(state_dim), int(num_actions)
+        self.defer_bootstrap = bool(defer_bootstrap)
         e = self.num_envs
-        # Ring buffers: step t of env e lives in slot t % n.
-        self._state = np.zeros((e, n, state_dim), np.float32)
-        self._mask = np.zeros((e, n, num_actions), bool)
-        self._action = np.zeros((e, n), np.int64)
-        self._reward = np.zeros((e, n), np.float64)
+        # Ring buffers: step t of env e lives in slot t % slots (one more slot when deferring:
+        # the oldest step waits until the step n after it has been pushed).
+        self._slots = n + 1 if self.defer_bootstrap else n
+        self._state = np.zeros((e, self._slots, state_dim), np.float32)
+        self._mask = np.zeros((e, self._slots, num_actions), bool)
+        self._action = np.zeros((e, self._slots), np.int64)
+        self._reward = np.zeros((e, self._slots), np.float64)
         self._count = np.zeros(e, np.int64)  # steps of the current episode pushed so far
         self._powers = self.gamma ** np.arange(n + 1)
 
     def pending(self) -> np.ndarray:
         """Steps per environment waiting in the window (not emitted yet)."""
-        return np.minimum(self._count, self.n - 1)
+        return np.minimum(self._count, self._slots - 1)
 
     def reset(self) -> None:
         """Drops every window (e.g. when the environments are recreated)."""
@@ -377,7 +390,7 @@ class NStepAccumulator:
     def push(self, state: np.ndarray, mask: np.ndarray, action: np.ndarray, reward: np.ndarray,
              next_state: np.ndarray, next_mask: np.ndarray, terminated: np.ndarray,
              truncated: np.ndarray) -> Transitions:
-        e, n = self.num_envs, self.n
+        e, n, slots = self.num_envs, self.n, self._slots
         for name, value, shape in (("state", state, (e, self.state_dim)), ("mask", mask, (e, self.num_actions)),
                                    ("action", action, (e,)), ("reward", reward, (e,)),
                                    ("next_state", next_state, (e, self.state_dim)),
@@ -388,7 +401,7 @@ class NStepAccumulator:
         terminated = np.asarray(terminated, bool)
         done = terminated | np.asarray(truncated, bool)
         envs = np.arange(e)
-        slot = self._count % n
+        slot = self._count % slots
         self._state[envs, slot] = state
         self._mask[envs, slot] = mask
         self._action[envs, slot] = action
@@ -396,11 +409,19 @@ class NStepAccumulator:
         self._count += 1
 
         parts = []
-        # Full windows of running episodes: one transition each, from the oldest step.
-        full = np.flatnonzero(~done & (self._count >= n))
+        # Full windows: one transition each, from the oldest step, bootstrapping with gamma**n.
+        if self.defer_bootstrap:
+            # The step n before the one just pushed, bootstrapping on the state just pushed (acted on,
+            # so not yet flushed below even when its step ended the episode) under its pushed mask.
+            full = np.flatnonzero(self._count > n)
+            oldest = (self._count[full] - 1 - n) % slots
+            bootstrap_state, bootstrap_mask = state, mask
+        else:
+            full = np.flatnonzero(~done & (self._count >= n))
+            oldest = (self._count[full] - n) % slots
+            bootstrap_state, bootstrap_mask = next_state, next_mask
         if full.size:
-            oldest = self._count[full] % n  # slot of step count - n
-            order = (oldest[:, None] + np.arange(n)[None, :]) % n
+            order = (oldest[:, None] + np.arange(n)[None, :]) % slots
             rewards = self._reward[full[:, None], order]
             parts.append(Transitions(
                 state=self._state[full, oldest],
@@ -408,14 +429,14 @@ class NStepAccumulator:
                 action=self._action[full, oldest],
                 reward=(rewards @ self._powers[:n]).astype(np.float32),
                 discount=np.full(full.size, self._powers[n], np.float32),
-                next_state=np.asarray(next_state[full], np.float32),
-                next_mask=np.asarray(next_mask[full], bool),
+                next_state=np.asarray(bootstrap_state[full], np.float32),
+                next_mask=np.asarray(bootstrap_mask[full], bool),
             ))
         # Ended episodes: flush the whole window with returns cut at the episode end.
         for env in np.flatnonzero(done):
             length = int(min(self._count[env], n))
             first = int(self._count[env] - length)
-            order = (first + np.arange(length)) % n
+            order = (first + np.arange(length)) % slots
             rewards = self._reward[env, order]
             # returns[j] = sum_{k >= j} gamma**(k - j) * rewards[k]
             returns = np.zeros(length, np.float64)

@@ -28,7 +28,8 @@ import yaml
 from .agent import AgentConfig, DQNAgent
 from .curriculum import Curriculum, CurriculumError
 from .decision_config import DecisionConfigError, load_shield_parameters
-from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, VecEnv
+from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, StepResult, VecEnv
+from .escape import RobotLimits, RobotLimitsError, executed_actions, load_robot_limits, one_action_masks
 from .export import WeightFileError
 from .replay import NStepAccumulator, PrioritizedReplay
 
@@ -104,9 +105,10 @@ class EvalConfig:
 
     # Training episodes between evaluations (0: only the final one).
     every_episodes: int = 250
-    # Episodes per evaluation.
+    # Episodes per evaluation, split evenly over the environments: environment i plays the first
+    # episodes of its own fixed scenario sequence, each to its end (evaluation_quota).
     episodes: int = 32
-    # Environments used by the evaluation.
+    # Environments used by the evaluation (at most `episodes` of them are created).
     num_envs: int = 8
     # Seed of the evaluation environments; the same for every evaluation.
     seed: int = 100003
@@ -361,6 +363,47 @@ def _fmt(value: Any) -> Any:
     return value
 
 
+# ---- evaluation ----------------------------------------------------------------------------
+
+
+def evaluation_quota(episodes: int, num_envs: int) -> np.ndarray:
+    """Episodes each evaluation environment plays: `episodes` split as evenly as possible over
+    min(num_envs, episodes) environments, the first ones taking one more where it does not divide."""
+    n = max(1, min(int(num_envs), int(episodes)))
+    quota = np.full(n, int(episodes) // n, np.int64)
+    quota[:int(episodes) % n] += 1
+    return quota
+
+
+def play_fixed_episodes(env: VecEnv, policy: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                        quota: np.ndarray) -> list[tuple[int, float, int]]:
+    """Plays the first quota[i] episodes of environment i, each to its end, acting with
+    `policy(state, mask)`; returns (outcome, return, steps) per episode, environment by environment.
+
+    Each environment draws its scenarios from a fixed sequence (its seed, its index and its episode
+    count), so this is the same set of episodes whatever the policy does: successive evaluations are
+    comparable. Counting the first episodes to finish over all environments instead would favour short
+    episodes (quick collisions, near goals). Environments done with their share keep stepping (they are
+    stepped together) but their further episodes are not counted."""
+    quota = np.asarray(quota, np.int64)
+    if quota.shape != (env.num_envs,):
+        raise ValueError(f"play_fixed_episodes: quota has shape {quota.shape}, expected ({env.num_envs},)")
+    state, mask = env.reset()
+    returns = np.zeros(env.num_envs)
+    played = np.zeros(env.num_envs, np.int64)
+    results: list[list[tuple[int, float, int]]] = [[] for _ in range(env.num_envs)]
+    while np.any(played < quota):
+        out = env.step(policy(state, mask))
+        returns += out.reward
+        for i in np.flatnonzero(out.terminated | out.truncated):
+            if played[i] < quota[i]:
+                results[i].append((int(out.outcome[i]), float(returns[i]), int(out.episode_steps[i])))
+                played[i] += 1
+            returns[i] = 0.0
+        state, mask = out.state, out.mask
+    return [r for per_env in results for r in per_env]
+
+
 # ---- the trainer -------------------------------------------------------------------------
 
 
@@ -409,7 +452,12 @@ class Trainer:
         rc = config.replay
         self.replay = PrioritizedReplay(rc.capacity, alpha=rc.alpha, priority_eps=rc.priority_eps,
                                         seed=config.seed + 2, compact_states=rc.compact_states)
-        self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma)
+        # With the shield, the environment may run its escape instead of the chosen action: the transition
+        # then stores the action executed with a one-action mask, and the n-step targets that bootstrap on
+        # such a state wait one step for that mask (NStepAccumulator, defer_bootstrap).
+        self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma,
+                                      defer_bootstrap=config.action_shield)
+        self._robot_limits: RobotLimits | None = None
 
         self.episodes_done = 0
         self.env_steps = 0
@@ -453,6 +501,8 @@ class Trainer:
         limit = self.total_episodes if stop_at is None else min(int(stop_at), self.total_episodes)
         env = self._env_factory(cfg.num_envs, env_seed(cfg.seed, self.episodes_done), cfg.perfect_info)
         self._normalization = env.normalization()
+        if cfg.action_shield and self._robot_limits is None:
+            self._robot_limits = self._load_robot_limits()  # needed for escapes: fail before training, not during
         e = cfg.num_envs
         env.set_stage(self.curriculum.settings_at(self.episodes_done))
         state, mask = env.reset()
@@ -481,7 +531,8 @@ class Trainer:
                 t1 = perf()
                 out = env.step(actions)
                 t2 = perf()
-                self.replay.add(self.nstep.push(state, mask, actions, out.reward, out.next_state, out.next_mask,
+                acted, acted_mask = self._executed(state, mask, actions, out)
+                self.replay.add(self.nstep.push(state, acted_mask, acted, out.reward, out.next_state, out.next_mask,
                                                 out.terminated, out.truncated))
                 t3 = perf()
                 self._timing["act_s"] += t1 - t0
@@ -537,6 +588,31 @@ class Trainer:
         with open(os.path.join(self.out_dir, SUMMARY), "w") as f:
             json.dump(summary, f, indent=2)
         return summary
+
+    def _executed(self, state: np.ndarray, mask: np.ndarray, actions: np.ndarray,
+                  out: StepResult) -> tuple[np.ndarray, np.ndarray]:
+        """The (action, mask) to store for each environment's step: the chosen ones, except where the environment
+        ran the shield's escape instead (out.escaped). There the action is the one whose velocity is nearest
+        to the escape velocity the robot executed (escape.executed_actions: the environment reports the
+        escape by a flag only), under a mask allowing only it, so that replay learns what the robot did."""
+        if out.escaped is None or not out.escaped.any():
+            return actions, mask
+        if self._robot_limits is None:
+            self._robot_limits = self._load_robot_limits()
+        escaped = np.flatnonzero(out.escaped)
+        executed = executed_actions(state[escaped], out.next_state[escaped], self._normalization,
+                                    self._robot_limits, chosen=actions[escaped])
+        acted = np.array(actions, np.int64, copy=True)
+        acted[escaped] = executed
+        acted_mask = np.array(mask, bool, copy=True)
+        acted_mask[escaped] = one_action_masks(executed, acted_mask.shape[1])
+        return acted, acted_mask
+
+    def _load_robot_limits(self) -> RobotLimits:
+        try:
+            return load_robot_limits(self._normalization or {})
+        except RobotLimitsError as error:
+            raise ConfigError(str(error)) from None
 
     def _learn(self, new_transitions: int) -> None:
         rc = self.config.replay
@@ -599,23 +675,15 @@ class Trainer:
 
     def _evaluate(self, log: _CsvLog, force_stage: int | None = None) -> dict:
         """Greedy episodes on fresh environments with the fixed evaluation seed, under the
-        current stage's settings at its end (the stage's hardest), or `force_stage`'s."""
+        current stage's settings at its end (the stage's hardest), or `force_stage`'s: the same
+        fixed set of episodes at every evaluation of a stage (play_fixed_episodes)."""
         t0 = time.perf_counter()
         ec = self.config.evaluation
         stage = self.curriculum.locate(self.episodes_done)[0] if force_stage is None else force_stage
-        env = self._env_factory(ec.num_envs, ec.seed, self.config.perfect_info)
+        quota = evaluation_quota(ec.episodes, ec.num_envs)
+        env = self._env_factory(quota.size, ec.seed, self.config.perfect_info)
         env.set_stage(self.curriculum.stages[stage].settings(1.0))
-        state, mask = env.reset()
-        returns = np.zeros(ec.num_envs)
-        results: list[tuple[int, float, int]] = []
-        while len(results) < ec.episodes:
-            out = env.step(self.agent.greedy(state, mask))
-            returns += out.reward
-            for i in np.flatnonzero(out.terminated | out.truncated):
-                if len(results) < ec.episodes:
-                    results.append((int(out.outcome[i]), float(returns[i]), int(out.episode_steps[i])))
-                returns[i] = 0.0
-            state, mask = out.state, out.mask
+        results = play_fixed_episodes(env, self.agent.greedy, quota)
         outcomes = np.array([r[0] for r in results])
         steps = np.array([r[2] for r in results], float)
         success = outcomes == OUTCOME_SUCCESS

@@ -1,4 +1,5 @@
-"""The curriculum file and its schedule: the paper's table, ramps, epsilon, scaling, errors."""
+"""The curriculum files and their schedule: the paper's table (config/curriculum_paper.yaml), the rebalanced
+default (config/curriculum.yaml), ramps, epsilon, scaling, errors."""
 
 import copy
 import os
@@ -8,7 +9,9 @@ import yaml
 
 from dqn_dovs_py.curriculum import Curriculum, CurriculumError
 
-CONFIG = os.path.join(os.path.dirname(__file__), "..", "..", "config", "curriculum.yaml")
+CONFIG_DIR = os.path.join(os.path.dirname(__file__), "..", "..", "config")
+CONFIG = os.path.join(CONFIG_DIR, "curriculum_paper.yaml")
+DEFAULT_CONFIG = os.path.join(CONFIG_DIR, "curriculum.yaml")
 
 
 @pytest.fixture(scope="module")
@@ -121,3 +124,36 @@ def test_missing_field_and_type_none_with_obstacles_are_errors(raw):
         Curriculum.from_dict(cfg)
     with pytest.raises(CurriculumError, match="non-empty list"):
         Curriculum.from_dict({"stages": []})
+
+
+def load_yaml(path):
+    with open(path) as f:
+        return yaml.safe_load(f)
+
+
+def test_default_curriculum_is_the_papers_stages_rebalanced():
+    """Epsilon decays over about 30 % of a decaying stage, the hardest stage is longer than the paper's, goals are
+    at least 4 m away as in the evaluation episodes; everything outside `curriculum` is the paper file's."""
+    paper_file, default_file = load_yaml(CONFIG), load_yaml(DEFAULT_CONFIG)
+    assert {k: v for k, v in default_file.items() if k != "curriculum"} == \
+        {k: v for k, v in paper_file.items() if k != "curriculum"}
+    paper, default = Curriculum.from_dict(paper_file["curriculum"]), Curriculum.from_dict(default_file["curriculum"])
+    assert default.epsilon_decay.fraction == pytest.approx(0.3)
+    assert (default.epsilon_decay.start, default.epsilon_decay.end) == (1.0, 0.05)
+    # Stage 2 (static, decaying) explores for its first 300 episodes, then practises at 0.05.
+    assert default.epsilon_at(1000) == pytest.approx(1.0)
+    assert default.epsilon_at(1150) == pytest.approx(1.0 - 0.95 * 0.5)
+    assert default.epsilon_at(1300) == pytest.approx(0.05)
+    assert default.epsilon_at(1999) == pytest.approx(0.05)
+    # Same stages in the same order; only the last (the hardest: both kinds of obstacles) is longer.
+    assert [(s.name, s.obstacle_type, s.epsilon, s.obstacles, s.obstacles_start) for s in default.stages] == \
+        [(s.name, s.obstacle_type, s.epsilon, s.obstacles, s.obstacles_start) for s in paper.stages]
+    assert [s.episodes for s in default.stages[:-1]] == [s.episodes for s in paper.stages[:-1]]
+    assert default.stages[-1].episodes > paper.stages[-1].episodes
+    assert default.stages[-1].episodes >= 0.4 * default.total_episodes
+    # Goals like the evaluation's (../shared/scenarios/README.md, dqn_dovs_eval --generate): at least 4 m.
+    for stage in default.stages[1:]:
+        assert stage.goal_distance_m == stage.goal_distance_start_m == (4.0, 12.0)
+    first = default.stages[0]
+    assert first.goal_distance_start_m == (1.0, 1.5) and first.goal_distance_m == (4.0, 12.0)
+    assert default.settings_at(default.total_episodes - 1).goal_distance_min == 4.0

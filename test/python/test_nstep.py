@@ -162,3 +162,93 @@ def test_shape_errors_name_the_argument():
     with pytest.raises(ValueError, match="next_mask has shape"):
         acc.push(np.zeros((2, 408)), np.ones((2, 8), bool), np.zeros(2, int), np.zeros(2), np.zeros((2, 408)),
                  np.ones((3, 8), bool), np.zeros(2, bool), np.zeros(2, bool))
+
+
+def one_action(action, num_actions=8):
+    mask = np.zeros(num_actions, bool)
+    mask[action] = True
+    return mask
+
+
+def test_deferred_bootstrap_takes_the_mask_pushed_with_the_bootstrap_state():
+    """With defer_bootstrap, a transition bootstraps under the mask its bootstrap state was acted on with (here a
+    one-action mask, as where the shield's escape ran), one step later than without."""
+    n = 2
+    acc = NStepAccumulator(1, n, GAMMA, defer_bootstrap=True)
+    env_mask = np.ones((1, 8), bool)  # what the environment reported for every successor
+
+    def push(t, terminated=False):
+        return acc.push(state_of(0, t)[None], one_action(t % 8)[None], np.array([t % 8]),
+                        np.array([10.0 + t], np.float32), state_of(0, t + 1)[None], env_mask,
+                        np.array([terminated]), np.array([False]))
+
+    assert len(push(0)) == 0
+    assert len(push(1)) == 0  # without deferring, step 0 would be emitted here, under env_mask
+    out = push(2)
+    assert len(out) == 1
+    assert out.state[0, 401] == 0 and out.next_state[0, 401] == 2
+    np.testing.assert_array_equal(out.next_mask[0], one_action(2))
+    assert out.reward[0] == pytest.approx(10.0 + GAMMA * 11.0)
+    assert out.discount[0] == pytest.approx(GAMMA ** n)
+    np.testing.assert_array_equal(out.mask[0], one_action(0))
+    # Step 3 ends the episode: step 1 bootstraps on state 3 (acted on) under its mask, steps 2 and 3 are flushed.
+    out = push(3, terminated=True)
+    np.testing.assert_array_equal(out.state[:, 401], [1, 2, 3])
+    np.testing.assert_array_equal(out.next_state[:, 401], [3, 4, 4])
+    np.testing.assert_array_equal(out.next_mask[0], one_action(3))
+    np.testing.assert_allclose(out.discount, [GAMMA ** 2, 0.0, 0.0], rtol=1e-6)
+    np.testing.assert_allclose(out.reward, [11.0 + GAMMA * 12.0, 12.0 + GAMMA * 13.0, 13.0], rtol=1e-6)
+    assert acc.pending()[0] == 0
+
+
+def test_deferred_bootstrap_gives_the_same_transitions_when_no_mask_is_overridden():
+    """Where each pushed mask is the previous step's next_mask (nothing overridden), deferring changes when the
+    transitions come out, never what they hold, and still emits every step exactly once."""
+    rng = np.random.default_rng(1)
+    e, n = 3, 4
+    plain = NStepAccumulator(e, n, GAMMA)
+    deferred = NStepAccumulator(e, n, GAMMA, defer_bootstrap=True)
+    t = np.zeros(e, int)
+    episode = np.zeros(e, int)
+    mask = rng.random((e, 8)) < 0.5
+    mask[:, 4] = True
+    outs = {"plain": [], "deferred": []}
+    for _ in range(400):
+        ended = rng.random(e) < 0.06
+        kinds = rng.random(e) < 0.5
+        state = np.stack([state_of(i, t[i]) for i in range(e)])
+        state[:, 402] = episode
+        nxt = np.stack([state_of(i, t[i] + 1) for i in range(e)])
+        nxt[:, 402] = episode
+        next_mask = rng.random((e, 8)) < 0.5
+        next_mask[:, 4] = True
+        args = (state, mask, t % 5, rng.normal(size=e).astype(np.float32), nxt, next_mask, ended & kinds,
+                ended & ~kinds)
+        outs["plain"].append(plain.push(*args))
+        outs["deferred"].append(deferred.push(*args))
+        t += 1
+        t[ended] = 0
+        episode[ended] += 1
+        mask = next_mask.copy()
+        fresh = rng.random((e, 8)) < 0.5
+        fresh[:, 4] = True
+        mask[ended] = fresh[ended]  # a new episode's first mask
+
+    def by_step(parts):
+        rows = {}
+        for out in parts:
+            for i in range(len(out)):
+                key = (int(out.state[i, 400]), int(out.state[i, 402]), int(out.state[i, 401]))
+                assert key not in rows
+                rows[key] = (out.mask[i].tobytes(), int(out.action[i]), float(out.reward[i]), float(out.discount[i]),
+                             out.next_state[i].tobytes(), out.next_mask[i].tobytes())
+        return rows
+
+    plain_rows = by_step(outs["plain"])
+    deferred_rows = by_step(outs["deferred"])
+    # The deferred accumulator holds one more step per running episode; all the rest is identical.
+    assert set(deferred_rows) <= set(plain_rows)
+    assert len(plain_rows) - len(deferred_rows) == int(deferred.pending().sum() - plain.pending().sum())
+    for key, row in deferred_rows.items():
+        assert row == plain_rows[key], key
+    assert len(deferred_rows) == 400 * e - int(deferred.pending().sum())

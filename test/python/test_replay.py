@@ -92,11 +92,31 @@ def test_importance_weights_match_definition():
     beta = 0.6
     batch = replay.sample(64, beta)
     probs = p / p.sum()
-    expected = (4 * probs[batch.indices]) ** -beta / (4 * probs.min()) ** -beta
-    np.testing.assert_allclose(batch.weights, expected, rtol=1e-5)
+    weights = (4 * probs[batch.indices]) ** -beta
+    np.testing.assert_allclose(batch.weights, weights / weights.max(), rtol=1e-5)
     assert batch.weights.max() <= 1.0 + 1e-6
     # beta = 0: no correction at all.
     np.testing.assert_allclose(replay.sample(16, 0.0).weights, 1.0)
+
+
+def test_importance_weights_are_normalised_by_the_batch_maximum():
+    """One tiny priority elsewhere in the buffer must not shrink the weights of a batch that does not hold it."""
+    replay = PrioritizedReplay(capacity=64, alpha=1.0, priority_eps=1e-12, seed=4)
+    replay.add(make_transitions(64))
+    p = np.linspace(1.0, 2.0, 64)
+    p[0] = 1e-6  # sampled with probability ~1e-8 per draw
+    replay.update_priorities(np.arange(64), p)
+    beta = 1.0
+    batch = replay.sample(16, beta)
+    assert 0 not in batch.indices
+    probs = p / p.sum()
+    weights = (64 * probs[batch.indices]) ** -beta
+    np.testing.assert_allclose(batch.weights, weights / weights.max(), rtol=1e-5)
+    assert batch.weights.max() == pytest.approx(1.0)
+    assert np.all((batch.weights > 0.0) & (batch.weights <= 1.0 + 1e-6))
+    # The smallest priority of the batch gets weight 1, the largest (p_min / p_max) ** beta of the batch.
+    sampled = p[batch.indices]
+    assert batch.weights.min() == pytest.approx((sampled.min() / sampled.max()) ** beta, rel=1e-5)
 
 
 def test_new_transitions_get_max_priority():

@@ -163,13 +163,14 @@ def test_resume_continues_from_the_checkpoint(tmp_path, full_run):
         make_trainer(tmp_path / "nothing", resume=True)
 
 
-def test_shipped_configuration_is_valid():
-    config = load_config(os.path.join(REPO, "config", "curriculum.yaml"))
+@pytest.mark.parametrize("name,episodes", [("curriculum.yaml", 9000), ("curriculum_paper.yaml", 7500)])
+def test_shipped_configuration_is_valid(name, episodes):
+    config = load_config(os.path.join(REPO, "config", name))
     assert config.gamma == 0.97 and config.n_step == 5
     assert config.agent.lr_start == 3e-4 and config.agent.lr_end == 1e-4
     assert config.agent.target_update_period == 100 and config.agent.double_dqn
     assert config.replay.alpha == 0.6 and config.replay.beta_start == 0.4 and config.replay.beta_end == 1.0
-    assert config.build_curriculum().total_episodes == 7500
+    assert config.build_curriculum().total_episodes == episodes
 
 
 @pytest.mark.parametrize("path,value,message", [

@@ -52,7 +52,7 @@ def _qnet_eval_tool():
 
 def smoke_config():
     config = load_config(os.path.join(REPO, "config", "curriculum.yaml"))
-    config.scale = 0.004  # 4 episodes per 1000: 30 episodes over all six stages
+    config.scale = 0.004  # 4 episodes per 1000: 36 episodes over all six stages
     config.num_envs = 4
     config.replay.capacity = 50_000
     config.replay.batch_size = 32
@@ -155,13 +155,13 @@ def test_environment_follows_the_contract_and_the_reward_definition():
 
 def test_smoke_run_completes_with_every_file(smoke_run):
     out, trainer, summary = smoke_run
-    assert summary["finished"] and summary["episodes"] == 30 and summary["updates"] > 100
+    assert summary["finished"] and summary["episodes"] == 36 and summary["updates"] > 100
     for name in ("train_log.csv", "eval_log.csv", "checkpoint.pt", "model.dqnw", "learning_curves.png",
                  "summary.json"):
         assert os.path.getsize(os.path.join(out, name)) > 0, name
     with open(os.path.join(out, "train_log.csv"), newline="") as f:
         rows = list(csv.DictReader(f))
-    assert [int(r["episode"]) for r in rows] == list(range(30))
+    assert [int(r["episode"]) for r in rows] == list(range(36))
     assert {int(r["stage"]) for r in rows} == {1, 2, 3, 4, 5, 6}
     losses = np.array([float(r["loss"]) for r in rows if r["loss"]])
     assert losses.size and np.all(np.isfinite(losses))
