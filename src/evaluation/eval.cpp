@@ -1,5 +1,4 @@
 #include "dqn_dovs/evaluation/eval.h"
-#include "dqn_dovs/evaluation/oracle.h"
 
 #include <algorithm>
 #include <atomic>
@@ -13,6 +12,7 @@
 #include <thread>
 
 #include "dqn_dovs/common/random.h"
+#include "dqn_dovs/evaluation/oracle.h"
 #include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/sim/worlds.h"
 
@@ -162,6 +162,7 @@ std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalCo
     OracleConfig oracle;
     oracle.goal_tolerance_m = config.episode.reward.goal_tolerance_m;
     oracle.goal_speed_mps = config.episode.reward.goal_speed_mps;
+    oracle.scan_period_s = config.episode.scan_period_s;
     return std::make_unique<OraclePlanner>(oracle);
   }
   return makePlanner(method, config.model_path, &config.shield);
@@ -237,8 +238,7 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
   auto work = [&]() {
     Worker w;
     try {
-      for (const std::string& m : config.methods)
-        w.planners.push_back(makeEvalPlanner(m, config));
+      for (const std::string& m : config.methods) w.planners.push_back(makeEvalPlanner(m, config));
       w.episode = std::make_unique<Episode>(config.episode);
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex);

@@ -19,12 +19,18 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 
 std::string OracleConfig::validate() const {
   std::ostringstream os;
-  if (horizon_periods < 1 || horizon_periods > 100) os << "oracle horizon_periods " << horizon_periods << " not in [1, 100]";
-  else if (beam_width < 1) os << "oracle beam_width " << beam_width << " must be >= 1";
-  else if (window_samples < 1 || window_samples > 10) os << "oracle window_samples " << window_samples << " not in [1, 10]";
-  else if (!(grid_cell_m > 0.0 && std::isfinite(grid_cell_m))) os << "oracle grid_cell_m " << grid_cell_m << " must be > 0";
+  if (horizon_periods < 1 || horizon_periods > 100)
+    os << "oracle horizon_periods " << horizon_periods << " not in [1, 100]";
+  else if (beam_width < 1)
+    os << "oracle beam_width " << beam_width << " must be >= 1";
+  else if (window_samples < 1 || window_samples > 10)
+    os << "oracle window_samples " << window_samples << " not in [1, 10]";
+  else if (!(grid_cell_m > 0.0 && std::isfinite(grid_cell_m)))
+    os << "oracle grid_cell_m " << grid_cell_m << " must be > 0";
   else if (!(clearance_margin_m >= 0.0 && std::isfinite(clearance_margin_m)))
     os << "oracle clearance_margin_m " << clearance_margin_m << " must be >= 0";
+  else if (!(scan_period_s > 0.0 && std::isfinite(scan_period_s)))
+    os << "oracle scan_period_s " << scan_period_s << " must be > 0";
   else if (!(goal_tolerance_m > 0.0) || !(goal_speed_mps > 0.0))
     os << "oracle goal_tolerance_m and goal_speed_mps must be > 0";
   return os.str();
@@ -131,6 +137,8 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& input) {
   rollObstacles(world, sub_dt, periods * kSubsteps);
   const double radius = limits.radius + config_.clearance_margin_m;
   const bool ramp = world.config().ramp_velocity;
+  const int chunks = std::max(1, static_cast<int>(std::lround(dt / config_.scan_period_s)));
+  const int substeps_per_chunk = std::max(1, kSubsteps / chunks);
   (void)input;
 
   // Commands of the first period (the window around the current twist), then expansions per node.
@@ -165,10 +173,15 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& input) {
         child.first = depth == 0 ? static_cast<int>(c) : node.first;
         child.twist = node.twist;
         child.pose = node.pose;
-        if (!ramp) child.twist = applyAccelerationLimits(node.twist, commands[c], limits, dt);
         bool hit = false;
         for (int s = 0; s < kSubsteps && !hit; ++s) {
-          if (ramp) child.twist = applyAccelerationLimits(child.twist, commands[c], limits, sub_dt);
+          // As the episode steps the world: one World::step per scan period, each moving the velocity toward the
+          // command within the acceleration limits (or, ramping, every physics sub-step).
+          if (ramp) {
+            child.twist = applyAccelerationLimits(child.twist, commands[c], limits, sub_dt);
+          } else if (s % substeps_per_chunk == 0) {
+            child.twist = applyAccelerationLimits(child.twist, commands[c], limits, sub_dt * substeps_per_chunk);
+          }
           child.pose = integrateUnicycle(child.pose, child.twist.v, child.twist.w, sub_dt);
           const Vec2 p = child.pose.position();
           if (wallClearance(p) < radius) hit = true;
@@ -213,11 +226,35 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& input) {
       break;
     }
     if (static_cast<int>(next.size()) > config_.beam_width) {
-      std::nth_element(next.begin(), next.begin() + config_.beam_width, next.end(),
-                       [](const Node& a, const Node& b) { return a.cost < b.cost; });
-      next.resize(static_cast<size_t>(config_.beam_width));
+      // Half the beam goes to the best few of every first command, the rest to the best overall: a beam of the
+      // fastest progress alone loses the waiting and detouring sequences that a crossing later requires.
+      std::sort(next.begin(), next.end(), [](const Node& a, const Node& b) { return a.cost < b.cost; });
+      const size_t groups = first_commands.size();
+      const int quota = std::max(1, config_.beam_width / (2 * static_cast<int>(groups)));
+      std::vector<int> taken(groups, 0);
+      std::vector<bool> keep(next.size(), false);
+      int kept = 0;
+      for (size_t i = 0; i < next.size() && kept < config_.beam_width; ++i) {
+        int& t = taken[static_cast<size_t>(next[i].first)];
+        if (t < quota) {
+          ++t;
+          keep[i] = true;
+          ++kept;
+        }
+      }
+      for (size_t i = 0; i < next.size() && kept < config_.beam_width; ++i) {
+        if (!keep[i]) {
+          keep[i] = true;
+          ++kept;
+        }
+      }
+      beam.clear();
+      for (size_t i = 0; i < next.size(); ++i) {
+        if (keep[i]) beam.push_back(next[i]);
+      }
+    } else {
+      beam.swap(next);
     }
-    beam.swap(next);
   }
   PlannerDecision d;
   if (!all_dead) {

@@ -5,7 +5,7 @@ import json
 
 from dqn_dovs_py import performance_report as pr
 
-BENCHES = ["sim", "tracker", "dovs", "inference", "training", "e2e", "eval-sdovs", "eval-dqn"]
+BENCHES = ["sim", "env", "tracker", "dovs", "inference", "training", "e2e", "eval-sdovs", "eval-dqn"]
 
 
 def write(tmp_path, name, figures=None, rss=None, load=None):

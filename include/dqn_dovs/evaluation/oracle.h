@@ -25,13 +25,14 @@
 namespace dqn_dovs {
 
 struct OracleConfig {
-  int horizon_periods = 20;       ///< control periods searched ahead (20 x 0.2 s = 4 s)
-  int beam_width = 160;           ///< nodes kept per period
-  int window_samples = 2;         ///< lattice steps per half-diagonal of the dynamic window (13 commands at 2)
-  double grid_cell_m = 0.1;       ///< clearance field and path-length grid
+  int horizon_periods = 20;          ///< control periods searched ahead (20 x 0.2 s = 4 s)
+  int beam_width = 160;              ///< nodes kept per period
+  int window_samples = 2;            ///< lattice steps per half-diagonal of the dynamic window (13 commands at 2)
+  double grid_cell_m = 0.1;          ///< clearance field and path-length grid
   double clearance_margin_m = 0.02;  ///< clearance kept beyond touching (m): the search checks 4 instants a period
-  double goal_tolerance_m = 0.15;   ///< success as the episode counts it: this close to the goal ...
-  double goal_speed_mps = 0.2;      ///< ... and slower than this
+  double scan_period_s = 0.1;        ///< the episode steps the world in chunks of this (a velocity change each)
+  double goal_tolerance_m = 0.15;    ///< success as the episode counts it: this close to the goal ...
+  double goal_speed_mps = 0.2;       ///< ... and slower than this
   std::string validate() const;
 };
 
@@ -66,8 +67,8 @@ class OraclePlanner : public Planner {
   // Grids (row-major, origin at grid_origin_).
   Vec2 grid_origin_ = Vec2::Zero();
   int grid_w_ = 0, grid_h_ = 0;
-  std::vector<float> clearance_;  ///< m to the nearest wall, per cell centre
-  std::vector<float> to_goal_;    ///< m of free path to the goal, per cell centre (inf: unreachable)
+  std::vector<float> clearance_;             ///< m to the nearest wall, per cell centre
+  std::vector<float> to_goal_;               ///< m of free path to the goal, per cell centre (inf: unreachable)
   std::vector<std::vector<Circle>> future_;  ///< bodies per sub-step (index 0 = now + sub_dt)
 };
 
