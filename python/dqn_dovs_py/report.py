@@ -304,6 +304,8 @@ def summary_figures(s: Summary) -> dict[str, float]:
         figures += [(f"collisions_{k}", _kind_count(o, k)) for k in COLLISION_KINDS]
         figures += [("contact_speed_mean", o.mean_contact_speed_mps), ("contact_speed_p95", o.p95_contact_speed_mps)]
         figures += [(f"success_{n}", s.cell(m, n).success_rate) for n in s.counts]
+        if ORACLE in s.methods and m != ORACLE:
+            figures.append(("oracle_share", oracle_share(s, m)))
         for key, value in figures:
             out[p + key] = value if o.episodes else math.nan
     return out
@@ -436,8 +438,39 @@ def _kinds_text(c: Cell, _: str) -> str:
     return "-" if c.collisions_by_kind is None else " / ".join(str(c.collisions_by_kind[k]) for k in COLLISION_KINDS)
 
 
+ORACLE = "oracle"
+
+
+def oracle_share(s: Summary, method: str, n: int | None = None) -> float:
+    """Successes of `method` over the oracle's (the physical limit, on the same episodes), at count n or over all
+    counts; NaN without an oracle in the run or when it solved none."""
+    if ORACLE not in s.methods:
+        return math.nan
+    mine = s.overall[method] if n is None else s.cell(method, n)
+    best = s.overall[ORACLE] if n is None else s.cell(ORACLE, n)
+    return mine.successes / best.successes if best.successes else math.nan
+
+
+def _oracle_table(s: Summary) -> str:
+    lines = ["## Share of the oracle's successes", "",
+             "Successes of each method over those of `oracle` (the physical limit: a search that knows the "
+             "obstacles' future, not deployable) on the same episodes. Last column: episodes the oracle could not "
+             "solve (collisions / timeouts), the truly unavoidable ones as far as its search tells.", "",
+             "| Obs |" + "".join(f" {m} |" for m in s.methods if m != ORACLE) + " oracle fails |",
+             "|---|" + "---|" * (len(s.methods) - 1) + "---|"]
+    def fails(c: Cell) -> str:
+        return f"{c.collisions} / {c.timeouts}" if c.episodes else EMPTY
+    for n in s.counts:
+        lines.append(f"| {n} |" + "".join(f" {fixed(oracle_share(s, m, n))} |" for m in s.methods if m != ORACLE)
+                     + f" {fails(s.cell(ORACLE, n))} |")
+    lines.append("| all |" + "".join(f" {fixed(oracle_share(s, m))} |" for m in s.methods if m != ORACLE)
+                 + f" {fails(s.overall[ORACLE])} |")
+    return "\n".join(lines) + "\n\n"
+
+
 def summary_tables(s: Summary) -> str:
-    """The tables of summary.md in the paper's layout."""
+    """The tables of summary.md in the paper's layout (and, with an oracle in the run, the share of its
+    successes)."""
     sections: list[tuple[str, str, CellText]] = [
         ("Success rate", "Reached the goal and stopped on it. In brackets: total time of the method over total time "
          f"of `{s.reference}` on the episodes both solved.", _success_text(s.reference)),
@@ -453,7 +486,7 @@ def summary_tables(s: Summary) -> str:
         ("Danger frequency", "Fraction of steps ending closer than the reward's safe distance to anything.",
          lambda c, _: fixed(c.danger_frequency, 3)),
     ]
-    return "".join(_table(s, *section) for section in sections)
+    return "".join(_table(s, *section) for section in sections) + (_oracle_table(s) if ORACLE in s.methods else "")
 
 
 def summary_markdown(s: Summary, run: RunInfo) -> str:

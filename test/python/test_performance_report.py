@@ -50,4 +50,4 @@ def test_figures_rss_and_throughput(tmp_path):
     assert "| tracker | not measured | `make bench-tracker` |" in text
     assert "| eval-dqn | dqn_dovs + s_dovs | 10 | 300 | 20.0 s | 15.0 | `make bench-eval-dqn` |" in text
     assert "0.50 / 0.40 / 0.30" in text
-    assert "nproc" in text and "Not measured: tracker, dovs, training, e2e" in text
+    assert "nproc" in text and "Not measured: env, tracker, dovs, training, e2e" in text

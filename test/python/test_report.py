@@ -342,3 +342,26 @@ def test_cli_error_exit_code_and_message(tmp_path):
     assert proc.stderr.strip() == f"report: {out / 'results.csv'}: no such file"
     proc = run_cli(str(make_run(tmp_path / "b")), "--reference", "orca")
     assert proc.returncode == 1 and "reference method 'orca' has no episodes" in proc.stderr
+
+
+def test_share_of_the_oracles_successes(tmp_path):
+    # The oracle solves 3 of the 4 two- and three-obstacle episodes dqn_dovs and s_dovs ran; it fails (3, 2).
+    oracle = [("oracle", 2, 1, "success", 8.0, 0, 40, 0.3, "", ""), ("oracle", 2, 2, "success", 9.0, 0, 45, 0.3, "", ""),
+              ("oracle", 3, 1, "success", 8.0, 0, 40, 0.3, "", ""),
+              ("oracle", 3, 2, "collision", 1.0, 2, 5, 0.0, "moving", 0.3)]
+    rows = [r for r in ROWS if r[0] != "dwa"] + oracle
+    s = rp.summarize(rp.read_results(write_results(tmp_path / "results.csv", rows)), "dqn_dovs",
+                     ["dqn_dovs", "s_dovs", "oracle"])
+    assert rp.oracle_share(s, "dqn_dovs", 2) == pytest.approx(1.0)  # 2 of 2
+    assert rp.oracle_share(s, "s_dovs", 2) == pytest.approx(0.5)
+    assert rp.oracle_share(s, "s_dovs", 3) == pytest.approx(2.0)  # solved one the oracle's search did not
+    assert rp.oracle_share(s, "dqn_dovs") == pytest.approx(3 / 3)
+    assert rp.summary_figures(s)["s_dovs.oracle_share"] == pytest.approx(3 / 3)  # 1 + 2 of 2 + 1
+    text = rp.summary_tables(s)
+    assert "## Share of the oracle's successes" in text
+    assert "| 3 | 1.00 | 2.00 | 1 / 0 |" in text
+    # Without an oracle in the run: no such table, no such figure.
+    plain = rp.summarize(rp.read_results(write_results(tmp_path / "plain.csv")), "dqn_dovs", METHODS)
+    assert "oracle" not in rp.summary_tables(plain)
+    assert math.isnan(rp.oracle_share(plain, "dqn_dovs"))
+    assert not any(k.endswith("oracle_share") for k in rp.summary_figures(plain))
