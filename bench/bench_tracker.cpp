@@ -176,10 +176,14 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
           if (used[j]) continue;
           const TrackedObstacle& o = result.scene.obstacles[j];
           double dw = 1e9, dc = 1e9, dp = 1e9;
-          for (const Segment& w : world.walls()) { dw = std::min(dw, pointSegmentDistance(o.center, w)); dc = std::min({dc, (o.center - w.a).norm(), (o.center - w.b).norm()}); }
+          for (const Segment& w : world.walls()) {
+            dw = std::min(dw, pointSegmentDistance(o.center, w));
+            dc = std::min({dc, (o.center - w.a).norm(), (o.center - w.b).norm()});
+          }
           for (const auto& tr : truths) dp = std::min(dp, (tr.center - o.center).norm() - tr.radius);
-          std::cerr << "FALSE " << family << " " << sensor << " k" << k << " t" << t << " id" << o.id << " dw " << dw << " dc " << dc << " dp " << dp
-                    << " v " << o.speed << " r " << o.radius << " age " << o.age_s << "\n";
+          std::cerr << "FALSE " << family << " " << sensor << " k" << k << " t" << t << " id" << o.id << " dw " << dw
+                    << " dc " << dc << " dp " << dp << " v " << o.speed << " r " << o.radius << " age " << o.age_s
+                    << "\n";
         }
       }
       for (size_t j = 0; j < result.scene.obstacles.size(); ++j) {

@@ -34,6 +34,7 @@ const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
+    "                     [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
     "                     [--odom-noise LEVEL]\n"
     "                     [--no-report]\n"
@@ -49,6 +50,8 @@ const char* kUsage =
     "  --out DIR           output folder (default eval_results)\n"
     "  --model PATH        weight file of dqn_dovs (default models/dqn_dovs.dqnw)\n"
     "  --shield N=V,...    action shield parameters of the dqn_dovs methods, named as in config/dovs.yaml\n"
+    "  --oracle N=V,...    the oracle's search: horizon_periods (20), beam_width (160), window_samples (2),\n"
+    "                      grid_cell_m (0.1), clearance_margin_m (0.02)\n"
     "                      action_shield/* and config/static_safety.yaml (static_safety/margin=0.1, ...)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
     "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n"
@@ -186,6 +189,14 @@ Options parse(int argc, char** argv) {
         if (!e.empty()) throw UsageError("--shield: " + e);
       }
       if (const std::string e = o.eval.shield.validate(); !e.empty()) throw UsageError("--shield: " + e);
+    } else if (flag == "--oracle") {
+      for (const std::string& kv : splitList(flag, value())) {
+        const size_t eq = kv.find('=');
+        if (eq == std::string::npos) throw UsageError("--oracle: '" + kv + "' is not NAME=VALUE");
+        const std::string e = dqn_dovs::setOracleParameter(o.eval.oracle, kv.substr(0, eq), kv.substr(eq + 1));
+        if (!e.empty()) throw UsageError("--oracle: " + e);
+      }
+      if (const std::string e = o.eval.oracle.validate(); !e.empty()) throw UsageError("--oracle: " + e);
     } else if (flag == "--reference") {
       o.reference = value();
     } else if (flag == "--world") {

@@ -159,7 +159,7 @@ std::vector<std::string> evalMethodNames() {
 
 std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalConfig& config) {
   if (method == "oracle") {
-    OracleConfig oracle;
+    OracleConfig oracle = config.oracle;
     oracle.goal_tolerance_m = config.episode.reward.goal_tolerance_m;
     oracle.goal_speed_mps = config.episode.reward.goal_speed_mps;
     oracle.scan_period_s = config.episode.scan_period_s;

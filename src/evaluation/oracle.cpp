@@ -36,6 +36,33 @@ std::string OracleConfig::validate() const {
   return os.str();
 }
 
+std::string setOracleParameter(OracleConfig& config, const std::string& name, const std::string& value) {
+  double x = 0.0;
+  size_t used = 0;
+  try {
+    x = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != value.size() || !std::isfinite(x)) {
+    return "oracle parameter '" + name + "' = '" + value + "' is not a number";
+  }
+  if (name == "horizon_periods")
+    config.horizon_periods = static_cast<int>(x);
+  else if (name == "beam_width")
+    config.beam_width = static_cast<int>(x);
+  else if (name == "window_samples")
+    config.window_samples = static_cast<int>(x);
+  else if (name == "grid_cell_m")
+    config.grid_cell_m = x;
+  else if (name == "clearance_margin_m")
+    config.clearance_margin_m = x;
+  else
+    return "unknown oracle parameter '" + name +
+           "' (horizon_periods, beam_width, window_samples, grid_cell_m, clearance_margin_m)";
+  return {};
+}
+
 OraclePlanner::OraclePlanner(const OracleConfig& config) : config_(config) {
   if (const std::string e = config_.validate(); !e.empty()) throw PlannerError(e);
 }

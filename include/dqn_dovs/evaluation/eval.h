@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "dqn_dovs/evaluation/episode.h"
+#include "dqn_dovs/evaluation/oracle.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
 
@@ -58,6 +59,8 @@ struct EvalConfig {
   std::string model_path = "models/dqn_dovs.dqnw";
   /// The action shield of the DQN-DOVS methods (each variant still applies its own change to it).
   ActionShieldConfig shield;
+  /// The oracle's search (method `oracle`); its success rule and stepping come from `episode`.
+  OracleConfig oracle;
   /// Everything about one episode: simulator, tracker, DOVS, reward, perfect_info (false: tracker in the loop).
   EpisodeConfig episode;
   /// Jobs (obstacle count, episode) whose robot and obstacle paths are kept in the records, for plots.

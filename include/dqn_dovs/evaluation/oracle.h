@@ -36,6 +36,10 @@ struct OracleConfig {
   std::string validate() const;
 };
 
+/// Sets one search parameter by name (horizon_periods, beam_width, window_samples, grid_cell_m,
+/// clearance_margin_m); "" on success, otherwise why not (unknown name, not a number). Call validate() after.
+std::string setOracleParameter(OracleConfig& config, const std::string& name, const std::string& value);
+
 class OraclePlanner : public Planner {
  public:
   explicit OraclePlanner(const OracleConfig& config = OracleConfig{});
