@@ -36,6 +36,9 @@ Contract of `dqn_dovs_py._core.VecEnv` (n = num_envs, all arrays numpy):
                                           episode where one ended (automatic reset)
         'mask'          bool    [n, 8]    valid actions in 'state'
         'episode_steps' int32   [n]       steps of the episode that this step belongs to
+        'executed_action' int64 [n]       (optional) the action that stands for what ran: the chosen one (or
+                                          "keep" for a masked one); after an escape, the action whose velocity
+                                          is nearest to the escape's in the window's units (dv, dw)
         'escaped'       bool    [n]       (optional) boxed in, the step ran the shield's escape
                                           velocity instead of the action (as the robot does)
     core.normalization() -> dict[str, float]
@@ -96,6 +99,8 @@ class StepResult:
     episode_steps: np.ndarray
     # Optional in the contract: which environments ran the shield's escape instead of the action (None: not said).
     escaped: np.ndarray | None = None
+    # Optional: the action standing for what ran (the escape's nearest action where escaped; None: not said).
+    executed_action: np.ndarray | None = None
 
 
 _STEP_FIELDS = {
@@ -170,7 +175,13 @@ class VecEnv:
             escaped = np.asarray(out["escaped"], dtype=np.bool_)
             if escaped.shape != (self.num_envs,):
                 raise EnvContractError(f"VecEnv.step: escaped has shape {escaped.shape}, expected ({self.num_envs},)")
-        return StepResult(**values, escaped=escaped)
+        executed = None
+        if "executed_action" in out:
+            executed = np.asarray(out["executed_action"], dtype=np.int64)
+            if executed.shape != (self.num_envs,) or np.any((executed < 0) | (executed >= NUM_ACTIONS)):
+                raise EnvContractError(f"VecEnv.step: executed_action must be {self.num_envs} actions in "
+                                       f"[0, {NUM_ACTIONS})")
+        return StepResult(**values, escaped=escaped, executed_action=executed)
 
     def normalization(self) -> dict[str, float]:
         norm = self._core.normalization()

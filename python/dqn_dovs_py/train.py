@@ -28,8 +28,8 @@ import yaml
 from .agent import AgentConfig, DQNAgent
 from .curriculum import Curriculum, CurriculumError
 from .decision_config import DecisionConfigError, load_shield_parameters
-from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, StepResult, VecEnv
-from .escape import RobotLimits, RobotLimitsError, executed_actions, load_robot_limits, one_action_masks
+from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, EnvContractError, StepResult, VecEnv
+from .escape import one_action_masks
 from .export import WeightFileError
 from .replay import NStepAccumulator, PrioritizedReplay
 
@@ -457,7 +457,6 @@ class Trainer:
         # such a state wait one step for that mask (NStepAccumulator, defer_bootstrap).
         self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma,
                                       defer_bootstrap=config.action_shield)
-        self._robot_limits: RobotLimits | None = None
 
         self.episodes_done = 0
         self.env_steps = 0
@@ -501,8 +500,6 @@ class Trainer:
         limit = self.total_episodes if stop_at is None else min(int(stop_at), self.total_episodes)
         env = self._env_factory(cfg.num_envs, env_seed(cfg.seed, self.episodes_done), cfg.perfect_info)
         self._normalization = env.normalization()
-        if cfg.action_shield and self._robot_limits is None:
-            self._robot_limits = self._load_robot_limits()  # needed for escapes: fail before training, not during
         e = cfg.num_envs
         env.set_stage(self.curriculum.settings_at(self.episodes_done))
         state, mask = env.reset()
@@ -592,27 +589,22 @@ class Trainer:
     def _executed(self, state: np.ndarray, mask: np.ndarray, actions: np.ndarray,
                   out: StepResult) -> tuple[np.ndarray, np.ndarray]:
         """The (action, mask) to store for each environment's step: the chosen ones, except where the environment
-        ran the shield's escape instead (out.escaped). There the action is the one whose velocity is nearest
-        to the escape velocity the robot executed (escape.executed_actions: the environment reports the
-        escape by a flag only), under a mask allowing only it, so that replay learns what the robot did."""
+        ran the shield's escape instead (out.escaped). There the action is the one the environment reports as
+        standing for the escape (out.executed_action: nearest in velocity), under a mask allowing only it, so
+        that replay learns what the robot did."""
+        del state  # the environment says what ran
         if out.escaped is None or not out.escaped.any():
             return actions, mask
-        if self._robot_limits is None:
-            self._robot_limits = self._load_robot_limits()
+        if out.executed_action is None:
+            raise EnvContractError("the environment ran its escape but did not say which action stands for it "
+                                   "(executed_action)")
         escaped = np.flatnonzero(out.escaped)
-        executed = executed_actions(state[escaped], out.next_state[escaped], self._normalization,
-                                    self._robot_limits, chosen=actions[escaped])
+        executed = out.executed_action[escaped]
         acted = np.array(actions, np.int64, copy=True)
         acted[escaped] = executed
         acted_mask = np.array(mask, bool, copy=True)
         acted_mask[escaped] = one_action_masks(executed, acted_mask.shape[1])
         return acted, acted_mask
-
-    def _load_robot_limits(self) -> RobotLimits:
-        try:
-            return load_robot_limits(self._normalization or {})
-        except RobotLimitsError as error:
-            raise ConfigError(str(error)) from None
 
     def _learn(self, new_transitions: int) -> None:
         rc = self.config.replay

@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <future>
@@ -147,6 +148,8 @@ class VecEnv {
     py::array_t<int32_t> episode_steps(shape1);
     py::array_t<bool> escaped(shape1);
     bool* esc = escaped.mutable_data();
+    py::array_t<int64_t> executed_action(shape1);
+    int64_t* ex = executed_action.mutable_data();
     float* ns = next_state.mutable_data();
     float* st = state.mutable_data();
     bool* nm = next_mask.mutable_data();
@@ -167,6 +170,7 @@ class VecEnv {
           // Boxed in, the shield's escape velocity is what runs (as the planner does on the robot), whatever
           // the action; otherwise a masked action falls back to "keep" (always valid; the trainer never sends one).
           esc[i] = env.has_escape;
+          ex[i] = executedAction(ep.actions(), act, env.has_escape ? &env.escape : nullptr, ep.config().world.robot);
           const StepResult r = env.has_escape                                 ? ep.step(env.escape)
                                : ep.actions().valid[static_cast<size_t>(act)] ? ep.stepAction(act)
                                                                               : ep.stepAction(kActionKeep);
@@ -205,6 +209,22 @@ class VecEnv {
     out["mask"] = mask;
     out["episode_steps"] = episode_steps;
     out["escaped"] = escaped;
+    out["executed_action"] = executed_action;
+    return out;
+  }
+
+  /// The 8 action velocities of every environment's current state: float64 [n, 8, 2] (v m/s, w rad/s).
+  py::array_t<double> actionVelocities() const {
+    const size_t n = envs_.size();
+    py::array_t<double> out({n, static_cast<size_t>(kNumActions), size_t{2}});
+    double* d = out.mutable_data();
+    for (size_t i = 0; i < n; ++i) {
+      const ActionSet& a = envs_[i]->episode.actions();
+      for (int k = 0; k < kNumActions; ++k) {
+        d[(i * kNumActions + static_cast<size_t>(k)) * 2] = a.velocities[static_cast<size_t>(k)].v;
+        d[(i * kNumActions + static_cast<size_t>(k)) * 2 + 1] = a.velocities[static_cast<size_t>(k)].w;
+      }
+    }
     return out;
   }
 
@@ -277,6 +297,29 @@ class VecEnv {
     return sim::generateWorld(w, s);
   }
 
+  /// The action that stands for what ran: the chosen one when valid, "keep" for a masked one (what step runs);
+  /// for the shield's escape, the action whose velocity is nearest to it in the window's units (dv, dw), equal
+  /// distances to the chosen action, then to the lowest index. Replay stores it under a one-action mask.
+  static int64_t executedAction(const ActionSet& actions, int chosen, const Twist2* escape, const RobotLimits& limits) {
+    const bool chosen_ok = chosen >= 0 && chosen < kNumActions && actions.valid[static_cast<size_t>(chosen)];
+    if (escape == nullptr) return chosen_ok ? chosen : kActionKeep;
+    const double dv = std::max(limits.dv(), 1e-9), dw = std::max(limits.dw(), 1e-9);
+    auto distance = [&](int k) {
+      const Twist2& u = actions.velocities[static_cast<size_t>(k)];
+      return std::hypot((u.v - escape->v) / dv, (u.w - escape->w) / dw);
+    };
+    int best = chosen >= 0 && chosen < kNumActions ? chosen : 0;
+    double best_d = distance(best);
+    for (int k = 0; k < kNumActions; ++k) {
+      const double d = distance(k);
+      if (d < best_d - 1e-12) {
+        best = k;
+        best_d = d;
+      }
+    }
+    return best;
+  }
+
   static void copyState(const Episode& ep, float* dst) {
     std::memcpy(dst, ep.state().data(), sizeof(float) * kStateSize);
   }
@@ -346,6 +389,8 @@ PYBIND11_MODULE(_core, m) {
       .def("reset", &VecEnv::reset)
       .def("step", &VecEnv::step, py::arg("actions"))
       .def("normalization", &VecEnv::normalization)
+      .def("action_velocities", &VecEnv::actionVelocities,
+           "The 8 action velocities of each environment's current state, float64 [n, 8, 2] (v, w).")
       .def("planner_episode", &VecEnv::plannerEpisode, py::arg("env_index"), py::arg("method"),
            py::arg("model_path") = std::string(),
            "The evaluation path (dqn_dovs_eval's Episode + planner) on an environment's current episode: "

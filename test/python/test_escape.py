@@ -1,9 +1,9 @@
 """The action stored where the shield's escape ran instead of the chosen action.
 
-The geometry of the 8 actions (a mirror of computeActions) on hand-made cases and against the C++ environment;
-then the trainer on the real environment with the shield: every escaped step is stored with the action whose
-velocity the robot executed under a one-action mask, and the targets that bootstrap on that state use that mask.
-The C++ parts are skipped when dqn_dovs_py._core is missing, unless DQN_DOVS_REQUIRE_CORE=1.
+The environment reports the action that stands for what ran (`executed_action`): the chosen one when no escape
+ran, otherwise the action whose velocity is nearest to the escape's. The trainer on the real environment with the
+shield stores every escaped step with that action under a one-action mask, and the targets that bootstrap on that
+state use that mask. The C++ parts are skipped when dqn_dovs_py._core is missing, unless DQN_DOVS_REQUIRE_CORE=1.
 """
 
 import copy
@@ -12,14 +12,10 @@ import os
 import numpy as np
 import pytest
 
-from dqn_dovs_py.curriculum import StageSettings
-from dqn_dovs_py.env import OUTCOME_COLLISION, VecEnv
-from dqn_dovs_py.escape import (RobotLimits, RobotLimitsError, action_velocities, decode_goal, decode_velocity,
-                                executed_actions, load_robot_limits, one_action_masks)
+from dqn_dovs_py.decision_config import load_shield_parameters
+from dqn_dovs_py.env import VecEnv
+from dqn_dovs_py.escape import one_action_masks
 from dqn_dovs_py.train import Trainer, TrainConfig
-
-LIMITS = RobotLimits(v_max=0.7, w_max=np.pi, a_v=0.5, a_w=2.0, dt=0.2)  # dv = 0.1 m/s, dw = 0.4 rad/s
-NORM = {"v_scale_mps": 0.7, "w_scale_rps": np.pi, "goal_distance_scale_m": 10.0, "goal_angle_scale_rad": np.pi}
 
 
 def _core():
@@ -32,87 +28,57 @@ def _core():
     return _core
 
 
-def state_with(v, w, goal_distance=5.0, goal_angle=np.pi):
-    s = -np.ones(408, np.float32)
-    s[400:] = 0.0
-    s[400], s[401] = v / NORM["v_scale_mps"], w / NORM["w_scale_rps"]
-    s[402], s[403] = goal_distance / 10.0, goal_angle / np.pi
-    return s
+def test_one_action_masks():
+    m = one_action_masks(np.array([0, 7, 3]))
+    assert m.shape == (3, 8) and m.sum() == 3
+    assert m[0, 0] and m[1, 7] and m[2, 3]
+    with pytest.raises(ValueError, match="actions must lie in"):
+        one_action_masks(np.array([8]))
 
 
-def test_actions_are_the_window_corners_keep_and_the_goal_line():
-    velocities, valid = action_velocities(0.35, 0.0, -3.0, 0.0, LIMITS)  # goal behind: turn in place, out of reach
-    np.testing.assert_allclose(velocities[:5], [[0.45, 0.0], [0.25, 0.0], [0.35, -0.4], [0.35, 0.4], [0.35, 0.0]])
-    np.testing.assert_array_equal(valid, [True] * 5 + [False] * 3)
-    # Goal straight ahead: the goal line is w = 0, crossing the window from v = 0.25 to v = 0.45.
-    velocities, valid = action_velocities(0.35, 0.0, 3.0, 0.0, LIMITS)
-    assert valid.all()
-    np.testing.assert_allclose(velocities[5:], [[0.45, 0.0], [0.25, 0.0], [0.35, 0.0]], atol=1e-12)
-    # At top speed the "top" corner is clipped back onto the feasible triangle (here: the current velocity).
-    velocities, _ = action_velocities(0.7, 0.0, -3.0, 0.0, LIMITS)
-    np.testing.assert_allclose(velocities[0], [0.7, 0.0])
-
-
-def test_the_executed_escape_maps_to_the_nearest_action_in_window_units():
-    state = state_with(0.35, 0.0)
-    # A lattice point of the window (0.6 dv slower, 0.3 dw to the left): nearest to the bottom corner.
-    escape = state_with(0.35 - 0.06, 0.12)
-    assert executed_actions(state[None], escape[None], NORM, LIMITS)[0] == 1
-    # Exactly an action's velocity: that action.
-    for action, (v, w) in enumerate([(0.45, 0.0), (0.25, 0.0), (0.35, -0.4), (0.35, 0.4), (0.35, 0.0)]):
-        assert executed_actions(state[None], state_with(v, w)[None], NORM, LIMITS)[0] == action
-    # At rest the bottom corner is "keep": equal distances go to the chosen action, else to the lowest index.
-    rest = state_with(0.0, 0.0)
-    assert executed_actions(rest[None], rest[None], NORM, LIMITS)[0] == 1
-    assert executed_actions(rest[None], rest[None], NORM, LIMITS, chosen=np.array([4]))[0] == 4
-    assert executed_actions(rest[None], rest[None], NORM, LIMITS, chosen=np.array([0]))[0] == 1
-    np.testing.assert_array_equal(one_action_masks(np.array([1, 7])),
-                                  [[False, True] + [False] * 6, [False] * 7 + [True]])
-
-
-def test_robot_limits_follow_the_environment_and_agree_with_the_robot_file(tmp_path):
-    limits = load_robot_limits({"v_scale_mps": 0.7, "w_scale_rps": float(np.float32(np.pi))})
-    assert (limits.dv, limits.dw) == pytest.approx((0.1, 0.4))
-    with pytest.raises(RobotLimitsError, match="v_max = 0.7 but the environment runs 0.5"):
-        load_robot_limits({"v_scale_mps": 0.5, "w_scale_rps": np.pi})
-    bad = tmp_path / "robot.yaml"
-    bad.write_text("robot: {v_max: 0.7, w_max: 3.14159, a_v: -1, a_w: 2.0, dt: 0.2}\n")
-    with pytest.raises(RobotLimitsError, match="robot/a_v must be a positive number"):
-        load_robot_limits({"v_scale_mps": 0.7, "w_scale_rps": np.pi}, str(bad))
-
-
-def test_action_geometry_is_the_environments():
-    """On the C++ environment without the shield, the velocity the robot has after each step is the velocity this
-    module gives the action taken, and the actions it finds valid are the environment's mask."""
+def test_the_environment_says_which_action_ran():
+    # Crowded episodes with the shield. Where no escape ran, the executed action is the chosen one ("keep" for a
+    # masked one). Where the escape ran, the robot ends the period at the escape velocity (it lies inside the
+    # window), and the executed action is the one nearest to that velocity in the window's units.
     core = _core()
-    env = VecEnv(4, 31, core=core.VecEnv(4, 31, False))
-    env.set_stage(StageSettings(1.0, 12.0, 0, 12, "both"))
+    raw = core.VecEnv(8, 5, action_shield=True, shield_parameters=load_shield_parameters())
+    env = VecEnv(8, 5, core=raw)
+    env.set_stage(_stage())
     norm = env.normalization()
-    limits = load_robot_limits(norm)
+    dv, dw = 0.5 * 0.2, 2.0 * 0.2  # a_v dt, a_w dt (config/robot.yaml)
     state, mask = env.reset()
-    rng = np.random.default_rng(5)
-    checked = 0
-    for _ in range(250):
-        actions = np.array([rng.choice(np.flatnonzero(m)) for m in mask])
+    rng = np.random.default_rng(2)
+    escaped_steps = plain_steps = 0
+    for _ in range(150):
+        velocities = raw.action_velocities()
+        actions = np.array([rng.choice(np.flatnonzero(m)) if m.any() else 3 for m in mask], np.int64)
         out = env.step(actions)
-        v, w = decode_velocity(state, norm)
-        goal_x, goal_y = decode_goal(state, norm)
-        next_v, next_w = decode_velocity(out.next_state, norm)
-        for i in range(4):
-            velocities, valid = action_velocities(v[i], w[i], goal_x[i], goal_y[i], limits)
-            np.testing.assert_array_equal(valid, mask[i])
-            if out.outcome[i] == OUTCOME_COLLISION:
-                continue  # the robot stops where it touched
-            a = actions[i]
-            assert abs(velocities[a, 0] - next_v[i]) < 1e-5 * limits.dv, (a, velocities[a], next_v[i], next_w[i])
-            assert abs(velocities[a, 1] - next_w[i]) < 1e-5 * limits.dw, (a, velocities[a], next_v[i], next_w[i])
-            checked += 1
+        assert out.executed_action is not None and out.escaped is not None
+        for i in range(8):
+            if out.escaped[i]:
+                escaped_steps += 1
+                if out.terminated[i] or out.truncated[i]:
+                    continue  # a collision stops the robot: its velocity says nothing about the escape
+                v = out.next_state[i, 400] * norm["v_scale_mps"]
+                w = out.next_state[i, 401] * norm["w_scale_rps"]
+                d = np.hypot((velocities[i, :, 0] - v) / dv, (velocities[i, :, 1] - w) / dw)
+                assert d[out.executed_action[i]] <= d.min() + 1e-3, (d, out.executed_action[i])
+            else:
+                plain_steps += 1
+                assert out.executed_action[i] == (actions[i] if mask[i, actions[i]] else 3)
         state, mask = out.state, out.mask
-    assert checked > 900
+    assert plain_steps > 500 and escaped_steps > 0
+
+
+def _stage():
+    from dqn_dovs_py.curriculum import StageSettings  # noqa: PLC0415
+
+    return StageSettings(goal_distance_min=4.0, goal_distance_max=12.0, obstacles_min=10, obstacles_max=12,
+                         obstacle_type="both")
 
 
 class RecordingVecEnv(VecEnv):
-    """Records (state, successor, chosen action) of every step that ran the shield's escape."""
+    """Records (state, executed action) of every step that ran the shield's escape."""
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -126,7 +92,7 @@ class RecordingVecEnv(VecEnv):
     def step(self, actions):
         out = super().step(actions)
         for i in np.flatnonzero(out.escaped):
-            self.escapes.append((self._state[i].copy(), out.next_state[i].copy(), int(actions[i])))
+            self.escapes.append((self._state[i].copy(), int(out.executed_action[i])))
         self._state = out.state
         return out
 
@@ -146,8 +112,6 @@ RAW = {
 
 def test_escaped_steps_are_stored_as_the_action_executed(tmp_path):
     core = _core()
-    from dqn_dovs_py.decision_config import load_shield_parameters  # noqa: PLC0415
-
     shield = load_shield_parameters()
     envs = []
 
@@ -173,11 +137,8 @@ def test_escaped_steps_are_stored_as_the_action_executed(tmp_path):
         if stored.discount[i] > 0:
             bootstraps_on.setdefault(stored.next_state[i].tobytes(), []).append(i)
 
-    norm = trainer._normalization
-    limits = load_robot_limits(norm)
     found = bootstrapped = 0
-    for state, successor, chosen in escapes:
-        executed = int(executed_actions(state[None], successor[None], norm, limits, chosen=np.array([chosen]))[0])
+    for state, executed in escapes:
         expected_mask = one_action_masks(np.array([executed]))[0]
         for i in rows_of.get(state.tobytes(), []):
             found += 1
