@@ -143,28 +143,6 @@ double OraclePlanner::pathToGoal(const Vec2& p) const {
   return std::isfinite(d) ? std::max<double>(d, straight) : straight + 100.0;
 }
 
-double OraclePlanner::timeToGo(const Node& node, const RobotLimits& limits) const {
-  // Driving the free path at full speed, plus turning toward it from rest (2 sqrt(error / a_w)): without the
-  // turn, sequences that turn in place look no better than standing still and fall out of the beam.
-  const Vec2 p = node.pose.position();
-  const double to_go = pathToGoal(p);
-  const double h = config_.grid_cell_m;
-  double best = to_go;
-  Vec2 direction = goal_ - p;
-  for (int k = 0; k < 8; ++k) {
-    const double a = k * kPi / 4.0;
-    const Vec2 q = p + 1.5 * h * Vec2(std::cos(a), std::sin(a));
-    const double d = pathToGoal(q);
-    if (d < best) {
-      best = d;
-      direction = q - p;
-    }
-  }
-  const double error = std::abs(angleDiff(std::atan2(direction.y(), direction.x()), node.pose.theta));
-  const double turn = to_go > config_.goal_tolerance_m ? 2.0 * std::sqrt(error / limits.a_w) : 0.0;
-  return to_go / limits.v_max + turn;
-}
-
 void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int substeps) {
   sim::World future = world;  // the robot stands aside; the obstacles ignore it
   future_.resize(static_cast<size_t>(substeps));
@@ -259,7 +237,7 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& input) {
           d.note = "oracle: goal in " + std::to_string(depth + 1) + " periods";
           return d;
         }
-        child.cost = t_end + timeToGo(child, limits);
+        child.cost = t_end + to_go / limits.v_max;
         const int64_t k = keyOf(child);
         const auto it = seen.find(k);
         if (it == seen.end()) {

@@ -61,8 +61,6 @@ class OraclePlanner : public Planner {
   void prepareStatics(const sim::World& world);
   double wallClearance(const Vec2& p) const;
   double pathToGoal(const Vec2& p) const;
-  /// Lower-bound-like time from the node to the goal: the free path at full speed plus the turn toward it.
-  double timeToGo(const Node& node, const RobotLimits& limits) const;
   /// The obstacles' and people's bodies at every physics sub-step of the horizon.
   void rollObstacles(const sim::World& world, double sub_dt, int substeps);
 
