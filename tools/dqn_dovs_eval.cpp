@@ -121,6 +121,16 @@ std::vector<std::string> splitList(const std::string& flag, const std::string& t
   return out;
 }
 
+/// NAME=VALUE,... of `flag`, each given to `set` (which returns why it refuses a pair, "" when it takes it).
+template <typename Set>
+void setNamedValues(const std::string& flag, const std::string& text, Set set) {
+  for (const std::string& kv : splitList(flag, text)) {
+    const size_t eq = kv.find('=');
+    if (eq == std::string::npos) throw UsageError(flag + ": '" + kv + "' is not NAME=VALUE");
+    if (const std::string e = set(kv.substr(0, eq), kv.substr(eq + 1)); !e.empty()) throw UsageError(flag + ": " + e);
+  }
+}
+
 struct Options {
   EvalConfig eval;
   std::string out_dir = "eval_results";
@@ -182,20 +192,14 @@ Options parse(int argc, char** argv) {
     } else if (flag == "--model") {
       o.eval.model_path = value();
     } else if (flag == "--shield") {
-      for (const std::string& kv : splitList(flag, value())) {
-        const size_t eq = kv.find('=');
-        if (eq == std::string::npos) throw UsageError("--shield: '" + kv + "' is not NAME=VALUE");
-        const std::string e = dqn_dovs::setShieldParameter(o.eval.shield, kv.substr(0, eq), kv.substr(eq + 1));
-        if (!e.empty()) throw UsageError("--shield: " + e);
-      }
+      setNamedValues(flag, value(), [&](const std::string& n, const std::string& v) {
+        return dqn_dovs::setShieldParameter(o.eval.shield, n, v);
+      });
       if (const std::string e = o.eval.shield.validate(); !e.empty()) throw UsageError("--shield: " + e);
     } else if (flag == "--oracle") {
-      for (const std::string& kv : splitList(flag, value())) {
-        const size_t eq = kv.find('=');
-        if (eq == std::string::npos) throw UsageError("--oracle: '" + kv + "' is not NAME=VALUE");
-        const std::string e = dqn_dovs::setOracleParameter(o.eval.oracle, kv.substr(0, eq), kv.substr(eq + 1));
-        if (!e.empty()) throw UsageError("--oracle: " + e);
-      }
+      setNamedValues(flag, value(), [&](const std::string& n, const std::string& v) {
+        return dqn_dovs::setOracleParameter(o.eval.oracle, n, v);
+      });
       if (const std::string e = o.eval.oracle.validate(); !e.empty()) throw UsageError("--oracle: " + e);
     } else if (flag == "--reference") {
       o.reference = value();

@@ -15,23 +15,29 @@ StaticMap::StaticMap(double cell_m, double memory_s) : cell_m_(cell_m), memory_s
   }
 }
 
-int64_t StaticMap::key(const Vec2& p) const {
-  // 32 bits per axis: cells of 1 cm cover +-21,000 km, far beyond any fixed frame a robot drives in.
-  const auto ix = static_cast<int64_t>(std::floor(p.x() / cell_m_));
-  const auto iy = static_cast<int64_t>(std::floor(p.y() / cell_m_));
-  return static_cast<int64_t>((static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffULL));
+bool StaticMap::key(const Vec2& p, int64_t& out) const {
+  // 32 bits per axis: cells of 1 cm cover +-21,000 km, far beyond any fixed frame a robot drives in. Points
+  // beyond (or non-finite ones, which a bad scan can produce) have no cell.
+  constexpr double kLimit = 2.0e9;
+  const double fx = std::floor(p.x() / cell_m_), fy = std::floor(p.y() / cell_m_);
+  if (!(std::abs(fx) < kLimit && std::abs(fy) < kLimit)) return false;
+  const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
+  out = static_cast<int64_t>((static_cast<uint64_t>(ix) << 32) ^ (static_cast<uint64_t>(iy) & 0xffffffffULL));
+  return true;
 }
 
 template <typename Visit>
 void StaticMap::rasterise(const Segment& segment, Visit visit) {
   const Vec2 d = segment.b - segment.a;
   const double length = d.norm();
-  if (!std::isfinite(length)) return;
+  // Walls longer than a building are not walls (a corrupt scan); they teach nothing.
+  if (!std::isfinite(length) || length > kMaxSegment_m) return;
   // Steps of a quarter cell never jump over a cell the segment crosses by more than a corner.
   const int steps = std::max(1, static_cast<int>(std::ceil(length / (0.25 * cell_m_))));
   int64_t previous = 0;
   for (int i = 0; i <= steps; ++i) {
-    const int64_t k = key(segment.a + d * (static_cast<double>(i) / steps));
+    int64_t k = 0;
+    if (!key(segment.a + d * (static_cast<double>(i) / steps), k)) continue;
     if (i > 0 && k == previous) continue;
     previous = k;
     visit(cells_[k]);
@@ -51,7 +57,9 @@ void StaticMap::addPermanentSegment(const Segment& segment) {
 }
 
 bool StaticMap::isStructure(const Vec2& p, int min_scans) const {
-  const auto it = cells_.find(key(p));
+  int64_t k = 0;
+  if (!key(p, k)) return false;
+  const auto it = cells_.find(k);
   return it != cells_.end() && (it->second.permanent || it->second.scans >= min_scans);
 }
 

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <stdexcept>
 
 #include "dqn_dovs/perception/static_map.h"
@@ -56,4 +57,21 @@ TEST(StaticMap, BadSizesAreRefusedWithTheirValues) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("cell size"), std::string::npos);
   }
+}
+
+TEST(StaticMap, FarAndNonFinitePointsHaveNoCell) {
+  // A corrupt scan can put returns anywhere: they must neither crash the map nor mark cells.
+  StaticMap map(0.1, 30.0);
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  map.addSegment({{1e300, 0.0}, {1e300, 1.0}}, 0.0);
+  map.addSegment({{0.0, 0.0}, {1e12, 0.0}}, 0.0);  // longer than any building: ignored
+  map.addSegment({{nan, 0.0}, {1.0, 0.0}}, 0.0);
+  map.addSegment({{0.0, 0.0}, {inf, 0.0}}, 0.0);
+  EXPECT_EQ(map.size(), 0u);
+  EXPECT_FALSE(map.isStructure({1e300, 0.0}, 1));
+  EXPECT_FALSE(map.isStructure({nan, nan}, 1));
+  EXPECT_DOUBLE_EQ(map.structureFraction({{inf, 0.0}, {-inf, 1.0}}, 1), 0.0);
+  map.addSegment({{0.0, 0.0}, {1.0, 0.0}}, 0.0);
+  EXPECT_GT(map.size(), 0u);
+  EXPECT_FALSE(map.isStructure({-1e300, 0.0}, 1));
 }

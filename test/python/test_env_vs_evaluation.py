@@ -8,7 +8,6 @@ lengths must be equal. (The robot's path against the evaluation's is test/ros_un
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -21,16 +20,6 @@ from dqn_dovs_py.model import masked_argmax
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL = ROOT / "models" / "dqn_dovs.dqnw"
-
-
-def _core():
-    try:
-        from dqn_dovs_py import _core
-    except ImportError as e:
-        if os.environ.get("DQN_DOVS_REQUIRE_CORE") == "1":
-            pytest.fail(f"dqn_dovs_py._core is not built: {e}")
-        pytest.skip(f"dqn_dovs_py._core is not built: {e}")
-    return _core
 
 
 def _trainer_episode(env, net, state, mask):
@@ -51,8 +40,7 @@ def _trainer_episode(env, net, state, mask):
 @pytest.mark.parametrize("seed, world", [(10011, {}), (10012, {}), (10013, {}),
                                          (10014, {"world": "crowd", "sensor": "urg04lx"}),
                                          (10015, {"world": "clutter", "people_model": "orca"})])
-def test_training_environment_and_evaluation_choose_alike(seed, world):
-    core = _core()
+def test_training_environment_and_evaluation_choose_alike(core, seed, world):
     net = model_from_weights(load_weights(MODEL)).eval()
     env = core.VecEnv(1, seed, perfect_info=False, threads=1, action_shield=True,
                       shield_parameters=load_shield_parameters(str(ROOT / "config")), world_options=world)
@@ -70,8 +58,7 @@ def test_training_environment_and_evaluation_choose_alike(seed, world):
     assert played > 20, "the episodes were too short to compare anything"
 
 
-def test_world_options_are_checked():
-    core = _core()
+def test_world_options_are_checked(core):
     for options, message in (({"planet": "mars"}, "unknown key 'planet'"),
                              ({"world": "maze"}, "world family 'maze' is not one of"),
                              ({"sensor": "sonar"}, "lidar profile 'sonar'"),

@@ -7,7 +7,6 @@ state use that mask. The C++ parts are skipped when dqn_dovs_py._core is missing
 """
 
 import copy
-import os
 
 import numpy as np
 import pytest
@@ -18,16 +17,6 @@ from dqn_dovs_py.escape import one_action_masks
 from dqn_dovs_py.train import Trainer, TrainConfig
 
 
-def _core():
-    try:
-        from dqn_dovs_py import _core  # noqa: PLC0415
-    except ImportError as error:
-        if os.environ.get("DQN_DOVS_REQUIRE_CORE") == "1":
-            pytest.fail(f"dqn_dovs_py._core is not built: {error}")
-        pytest.skip(f"dqn_dovs_py._core is not built: {error}")
-    return _core
-
-
 def test_one_action_masks():
     m = one_action_masks(np.array([0, 7, 3]))
     assert m.shape == (3, 8) and m.sum() == 3
@@ -36,11 +25,10 @@ def test_one_action_masks():
         one_action_masks(np.array([8]))
 
 
-def test_the_environment_says_which_action_ran():
+def test_the_environment_says_which_action_ran(core):
     # Crowded episodes with the shield. Where no escape ran, the executed action is the chosen one ("keep" for a
     # masked one). Where the escape ran, the robot ends the period at the escape velocity (it lies inside the
     # window), and the executed action is the one nearest to that velocity in the window's units.
-    core = _core()
     raw = core.VecEnv(8, 5, action_shield=True, shield_parameters=load_shield_parameters())
     env = VecEnv(8, 5, core=raw)
     env.set_stage(_stage())
@@ -110,8 +98,7 @@ RAW = {
 }
 
 
-def test_escaped_steps_are_stored_as_the_action_executed(tmp_path):
-    core = _core()
+def test_escaped_steps_are_stored_as_the_action_executed(core, tmp_path):
     shield = load_shield_parameters()
     envs = []
 

@@ -108,3 +108,21 @@ def test_world_flags_are_checked(tmp_path):
                            (["--odom-noise", "wobbly"], "--odom-noise: 'wobbly' is not one of none, low, high")):
         proc = subprocess.run(base + extra, capture_output=True, text=True, timeout=60, cwd=ROOT)
         assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+
+
+def test_the_oracle_runs_beside_the_planners_and_its_share_is_reported(tmp_path):
+    out = tmp_path / "oracle"
+    cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "oracle,s_dovs", "--generate", "78", "--obstacles", "4",
+           "--episodes", "4", "--trajectories", "0", "--out", str(out), "--oracle", "beam_width=80"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    rows = [r for r in csv.DictReader(open(out / "results.csv")) if r["method"] == "oracle"]
+    assert len(rows) == 4
+    assert all(r["last_decision"].startswith("oracle: ") for r in rows if r["steps"] != "0")
+    assert "## Share of the oracle's successes" in (out / "summary.md").read_text()
+    assert "s_dovs.oracle_share" in json.load(open(out / "summary.json"))
+    for bad, said in ((["--oracle", "beam=3"], "unknown oracle parameter 'beam'"),
+                      (["--oracle", "beam_width=0"], "beam_width 0 must be >= 1"),
+                      (["--oracle", "beam_width"], "NAME=VALUE")):
+        proc = subprocess.run(cmd[:-2] + bad, capture_output=True, text=True, timeout=60, cwd=ROOT)
+        assert proc.returncode == 2 and said in proc.stderr, proc.stderr

@@ -43,7 +43,10 @@ class StaticMap {
     double last_s = 0.0;
     bool permanent = false;
   };
-  int64_t key(const Vec2& p) const;
+  /// The cell of `p`; false for non-finite points and points beyond +-2e9 cells.
+  bool key(const Vec2& p, int64_t& out) const;
+  /// Longest segment rasterised (m): longer ones (a corrupt scan) are ignored.
+  static constexpr double kMaxSegment_m = 1000.0;
   template <typename Visit>
   void rasterise(const Segment& segment, Visit visit);
 
