@@ -154,7 +154,7 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
   }
 }
 
-PlannerDecision OraclePlanner::decide(const PlannerInput& input) {
+PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle reads the world itself*/) {
   if (world_ == nullptr) throw PlannerError("oracle: no world to read (setWorld)");
   const sim::World& world = *world_;
   if (!statics_ready_) prepareStatics(world);
@@ -166,13 +166,8 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& input) {
   const bool ramp = world.config().ramp_velocity;
   const int chunks = std::max(1, static_cast<int>(std::lround(dt / config_.scan_period_s)));
   const int substeps_per_chunk = std::max(1, kSubsteps / chunks);
-  (void)input;
 
-  // Commands of the first period (the window around the current twist), then expansions per node.
-  struct Key {
-    int64_t v;
-    bool operator==(const Key& o) const { return v == o.v; }
-  };
+  // Two sequences reaching the same state (5 cm, 7.5 deg, 0.05 m/s, 0.2 rad/s) at a depth are one node.
   auto keyOf = [](const Node& n) {
     const auto q = [](double x, double s) { return static_cast<int64_t>(std::llround(x / s)) & 0xfff; };
     return (q(n.pose.x, 0.05) << 48) | (q(n.pose.y, 0.05) << 36) | (q(n.pose.theta, kPi / 24.0) << 24) |
