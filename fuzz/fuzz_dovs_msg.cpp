@@ -44,9 +44,9 @@ bool lengthsFit(const std::uint8_t* data, std::size_t size) {
   };
   // header: seq, stamp, frame_id
   if (!skip(4 + 8) || !array(1)) return false;
-  // has_goal, v_max w_max dv dw v w, goal_line_kind, goal_curvature goal_turn_sign, action_v/w/valid,
-  // escape, escape_v, escape_w, escape_tier
-  if (!skip(1 + 6 * 8 + 1 + 2 * 8 + 8 * 8 + 8 * 8 + 8 + 1 + 2 * 8 + 1)) return false;
+  // has_goal, goal_stamp, goal_x goal_y, v_max w_max dv dw v w, goal_line_kind, goal_curvature goal_turn_sign,
+  // action_v/w/valid, escape, escape_v, escape_w, escape_tier
+  if (!skip(1 + 8 + 2 * 8 + 6 * 8 + 1 + 2 * 8 + 8 * 8 + 8 * 8 + 8 + 1 + 2 * 8 + 1)) return false;
   // static_frame, static_segments, static_discs
   if (!array(1) || !array(4) || !array(4)) return false;
   // trajectory_curvature, trajectory_pure_rotation, v_top, w_top, interval_begin, interval_lo, interval_hi
