@@ -528,7 +528,7 @@ class Trainer:
                 t1 = perf()
                 out = env.step(actions)
                 t2 = perf()
-                acted, acted_mask = self._executed(state, mask, actions, out)
+                acted, acted_mask = self._executed(mask, actions, out)
                 self.replay.add(self.nstep.push(state, acted_mask, acted, out.reward, out.next_state, out.next_mask,
                                                 out.terminated, out.truncated))
                 t3 = perf()
@@ -586,13 +586,12 @@ class Trainer:
             json.dump(summary, f, indent=2)
         return summary
 
-    def _executed(self, state: np.ndarray, mask: np.ndarray, actions: np.ndarray,
+    def _executed(self, mask: np.ndarray, actions: np.ndarray,
                   out: StepResult) -> tuple[np.ndarray, np.ndarray]:
         """The (action, mask) to store for each environment's step: the chosen ones, except where the environment
         ran the shield's escape instead (out.escaped). There the action is the one the environment reports as
         standing for the escape (out.executed_action: nearest in velocity), under a mask allowing only it, so
         that replay learns what the robot did."""
-        del state  # the environment says what ran
         if out.escaped is None or not out.escaped.any():
             return actions, mask
         if out.executed_action is None:

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <queue>
 #include <sstream>
 #include <unordered_map>
 
+#include "dqn_dovs/common/parse.h"
 #include "dqn_dovs/common/robot_model.h"
 
 namespace dqn_dovs {
@@ -37,16 +39,9 @@ std::string OracleConfig::validate() const {
 }
 
 std::string setOracleParameter(OracleConfig& config, const std::string& name, const std::string& value) {
-  double x = 0.0;
-  size_t used = 0;
-  try {
-    x = std::stod(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != value.size() || !std::isfinite(x)) {
-    return "oracle parameter '" + name + "' = '" + value + "' is not a number";
-  }
+  const std::optional<double> parsed = parseNumber(value);
+  if (!parsed || !std::isfinite(*parsed)) return "oracle parameter '" + name + "' = '" + value + "' is not a number";
+  const double x = *parsed;
   if (name == "horizon_periods")
     config.horizon_periods = static_cast<int>(x);
   else if (name == "beam_width")

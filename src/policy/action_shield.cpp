@@ -10,6 +10,7 @@
 #include <variant>
 #include <vector>
 
+#include "dqn_dovs/common/parse.h"
 #include "dqn_dovs/policy/rollout.h"
 
 namespace dqn_dovs {
@@ -117,17 +118,7 @@ const std::vector<std::string>& shieldParameterNames() {
 std::string setShieldParameter(ActionShieldConfig& config, const std::string& name, const std::string& value) {
   const ShieldField* field = findShieldField(name);
   if (field == nullptr) return "unknown action shield parameter '" + name + "'";
-  auto number = [&]() -> std::optional<double> {
-    size_t used = 0;
-    double x = 0.0;
-    try {
-      x = std::stod(value, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != value.size()) return std::nullopt;
-    return x;
-  };
+  auto number = [&]() { return parseNumber(value); };
   return std::visit(
       [&](auto member) -> std::string {
         auto& target = fieldOf(config, member);

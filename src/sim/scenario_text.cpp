@@ -3,8 +3,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
+#include "dqn_dovs/common/parse.h"
 #include "dqn_dovs/sim/map.h"
 #include "dqn_dovs/sim/scenario.h"
 
@@ -24,15 +26,9 @@ std::vector<double> numbers(std::istringstream& in, const std::string& where, bo
       out.push_back(std::nan("static"));  // a flag, handled by the caller
       continue;
     }
-    size_t used = 0;
-    double v = 0.0;
-    try {
-      v = std::stod(word, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != word.size() || !std::isfinite(v))
-      throw ScenarioError(where + ": '" + word + "' is not a finite number");
+    const std::optional<double> parsed = parseNumber(word);
+    const double v = parsed.value_or(std::nan(""));
+    if (!std::isfinite(v)) throw ScenarioError(where + ": '" + word + "' is not a finite number");
     out.push_back(v);
   }
   return out;
