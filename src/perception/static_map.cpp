@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -70,12 +71,19 @@ double StaticMap::structureFraction(const std::vector<Vec2>& points, int min_sca
 }
 
 void StaticMap::expire(double stamp_s) {
+  // A sweep of every cell, at most every thirtieth of the memory (a cell may outlive it by that much): the tracker
+  // asks every scan, and the map holds thousands of cells in a building.
+  if (std::abs(stamp_s - last_sweep_s_) < memory_s_ / 30.0) return;
+  last_sweep_s_ = stamp_s;
   for (auto it = cells_.begin(); it != cells_.end();) {
     const bool old = !it->second.permanent && stamp_s - it->second.last_s > memory_s_;
     it = old ? cells_.erase(it) : std::next(it);
   }
 }
 
-void StaticMap::clear() { cells_.clear(); }
+void StaticMap::clear() {
+  cells_.clear();
+  last_sweep_s_ = -std::numeric_limits<double>::infinity();
+}
 
 }  // namespace dqn_dovs

@@ -245,8 +245,7 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
   for (size_t i = 0; i < circles.size(); ++i) {
     // Unpaired leg fragments are dropped.
     if (used[i] || static_cast<int>(circles[i].points.size()) < config.min_cluster_points) continue;
-    CircleDetection& d = circles[i];
-    out.push_back(std::move(d));
+    out.push_back(std::move(circles[i]));
   }
   circles = std::move(out);
 }

@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -30,7 +31,7 @@ class StaticMap {
   bool isStructure(const Vec2& p, int min_scans) const;
   /// Fraction of `points` that lie on structure (0 for no points).
   double structureFraction(const std::vector<Vec2>& points, int min_scans) const;
-  /// Forgets cells last seen more than memory_s before stamp_s.
+  /// Forgets cells last seen more than memory_s before stamp_s (sweeping at most every memory_s / 30).
   void expire(double stamp_s);
   void clear();
   /// Number of cells held.
@@ -52,6 +53,7 @@ class StaticMap {
 
   double cell_m_;
   double memory_s_;
+  double last_sweep_s_ = -std::numeric_limits<double>::infinity();
   std::unordered_map<int64_t, Cell> cells_;
 };
 
