@@ -19,6 +19,7 @@ APT_PACKAGES=(
   libvisualization-msgs-dev python3-std-srvs python3-sensor-msgs python3-nav-msgs
   python3-geometry-msgs python3-visualization-msgs python3-tf2-ros
   libcv-bridge-dev libimage-transport-dev libopencv-dev
+  libactionlib-dev libmove-base-msgs-dev python3-actionlib python3-move-base-msgs
   libeigen3-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   librviz-dev rviz pluginlib-dev libclass-loader-dev
   googletest libgtest-dev libgmock-dev

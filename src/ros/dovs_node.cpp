@@ -81,9 +81,16 @@ void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
               fixed_frame_.c_str(), e.what());
     return;
   }
+  const bool same_goal = goal_ && goal_stamp_ == msg->header.stamp;
   goal_ = Vec2(in_fixed.pose.position.x, in_fixed.pose.position.y);
   goal_stamp_ = msg->header.stamp;
-  ROS_INFO("dovs: goal (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
+  // The planner republishes its goal every control period (re-transformed, or the next point of a route) with
+  // the stamp it gave the goal: only a new stamp is a new goal worth a log line.
+  if (same_goal) {
+    ROS_DEBUG("dovs: goal moved to (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
+  } else {
+    ROS_INFO("dovs: goal (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
+  }
 }
 
 void DovsNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {

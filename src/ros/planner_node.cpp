@@ -53,6 +53,27 @@ SupervisorConfig supervisorConfig(const ros::NodeHandle& pnh, const RobotLimits&
   c.goal_speed_mps = param<double>(pnh, "goal_speed", c.goal_speed_mps);
   c.ramp_rate_hz = param<double>(pnh, "ramp_rate", c.ramp_rate_hz);
   c.deadline_fraction = param<double>(pnh, "deadline_fraction", c.deadline_fraction);
+  c.yaw_tolerance_rad = param<double>(pnh, "yaw_tolerance", c.yaw_tolerance_rad);
+  c.align_speed = param<double>(pnh, "align_speed", c.align_speed);
+  NavigationConfig& n = c.navigation;
+  n.progress_timeout_s = param<double>(pnh, "progress_timeout", n.progress_timeout_s);
+  n.progress_distance_m = param<double>(pnh, "progress_distance", n.progress_distance_m);
+  n.oscillation_timeout_s = param<double>(pnh, "oscillation_timeout", n.oscillation_timeout_s);
+  n.oscillation_distance_m = param<double>(pnh, "oscillation_distance", n.oscillation_distance_m);
+  n.oscillation_flips = param<int>(pnh, "oscillation_flips", n.oscillation_flips);
+  n.stall_command_mps = param<double>(pnh, "stall_command_speed", n.stall_command_mps);
+  n.stall_odom_mps = param<double>(pnh, "stall_odom_speed", n.stall_odom_mps);
+  n.stall_time_s = param<double>(pnh, "stall_time", n.stall_time_s);
+  n.recovery_wait_s = param<double>(pnh, "recovery_wait", n.recovery_wait_s);
+  n.recovery_rotate_rad = param<double>(pnh, "recovery_rotate_angle", n.recovery_rotate_rad);
+  n.recovery_rotate_speed = param<double>(pnh, "recovery_rotate_speed", n.recovery_rotate_speed);
+  n.max_recovery_rounds = param<int>(pnh, "max_recovery_rounds", n.max_recovery_rounds);
+  if (param<bool>(pnh, "allow_reverse", false)) {
+    // The safety envelope admits v >= 0 only (robot_model.h): a back-off would be cut to a stop.
+    throw ParameterError("parameter '" + pnh.resolveName("allow_reverse") +
+                         "' = true: this planner never commands reverse speed (the safety envelope admits v >= 0); "
+                         "set it to false");
+  }
   if (const std::string e = c.validate(); !e.empty()) throw ParameterError(pnh.resolveName("") + ": " + e);
   return c;
 }
@@ -71,8 +92,9 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   scan_max_nan_fraction_ = paramInRange(pnh_, "scan_max_nan_fraction", 0.5, 0.0, 1.0);
   hooks_.robot_pose = [this](double wait_s) { return robotPose(wait_s); };
   hooks_.space_fault = [this]() -> std::string {
+    if (!goal_fault_.empty()) return goal_fault_;
     if (!last_dovs_) return "dovs is stale or missing";
-    if (const std::string other = dovsGoalFault(*last_dovs_, goal_stamp_s_, goal_fixed_); !other.empty()) return other;
+    if (const std::string other = localGoalFault(*last_dovs_); !other.empty()) return other;
     if (last_dovs_->state.size() != static_cast<size_t>(QNetwork::kStateSize)) return "dovs state has the wrong size";
     return {};
   };
@@ -111,6 +133,14 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   scan_sub_ = nh_.subscribe("scan", 2, &PlannerNode::onScan, this, ros::TransportHints().tcpNoDelay());
   goal_sub_ = nh_.subscribe("move_base_simple/goal", 2, &PlannerNode::onGoal, this);
   cancel_sub_ = nh_.subscribe("planner/cancel", 2, &PlannerNode::onCancel, this);
+  safety_sub_ = nh_.subscribe("base_safety", 10, &PlannerNode::onBaseSafety, this, ros::TransportHints().tcpNoDelay());
+  local_goal_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("planner/local_goal", 5);
+  use_goal_yaw_ = param<bool>(pnh_, "use_goal_yaw", true);
+  action_server_ = std::make_unique<actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction>>(
+      nh_, param<std::string>(pnh_, "action_name", "move_base"), false);
+  action_server_->registerGoalCallback([this] { onActionGoal(); });
+  action_server_->registerPreemptCallback([this] { onActionPreempt(); });
+  action_server_->start();
   decide_timer_ = nh_.createTimer(ros::Duration(limits_.dt), &PlannerNode::onDecide, this);
   ramp_timer_ = nh_.createTimer(ros::Duration(1.0 / supervisor_.config().ramp_rate_hz), &PlannerNode::onRamp, this);
   ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz", model_path.c_str(),
@@ -123,8 +153,7 @@ void PlannerNode::onDovs(const Dovs::ConstPtr& msg) {
   // Choose the action as soon as the velocity space arrives: the control timer then applies it without
   // running the network, and planner/latency reports how old the scan behind the choice is.
   supervisor_.space(msg->header.stamp.toSec());
-  if (supervisor_.hasGoal() && supervisor_.state() != GoalState::kReached &&
-      dovsGoalFault(*msg, goal_stamp_s_, goal_fixed_).empty()) {
+  if (supervisor_.hasGoal() && supervisor_.state() != GoalState::kReached && localGoalFault(*msg).empty()) {
     std::string why;
     actionForLastDovs(why);
     if (latency_pub_.getNumSubscribers() > 0) {
@@ -153,7 +182,7 @@ void PlannerNode::onOdom(const nav_msgs::Odometry::ConstPtr& msg) {
   } else if (msg->header.stamp.isZero()) {
     fault = "odom has no stamp";
   }
-  supervisor_.odom(msg->header.stamp.toSec(), fault);
+  supervisor_.odom(msg->header.stamp.toSec(), fault, msg->twist.twist.linear.x);
 }
 
 std::string PlannerNode::scanFault(const sensor_msgs::LaserScan& msg) {
@@ -181,28 +210,179 @@ void PlannerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
 }
 
 void PlannerNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
-  if (!std::isfinite(msg->pose.position.x) || !std::isfinite(msg->pose.position.y)) {
-    supervisor_.rejectGoal("goal rejected: its position has NaN/inf");
-    return;
+  if (action_server_->isActive()) {
+    action_server_->setPreempted(move_base_msgs::MoveBaseResult(), "replaced by a goal on move_base_simple/goal");
   }
-  geometry_msgs::PoseStamped in_fixed;
-  try {
-    geometry_msgs::PoseStamped latest = *msg;
-    latest.header.stamp = ros::Time(0);
-    in_fixed = tf_buffer_.transform(latest, fixed_frame_, ros::Duration(0.2));
-  } catch (const tf2::TransformException& e) {
-    supervisor_.rejectGoal("goal rejected: no transform from '" + msg->header.frame_id + "' to '" + fixed_frame_ +
-                           "': " + e.what());
-    return;
-  }
-  const Vec2 goal(in_fixed.pose.position.x, in_fixed.pose.position.y);
-  goal_stamp_s_ = msg->header.stamp.toSec();
-  goal_fixed_ = goal;
-  supervisor_.newGoal(goal);
-  ROS_INFO("planner: new goal (%.2f, %.2f) in '%s'", goal.x(), goal.y(), fixed_frame_.c_str());
+  acceptGoal(*msg, "move_base_simple/goal");
 }
 
-void PlannerNode::onCancel(const std_msgs::Empty::ConstPtr&) { supervisor_.cancel(); }
+void PlannerNode::onActionGoal() {
+  const move_base_msgs::MoveBaseGoal::ConstPtr goal = action_server_->acceptNewGoal();
+  if (!goal) return;
+  if (action_server_->isPreemptRequested()) {
+    // Cancelled before it could start.
+    action_server_->setPreempted(move_base_msgs::MoveBaseResult(), "cancelled before it started");
+    return;
+  }
+  const std::string refused = acceptGoal(goal->target_pose, "move_base action");
+  if (!refused.empty()) action_server_->setAborted(move_base_msgs::MoveBaseResult(), refused);
+}
+
+void PlannerNode::onActionPreempt() {
+  // actionlib calls this for its current goal handle even when that goal is over (a late cancel): then the goal
+  // being pursued (from move_base_simple/goal, say) is not the one cancelled.
+  if (!action_server_->isActive()) return;
+  supervisor_.cancel();
+  goal_.reset();
+  local_goals_.clear();
+  if (action_server_->isActive()) action_server_->setPreempted(move_base_msgs::MoveBaseResult(), "cancelled");
+}
+
+std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source) {
+  local_goals_.clear();
+  goal_.reset();
+  const auto& p = goal.pose.position;
+  const auto& q = goal.pose.orientation;
+  std::string refused;
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z) ||
+      !std::isfinite(q.w)) {
+    refused = "goal rejected: its pose has NaN/inf";
+  } else if (goal.header.frame_id.empty()) {
+    refused = "goal rejected: empty header.frame_id";
+  } else if (std::string tf_error; !tf_buffer_.canTransform(fixed_frame_, goal.header.frame_id, ros::Time(0),
+                                                            ros::Duration(0.2), &tf_error)) {
+    refused = "goal rejected: no transform from '" + goal.header.frame_id + "' to '" + fixed_frame_ + "': " + tf_error;
+  }
+  if (!refused.empty()) {
+    supervisor_.rejectGoal(refused);
+    return refused;
+  }
+  goal_ = goal;
+  // The stamp that names this goal on planner/local_goal and in the Dovs built for it: the goal's own stamp (a
+  // dovs_node fed the same goal directly agrees), made unique when two goals carry the same one.
+  ros::Time id = goal.header.stamp;
+  if (id <= goal_id_ && !goal_id_.isZero()) id = goal_id_ + ros::Duration(0, 1000);
+  goal_id_ = id;
+  goal_fault_.clear();
+  refreshGoal(true);
+  if (!goal_fault_.empty()) {
+    supervisor_.rejectGoal(goal_fault_);
+    goal_.reset();
+    return goal_fault_;
+  }
+  const Vec2 fixed = *supervisor_.goal();
+  ROS_INFO("planner: new goal from %s: (%.2f, %.2f) in '%s' = (%.2f, %.2f) in '%s'%s", source.c_str(), p.x, p.y,
+           goal.header.frame_id.c_str(), fixed.x(), fixed.y(), fixed_frame_.c_str(),
+           use_goal_yaw_ ? ", with its heading" : "");
+  return {};
+}
+
+void PlannerNode::refreshGoal(bool is_new) {
+  if (!goal_) return;
+  geometry_msgs::PoseStamped in_fixed;
+  try {
+    // The latest transform: a goal is a place, not an instant; where the map lies in odom changes with every
+    // localisation update.
+    geometry_msgs::PoseStamped latest = *goal_;
+    latest.header.stamp = ros::Time(0);
+    in_fixed = tf_buffer_.transform(latest, fixed_frame_);
+  } catch (const tf2::TransformException& e) {
+    goal_fault_ =
+        "no transform from the goal's frame '" + goal_->header.frame_id + "' to '" + fixed_frame_ + "': " + e.what();
+    return;
+  }
+  goal_fault_.clear();
+  const Vec2 goal(in_fixed.pose.position.x, in_fixed.pose.position.y);
+  std::optional<double> yaw;
+  const auto& q = in_fixed.pose.orientation;
+  const double qn = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+  if (use_goal_yaw_ && qn > 1e-6) yaw = std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+  if (is_new) {
+    supervisor_.newGoal(goal, yaw, ros::Time::now().toSec());
+  } else {
+    supervisor_.moveGoal(goal, yaw);
+  }
+  // dovs_node builds the velocity space for this point (remapped to planner/local_goal by pipeline.launch).
+  geometry_msgs::PoseStamped local;
+  local.header.stamp = goal_id_;
+  local.header.frame_id = fixed_frame_;
+  local.pose.position.x = goal.x();
+  local.pose.position.y = goal.y();
+  local.pose.orientation.w = 1.0;
+  local_goal_pub_.publish(local);
+  const double now = ros::Time::now().toSec();
+  local_goals_.emplace_back(now, goal);
+  while (local_goals_.size() > 1 && now - local_goals_.front().first > 1.0) local_goals_.pop_front();
+}
+
+std::string PlannerNode::localGoalFault(const Dovs& dovs) const {
+  if (local_goals_.empty()) return "no goal";
+  std::string fault;
+  for (auto it = local_goals_.rbegin(); it != local_goals_.rend(); ++it) {
+    const std::string f = dovsGoalFault(dovs, goal_id_.toSec(), it->second);
+    if (f.empty()) return {};
+    if (fault.empty()) fault = f;
+  }
+  return fault;
+}
+
+void PlannerNode::onCancel(const std_msgs::Empty::ConstPtr&) {
+  supervisor_.cancel();
+  goal_.reset();
+  local_goals_.clear();
+  if (action_server_->isActive()) {
+    action_server_->setPreempted(move_base_msgs::MoveBaseResult(), "cancelled on planner/cancel");
+  }
+}
+
+void PlannerNode::onBaseSafety(const BaseSafety::ConstPtr& msg) {
+  const double now = ros::Time::now().toSec();
+  const std::string detail = msg->detail.empty() ? std::string() : " (" + msg->detail + ")";
+  supervisor_.contact(now, msg->bumper ? "bumper pressed" + detail : std::string());
+  std::string hazard;
+  if (msg->cliff) hazard = "cliff sensor sees no floor" + detail;
+  if (msg->wheel_drop) hazard = (hazard.empty() ? "" : hazard + "; ") + "wheel drop" + detail;
+  supervisor_.baseHazard(now, hazard);
+}
+
+void PlannerNode::updateAction(const ros::Time& now) {
+  if (!action_server_->isActive()) return;
+  switch (supervisor_.state()) {
+    case GoalState::kReached:
+      action_server_->setSucceeded(move_base_msgs::MoveBaseResult(), supervisor_.reason());
+      return;
+    case GoalState::kAborted:
+      action_server_->setAborted(move_base_msgs::MoveBaseResult(), supervisor_.reason());
+      return;
+    case GoalState::kIdle:
+      action_server_->setAborted(move_base_msgs::MoveBaseResult(), "the planner has no goal");
+      return;
+    case GoalState::kStopped:
+      if (!supervisor_.hasGoal()) {
+        action_server_->setAborted(move_base_msgs::MoveBaseResult(), supervisor_.reason());
+        return;
+      }
+      break;
+    case GoalState::kActive:
+      break;
+  }
+  // Feedback: where the robot is, in the goal's frame.
+  if (!goal_) return;
+  try {
+    const geometry_msgs::TransformStamped tf =
+        tf_buffer_.lookupTransform(goal_->header.frame_id, base_frame_, ros::Time(0));
+    move_base_msgs::MoveBaseFeedback feedback;
+    feedback.base_position.header.stamp = now;
+    feedback.base_position.header.frame_id = goal_->header.frame_id;
+    feedback.base_position.pose.position.x = tf.transform.translation.x;
+    feedback.base_position.pose.position.y = tf.transform.translation.y;
+    feedback.base_position.pose.position.z = tf.transform.translation.z;
+    feedback.base_position.pose.orientation = tf.transform.rotation;
+    action_server_->publishFeedback(feedback);
+  } catch (const tf2::TransformException&) {
+    // No pose in the goal's frame now: the supervisor already halts on the missing transform.
+  }
+}
 
 RobotPoseLookup PlannerNode::robotPose(double wait_s) {
   RobotPoseLookup out;
@@ -271,7 +451,13 @@ void PlannerNode::onDecide(const ros::TimerEvent& event) {
   if (!event.current_expected.isZero() && !event.last_expected.isZero()) {
     lateness = (event.current_real - event.current_expected).toSec();
   }
+  refreshGoal();
   const std::optional<double> goal_distance = supervisor_.controlPeriod(now.toSec(), lateness, hooks_, tf_timeout_s_);
+  if (supervisor_.state() == GoalState::kAborted && goal_) {
+    goal_.reset();
+    local_goals_.clear();
+  }
+  updateAction(now);
   std_msgs::Int8 a;
   a.data = static_cast<int8_t>(supervisor_.action());
   action_pub_.publish(a);
@@ -305,6 +491,12 @@ void PlannerNode::publishStatus(const ros::Time& now, double goal_distance) {
   s.reason = supervisor_.reason().empty() ? goalStateName(supervisor_.state()) : supervisor_.reason();
   s.action = static_cast<int8_t>(supervisor_.action());
   s.goal_distance = goal_distance;
+  s.route_remaining = goal_distance;
+  s.goal_frame = goal_ ? goal_->header.frame_id : std::string();
+  const NavigationMonitor& nav = supervisor_.navigation();
+  s.recovery = nav.recovering() ? recoveryStepName(nav.step()) : "";
+  s.recovery_rounds = static_cast<uint32_t>(nav.rounds());
+  s.last_trigger = nav.lastTrigger();
   s.v = supervisor_.command().v;
   s.w = supervisor_.command().w;
   const SafetyEnvelope& envelope = supervisor_.envelope();

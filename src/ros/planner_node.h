@@ -4,7 +4,9 @@
 // (include/dqn_dovs/supervision/supervisor.h); this class turns messages, tf and timers into its calls.
 #pragma once
 
+#include <actionlib/server/simple_action_server.h>
 #include <geometry_msgs/PoseStamped.h>
+#include <move_base_msgs/MoveBaseAction.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
@@ -12,10 +14,13 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
+#include "dqn_dovs/BaseSafety.h"
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/common/robot_model.h"
@@ -38,6 +43,20 @@ class PlannerNode {
   void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
   void onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg);
   void onCancel(const std_msgs::Empty::ConstPtr& msg);
+  void onActionGoal();     // move_base action: a new goal (it preempts the one before)
+  void onActionPreempt();  // move_base action: the client cancelled
+  void onBaseSafety(const BaseSafety::ConstPtr& msg);
+  /// Accepts `goal` (any frame tf knows) as the goal; `source` names where it came from for the log. Returns why
+  /// it was refused ("" when accepted); a refused goal leaves the robot stopped with that reason.
+  std::string acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source);
+  /// Every control period: the goal re-transformed from its own frame into the fixed frame (localisation moves
+  /// the map against odom), handed to the supervisor (as a new goal when `is_new`) and published on planner/local_goal
+  /// for dovs_node.
+  void refreshGoal(bool is_new = false);
+  /// Why `dovs` was not built for the current goal ("" when it was built for one of its recent local goals).
+  std::string localGoalFault(const Dovs& dovs) const;
+  /// The action's feedback, and its end when the goal was reached, aborted or dropped.
+  void updateAction(const ros::Time& now);
   void onDecide(const ros::TimerEvent& event);  // once per control period
   void onRamp(const ros::TimerEvent& event);    // >= 20 Hz command ramp
   /// The supervisor's clock check; after a backward jump the last velocity space and the tf buffer are dropped.
@@ -67,9 +86,16 @@ class PlannerNode {
   DecisionHooks hooks_;
 
   Dovs::ConstPtr last_dovs_;
-  // The goal as this node accepted it (fixed frame, its message's stamp): a Dovs built for another is not used.
-  double goal_stamp_s_ = 0.0;
-  Vec2 goal_fixed_ = Vec2::Zero();
+  // The goal as it was given (its own frame) and the stamp that names it on planner/local_goal and in the Dovs
+  // messages built for it; goal_fault_ says why it cannot be placed in the fixed frame now ("" when it can).
+  std::optional<geometry_msgs::PoseStamped> goal_;
+  ros::Time goal_id_;
+  std::string goal_fault_;
+  bool use_goal_yaw_ = true;
+  // The local goals published for the current goal over the last second (ROS time, position in the fixed frame):
+  // a Dovs built for none of them is not used.
+  std::deque<std::pair<double, Vec2>> local_goals_;
+  std::unique_ptr<actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction>> action_server_;
   Dovs::ConstPtr chosen_for_;     // the message chosen_decision_, chosen_action_ and chosen_why_ belong to
   DovsDecision chosen_decision_;  // its decision fields (state, actions, escape, static geometry)
   int chosen_action_ = -1;
@@ -78,8 +104,8 @@ class PlannerNode {
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_;
-  ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_;
+  ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_, safety_sub_;
+  ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_, local_goal_pub_;
   ros::Timer decide_timer_, ramp_timer_;
 };
 

@@ -33,6 +33,24 @@ RobotLimits loadRobotLimits(const ros::NodeHandle& pnh) {
 
 namespace dqn_dovs {
 
+std::string robotRadiusMismatch(double configured_m, double described_m) {
+  if (std::abs(described_m - configured_m) <= 1e-3) return {};
+  std::ostringstream os;
+  os.precision(4);
+  if (described_m > configured_m) {
+    os << "the robot description's footprint (radius " << described_m
+       << " m) is larger than the configured robot/radius " << configured_m
+       << " m: planning for a smaller robot than the real one is unsafe; set robot/radius to " << described_m
+       << " (and use a model trained for it)";
+  } else {
+    os << "the configured robot/radius " << configured_m << " m is larger than the robot description's footprint ("
+       << described_m << " m): safe, the robot keeps " << configured_m - described_m
+       << " m more clearance than it needs; set robot/radius to " << described_m
+       << " (with a model trained for it) to use the description's";
+  }
+  return os.str();
+}
+
 std::optional<RobotGeometry> loadRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
                                                   const std::string& base_frame, const std::string& laser_frame) {
   std::string xml;
@@ -43,11 +61,10 @@ std::optional<RobotGeometry> loadRobotDescription(const ros::NodeHandle& nh, con
   } catch (const RobotDescriptionError& e) {
     throw ParameterError(std::string("robot_description: ") + e.what());
   }
-  if (std::abs(g.radius_m - limits.radius) > 1e-3) {
-    std::ostringstream os;
-    os << "robot radius " << limits.radius << " m (robot/radius) disagrees with the robot description's footprint "
-       << g.radius_m << " m";
-    throw ParameterError(os.str());
+  const std::string what = robotRadiusMismatch(limits.radius, g.radius_m);
+  if (!what.empty()) {
+    if (g.radius_m > limits.radius) throw ParameterError(what);
+    ROS_WARN("%s: %s", nh.resolveName("robot_description").c_str(), what.c_str());
   }
   return g;
 }

@@ -58,13 +58,17 @@ ActionShieldConfig loadActionShieldConfig(const ros::NodeHandle& pnh);
 #include "robot_description.h"
 
 namespace dqn_dovs {
+/// What differs between the configured robot radius and the robot description's footprint ("" when they agree
+/// within 1 mm), and what to change.
+std::string robotRadiusMismatch(double configured_m, double described_m);
 /// The robot geometry of `robot_description` when it is on the parameter server, std::nullopt when there is
-/// none. Throws ParameterError when the description cannot be read or its footprint radius differs from
-/// limits.radius (naming both values).
+/// none. Throws ParameterError when the description cannot be read or its footprint is larger than limits.radius
+/// (running would plan for a smaller robot than the real one); a smaller footprint is a warning saying what to
+/// change.
 std::optional<RobotGeometry> loadRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
                                                   const std::string& base_frame, const std::string& laser_frame);
-/// When `robot_description` is on the parameter server, checks that its footprint radius equals
-/// limits.radius (throws ParameterError naming both values otherwise). Returns false when there is none.
+/// When `robot_description` is on the parameter server, checks its footprint against limits.radius as
+/// loadRobotDescription does. Returns false when there is none.
 bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits, const std::string& base_frame,
                            const std::string& laser_frame);
 }  // namespace dqn_dovs

@@ -17,6 +17,8 @@ const char* goalStateName(GoalState s) {
       return "reached";
     case GoalState::kStopped:
       return "stopped";
+    case GoalState::kAborted:
+      return "aborted";
   }
   return "unknown";
 }
@@ -36,6 +38,12 @@ std::string SupervisorConfig::validate() const {
     os << "ramp_rate = " << ramp_rate_hz << " Hz is outside [20, 500]";
   } else if (!in(deadline_fraction, 0.05, 10.0)) {
     os << "deadline_fraction = " << deadline_fraction << " is outside [0.05, 10]";
+  } else if (!in(yaw_tolerance_rad, 0.01, kPi)) {
+    os << "yaw_tolerance = " << yaw_tolerance_rad << " rad is outside [0.01, pi]";
+  } else if (!in(align_speed, 0.05, 10.0)) {
+    os << "align_speed = " << align_speed << " rad/s is outside [0.05, 10]";
+  } else if (const std::string e = navigation.validate(); !e.empty()) {
+    os << e;
   }
   return os.str();
 }
@@ -48,16 +56,74 @@ const SupervisorConfig& checked(const SupervisorConfig& c) {
 }  // namespace
 
 Supervisor::Supervisor(const SupervisorConfig& config, SupervisorLogSink log)
-    : config_(checked(config)), log_(std::move(log)), envelope_(config.limits, kMaxRampStepS) {}
+    : config_(checked(config)),
+      log_(std::move(log)),
+      navigation_(config.navigation),
+      envelope_(config.limits, kMaxRampStepS) {}
 
 void Supervisor::log(SupervisorLog level, const std::string& key, const std::string& text, double throttle_s) const {
   if (log_) log_(level, key, text, throttle_s);
 }
 
-void Supervisor::newGoal(const Vec2& goal) {
+void Supervisor::newGoal(const Vec2& goal, std::optional<double> yaw, double now_s) {
   goal_ = goal;  // a new goal cancels the previous one
+  goal_yaw_ = yaw;
+  aligning_ = false;
+  navigation_.reset(now_s);
   state_ = GoalState::kActive;
   reason_.clear();
+}
+
+void Supervisor::moveGoal(const Vec2& goal, std::optional<double> yaw) {
+  if (!goal_) return;
+  goal_ = goal;
+  goal_yaw_ = yaw;
+}
+
+void Supervisor::abort(const std::string& reason) {
+  goal_.reset();
+  target_ = Twist2{};
+  action_ = -1;
+  aligning_ = false;
+  log(SupervisorLog::kWarn, "abort", "goal aborted: " + reason);
+  state_ = GoalState::kAborted;
+  reason_ = reason;
+}
+
+void Supervisor::emergencyZero() {
+  target_ = Twist2{};
+  action_ = -1;
+  emergency_ = true;  // the next ramp command is zero, whatever the deceleration limit says
+}
+
+void Supervisor::contact(double now_s, const std::string& what) {
+  if (what == contact_) return;
+  const bool onset = contact_.empty();
+  contact_ = what;
+  if (what.empty()) {
+    log(SupervisorLog::kInfo, "contact", "contact ended");
+    return;
+  }
+  if (!onset) return;
+  log(SupervisorLog::kWarn, "contact", what + ": stopping at once");
+  emergencyZero();
+  if (goal_ && (state_ == GoalState::kActive || state_ == GoalState::kStopped)) navigation_.contact(now_s, what);
+}
+
+void Supervisor::baseHazard(double /*now_s*/, const std::string& what) {
+  if (what == hazard_) return;
+  if (what.empty()) {
+    log(SupervisorLog::kInfo, "hazard", "base hazard cleared (" + hazard_ + ")");
+    hazard_.clear();
+    return;
+  }
+  hazard_ = what;
+  emergencyZero();
+  if (goal_ && state_ != GoalState::kReached) {
+    abort(what);
+  } else {
+    log(SupervisorLog::kWarn, "hazard", what + ": stopping at once");
+  }
 }
 
 void Supervisor::rejectGoal(const std::string& reason) {
@@ -100,12 +166,13 @@ void Supervisor::scan(double stamp_s, const std::string& fault) {
   have_scan_ = true;
 }
 
-void Supervisor::odom(double stamp_s, const std::string& fault) {
+void Supervisor::odom(double stamp_s, const std::string& fault, double speed_mps) {
   if (!fault.empty()) {
     odom_fault_ = fault;
     return;
   }
   odom_fault_.clear();
+  odom_speed_mps_ = speed_mps;
   last_odom_s_ = stamp_s;
   have_odom_ = true;
 }
@@ -142,6 +209,7 @@ std::string Supervisor::inputFault(double now_s, const DecisionHooks& hooks, dou
   const double max_age = config_.max_input_age_s;
   auto age = [&](double t) { return now_s - t; };
   auto fault = [&]() -> std::string {
+    if (!hazard_.empty()) return "base hazard: " + hazard_;
     if (!scan_fault_.empty()) return "scan rejected: " + scan_fault_;
     if (!have_scan_ || age(last_scan_s_) > max_age) return "scan is stale or missing";
     if (age(last_scan_s_) < -max_age) return "scan is stamped in the future (clock jumped back?)";
@@ -169,34 +237,86 @@ std::string Supervisor::inputFault(double now_s, const DecisionHooks& hooks, dou
   return why;
 }
 
+void Supervisor::onGoal(const Pose2& pose, double goal_distance) {
+  target_ = Twist2{};
+  action_ = -1;
+  if (std::abs(command_.v) >= config_.goal_speed_mps || state_ != GoalState::kActive) return;  // braking first
+  if (goal_yaw_) {
+    // Turn in place to the goal's heading, no faster than lets the turn stop on it within the angular
+    // acceleration limit and one control period.
+    const double error = normalizeAngle(*goal_yaw_ - pose.theta);
+    if (std::abs(error) > config_.yaw_tolerance_rad) {
+      const double a = 0.5 * config_.limits.a_w;
+      const double speed = std::min({config_.align_speed, config_.limits.w_max, std::sqrt(2.0 * a * std::abs(error)),
+                                     std::abs(error) / config_.limits.dt});
+      target_ = {0.0, std::copysign(speed, error)};
+      if (!aligning_) log(SupervisorLog::kInfo, "goal", "on the goal; turning to its heading");
+      aligning_ = true;
+      reason_ = "aligning to the goal's heading";
+      return;
+    }
+    if (std::abs(command_.w) >= 0.1) return;  // aligned: let the turn stop
+  }
+  aligning_ = false;
+  state_ = GoalState::kReached;
+  reason_ = "goal reached";
+  std::ostringstream os;
+  os.precision(3);
+  os << "goal reached (" << goal_distance << " m";
+  if (goal_yaw_) os << ", heading within " << std::abs(normalizeAngle(*goal_yaw_ - pose.theta)) << " rad";
+  os << ")";
+  log(SupervisorLog::kInfo, "goal", os.str());
+}
+
 std::string Supervisor::decide(double now_s, const DecisionHooks& hooks, double tf_wait_s,
                                std::optional<double>& goal_distance) {
   Pose2 pose;
   const std::string fault = inputFault(now_s, hooks, tf_wait_s, &pose);
   if (!fault.empty()) return fault;
   goal_distance = (pose.position() - *goal_).norm();
+  if (const std::string contact = navigation_.takeContact(); !contact.empty()) {
+    navigation_.startRecovery(now_s, pose, contact);
+  }
+  if (navigation_.recovering() || navigation_.rounds() > config_.navigation.max_recovery_rounds) {
+    // Recovery drives without the velocity space: waiting and turning in place keep a round robot where it is.
+    const RecoveryCommand r = navigation_.recover(now_s, pose, config_.limits);
+    if (r.abort) {
+      abort(r.reason);
+      return {};
+    }
+    if (r.step != RecoveryStep::kNone) {
+      target_ = r.target;
+      action_ = -1;
+      if (reason_ != r.reason) log(SupervisorLog::kWarn, "recovery", r.reason);
+      reason_ = r.reason;
+      return {};
+    }
+    log(SupervisorLog::kInfo, "recovery", "recovery round over; driving again");
+    reason_.clear();
+  }
+  if (!contact_.empty()) return contact_ + ": holding still until the contact ends";
+  if (*goal_distance < config_.goal_tolerance_m || aligning_) {
+    onGoal(pose, *goal_distance);
+    return {};
+  }
   if (hooks.space_fault) {
     if (const std::string why = hooks.space_fault(); !why.empty()) return why;
-  }
-  if (*goal_distance < config_.goal_tolerance_m) {
-    // On the goal: brake to a stop within the limits and hold.
-    target_ = Twist2{};
-    action_ = -1;
-    if (std::abs(command_.v) < config_.goal_speed_mps && state_ == GoalState::kActive) {
-      state_ = GoalState::kReached;
-      reason_ = "goal reached";
-      std::ostringstream os;
-      os.precision(3);
-      os << "goal reached (" << *goal_distance << " m)";
-      log(SupervisorLog::kInfo, "goal", os.str());
-    }
-    return {};
   }
   if (!hooks.choose) return "no decision";
   const Choice c = hooks.choose(pose);
   if (!c.why.empty()) return c.why;
   action_ = c.action;
   target_ = c.target;
+  const double remaining = hooks.remaining ? hooks.remaining(pose) : *goal_distance;
+  if (const std::string trigger = navigation_.observe(now_s, pose, remaining, command_, odom_speed_mps_);
+      !trigger.empty()) {
+    log(SupervisorLog::kWarn, "trigger", trigger + "; starting recovery");
+    navigation_.startRecovery(now_s, pose, trigger);
+    if (navigation_.recovering()) {
+      target_ = Twist2{};
+      action_ = -1;
+    }
+  }
   return {};
 }
 
@@ -218,8 +338,8 @@ std::optional<double> Supervisor::controlPeriod(double now_s, std::optional<doub
   std::optional<double> goal_distance;
   if (!goal_ || state_ == GoalState::kIdle) {
     target_ = Twist2{};
-  } else if (state_ == GoalState::kReached) {
-    target_ = Twist2{};  // hold on the goal until a new goal comes
+  } else if (state_ == GoalState::kReached || state_ == GoalState::kAborted) {
+    target_ = Twist2{};  // hold on the goal (or where it was given up) until a new goal comes
   } else if (state_ == GoalState::kActive || state_ == GoalState::kStopped) {
     const std::string why = decide(now_s, hooks, tf_wait_s, goal_distance);
     if (!why.empty()) {
@@ -227,7 +347,7 @@ std::optional<double> Supervisor::controlPeriod(double now_s, std::optional<doub
     } else if (state_ == GoalState::kStopped) {
       log(SupervisorLog::kInfo, "resume", "inputs are fresh again; resuming");
       state_ = GoalState::kActive;
-      reason_.clear();
+      if (!navigation_.recovering()) reason_.clear();
     }
   }
   return goal_distance;
@@ -244,6 +364,18 @@ RampCommand Supervisor::ramp(double now_s, const DecisionHooks& hooks) {
   // clock went backwards), capped.
   const double dt =
       !last_publish_s_ ? 1.0 / config_.ramp_rate_hz : std::clamp(now_s - *last_publish_s_, 0.0, kMaxRampStepS);
+  if (emergency_) {
+    // A contact or a hazard under the base: zero now. The base cannot follow the deceleration limit into an
+    // obstacle it touches; the envelope checks the commands after this one from rest.
+    emergency_ = false;
+    envelope_.restartFrom(Twist2{});
+    command_ = Twist2{};
+    last_publish_s_ = now_s;
+    idle_zero_messages_ = 0;
+    RampCommand out;
+    out.publish = true;
+    return out;
+  }
   const Twist2 next = applyAccelerationLimits(envelope_.last(), target_, config_.limits, dt);
   const bool still = next.v == 0.0 && next.w == 0.0;
   idle_zero_messages_ = still ? idle_zero_messages_ + 1 : 0;

@@ -12,7 +12,8 @@
 // 1:1 with the wall clock, that can be made to jump). Every received command is recorded with its wall time.
 // Switches (atomics, flipped from the test while the robot runs):
 //   feed_tf (odom -> base_footprint only; the laser stays on the base), feed_odom, feed_scan, feed_obstacles
-//   stop that input; scan_fault spoils every scan (ScanFault); odom_lag_s stamps odom that far in the past.
+//   stop that input; scan_fault spoils every scan (ScanFault); odom_lag_s stamps odom that far in the past;
+//   stuck blocks the wheels (the pose holds, odom says zero speed).
 //   firstFaultyScanWall / firstLaggedOdomWall say when the first spoiled message left (armFaultClocks resets).
 // Around it: TopicLog (what a topic published, with receipt wall times), RobotHarness (node handle, robot,
 // goal publisher, planner/status log, spinner: what a test fixture sets up), waitFor, runRostestNode, and the
@@ -209,6 +210,8 @@ class FakeRobot {
   std::atomic<bool> feed_tf{true}, feed_odom{true}, feed_scan{true}, feed_obstacles{true};
   std::atomic<ScanFault> scan_fault{ScanFault::kNone};
   std::atomic<double> odom_lag_s{0.0};
+  // Wheels blocked: the pose stays where it is and odom measures zero speed, whatever is commanded.
+  std::atomic<bool> stuck{false};
 
   explicit FakeRobot(ros::NodeHandle& nh, FakeRobotOptions options = {})
       : options_(std::move(options)),
@@ -328,10 +331,11 @@ class FakeRobot {
       Pose2 p;
       {
         std::lock_guard<std::mutex> l(mutex_);
-        pose_ = integrateUnicycle(pose_, v_, w_, now_wall - last);
+        const bool blocked = stuck;
+        if (!blocked) pose_ = integrateUnicycle(pose_, v_, w_, now_wall - last);
         p = pose_;
-        v = v_;
-        w = w_;
+        v = blocked ? 0.0 : v_;
+        w = blocked ? 0.0 : w_;
       }
       last = now_wall;
       publishTf(stamp, p, now_wall);
@@ -446,8 +450,15 @@ class RobotHarness {
   /// Waits until every input has `input_subscribers` subscribers, dovs_node and planner_node take goals and
   /// the planner has said something.
   bool waitUntilReady(size_t input_subscribers, double timeout_s) {
+    return waitUntilReadyFor(input_subscribers, 2, timeout_s);
+  }
+  /// The same with `goal_subscribers` on move_base_simple/goal (1 when dovs_node takes planner/local_goal).
+  bool waitUntilReadyFor(size_t input_subscribers, size_t goal_subscribers, double timeout_s) {
     return waitFor(
-        [&] { return robot.inputsSubscribed(input_subscribers) && goal_pub.getNumSubscribers() >= 2 && status.any(); },
+        [&] {
+          return robot.inputsSubscribed(input_subscribers) && goal_pub.getNumSubscribers() >= goal_subscribers &&
+                 status.any();
+        },
         timeout_s);
   }
 

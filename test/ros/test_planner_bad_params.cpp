@@ -127,10 +127,14 @@ TEST(PlannerBadParams, WrongModelPathAtStartIsFatalAndNamed) {
 }
 
 TEST(PlannerBadParams, OutOfRangeParametersAreFatalAndNamed) {
-  const std::array<std::pair<const char*, const char*>, 7> cases = {{
+  const std::array<std::pair<const char*, const char*>, 11> cases = {{
       {"max_input_age", "_max_input_age:=10.0"},
       {"ramp_rate", "_ramp_rate:=5.0"},
       {"goal_speed", "_goal_speed:=3.0"},
+      {"yaw_tolerance", "_yaw_tolerance:=0.0"},
+      {"progress_timeout", "_progress_timeout:=-1.0"},
+      {"max_recovery_rounds", "_max_recovery_rounds:=-2"},
+      {"allow_reverse", "_allow_reverse:=true"},
       {"tf_timeout", "_tf_timeout:=-0.1"},
       {"scan_max_nan_fraction", "_scan_max_nan_fraction:=1.5"},
       {"deadline_fraction", "_deadline_fraction:=0.0"},
@@ -141,6 +145,28 @@ TEST(PlannerBadParams, OutOfRangeParametersAreFatalAndNamed) {
     expectFatal(runPlanner("planner_fatal_param_" + std::to_string(k++), "_model_path:=" + modelPath() + " " + arg),
                 name, arg);
   }
+}
+
+// A robot_description on the parameter server: a footprint larger than robot/radius is a refusal (the planner
+// would plan for a smaller robot than the real one); a smaller one (the Kobuki's 0.176 m collision cylinder
+// under the configured 0.2 m) is a warning that says what to change, and the node runs.
+std::string describedRobot(double radius) {
+  return "<robot name=\"r\"><link name=\"base_footprint\"><collision><geometry><cylinder radius=\"" +
+         std::to_string(radius) +
+         "\" length=\"0.3\"/></geometry></collision></link><link name=\"laser\"/>"
+         "<joint name=\"j\" type=\"fixed\"><parent link=\"base_footprint\"/><child link=\"laser\"/>"
+         "<origin xyz=\"0.1 0 0.4\"/></joint></robot>";
+}
+
+TEST(PlannerBadParams, RobotDescriptionLargerThanTheRadiusIsRefusedSmallerIsAWarning) {
+  ros::param::set("/robot_description", describedRobot(0.25));
+  expectFatal(runPlanner("planner_big_robot", "_model_path:=" + modelPath()), "robot/radius",
+              "description larger than robot/radius");
+  ros::param::set("/robot_description", describedRobot(0.176));
+  const NodeRun r = runPlanner("planner_small_robot", "_model_path:=" + modelPath(), 4.0);
+  ros::param::del("/robot_description");
+  EXPECT_EQ(r.exit_code, 124) << "a smaller description must not stop the planner:\n" << r.output;
+  EXPECT_NE(r.output.find("set robot/radius to 0.176"), std::string::npos) << r.output;
 }
 
 TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {

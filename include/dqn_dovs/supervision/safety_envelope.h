@@ -57,6 +57,9 @@ class SafetyEnvelope {
   /// Filters the next command, sent dt_s after the previous output, and remembers the result.
   EnvelopeResult filter(const Twist2& command, double dt_s);
 
+  /// The base was stopped outside the ramp (a bumper contact): the next command is checked from `last`.
+  void restartFrom(const Twist2& last) { last_ = last; }
+
   const Twist2& last() const { return last_; }
   uint64_t checked() const { return checked_; }
   uint64_t corrected() const { return corrected_; }

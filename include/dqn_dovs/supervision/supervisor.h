@@ -13,21 +13,25 @@
 
 #include "dqn_dovs/common/robot_model.h"
 #include "dqn_dovs/common/types.h"
+#include "dqn_dovs/supervision/navigation_monitor.h"
 #include "dqn_dovs/supervision/safety_envelope.h"
 
 namespace dqn_dovs {
 
 /// The goal life cycle (the values of dqn_dovs/PlannerStatus's state constants).
-enum class GoalState : uint8_t { kIdle = 0, kActive = 1, kReached = 2, kStopped = 3 };
+enum class GoalState : uint8_t { kIdle = 0, kActive = 1, kReached = 2, kStopped = 3, kAborted = 4 };
 const char* goalStateName(GoalState s);
 
 struct SupervisorConfig {
   RobotLimits limits;
-  double max_input_age_s = 0.5;    ///< inputs older (or stamped further in the future) than this are stale
-  double goal_tolerance_m = 0.15;  ///< closer than this to the goal: brake and hold
-  double goal_speed_mps = 0.2;     ///< ... and reached once the command is slower than this
-  double ramp_rate_hz = 50.0;      ///< command ramp rate
-  double deadline_fraction = 0.5;  ///< a control period starting later than this fraction of dt misses its deadline
+  double max_input_age_s = 0.5;     ///< inputs older (or stamped further in the future) than this are stale
+  double goal_tolerance_m = 0.15;   ///< closer than this to the goal: brake and hold
+  double goal_speed_mps = 0.2;      ///< ... and reached once the command is slower than this
+  double ramp_rate_hz = 50.0;       ///< command ramp rate
+  double deadline_fraction = 0.5;   ///< a control period starting later than this fraction of dt misses its deadline
+  double yaw_tolerance_rad = 0.15;  ///< a goal with a heading: turn in place on it until within this
+  double align_speed = 1.0;         ///< rad/s, fastest turn while aligning (clipped to w_max)
+  NavigationConfig navigation;      ///< progress, oscillation and stall checks; recovery
   std::string validate() const;
 };
 
@@ -46,11 +50,13 @@ struct Choice {
 };
 
 /// What the adapter plugs in: the robot pose lookup (waiting up to wait_s), whether the latest velocity space
-/// can be decided on ("" when it can), and the decision itself.
+/// can be decided on ("" when it can), the decision itself, and the way left to the goal from a pose (a route's
+/// remaining length; unset: the straight-line distance), which the progress check watches.
 struct DecisionHooks {
   std::function<RobotPoseLookup(double wait_s)> robot_pose;
   std::function<std::string()> space_fault;
   std::function<Choice(const Pose2& pose)> choose;
+  std::function<double(const Pose2& pose)> remaining;
 };
 
 /// Messages for the adapter's log: level, text, and the minimum interval between two messages of that key (0: always).
@@ -74,8 +80,14 @@ class Supervisor {
   explicit Supervisor(const SupervisorConfig& config, SupervisorLogSink log = {});
 
   // --- the goal life cycle --------------------------------------------------------------------------------------
-  /// A new goal (fixed frame) replaces the previous one: active.
-  void newGoal(const Vec2& goal);
+  /// A new goal (fixed frame; with a final heading when `yaw` is set) replaces the previous one: active, with
+  /// fresh progress windows and no recovery.
+  void newGoal(const Vec2& goal, std::optional<double> yaw = std::nullopt, double now_s = 0.0);
+  /// The same goal seen again in the fixed frame (the adapter re-transforms it every control period: localisation
+  /// moves the map against odom); the life cycle is untouched.
+  void moveGoal(const Vec2& goal, std::optional<double> yaw);
+  /// The goal given up: no goal, aborted with `reason` (the adapter's action server reports it).
+  void abort(const std::string& reason);
   /// A goal that could not be accepted (NaN, no transform): no goal, stopped with `reason`.
   void rejectGoal(const std::string& reason);
   /// Cancel: no goal, stopped.
@@ -84,8 +96,15 @@ class Supervisor {
   // --- inputs ---------------------------------------------------------------------------------------------------
   /// A scan stamped stamp_s; `fault` non-empty when it is unusable (the robot then halts at once while active).
   void scan(double stamp_s, const std::string& fault);
-  /// An odometry message; `fault` non-empty when it is unusable.
-  void odom(double stamp_s, const std::string& fault);
+  /// An odometry message; `fault` non-empty when it is unusable; `speed_mps` the linear speed it measured.
+  void odom(double stamp_s, const std::string& fault, double speed_mps = 0.0);
+  /// The base touched something (bumper), `what` non-empty, or the contact ended (""): at the onset the command
+  /// drops to zero at once (the ramp does not decelerate into the contact) and, while a goal is pursued, a round of
+  /// recovery starts; after the round, the robot holds still until the contact ends.
+  void contact(double now_s, const std::string& what);
+  /// A hazard under the base (cliff, wheel drop), `what` non-empty, or its end (""): at the onset the command drops
+  /// to zero at once and the goal is aborted; while it lasts nothing drives.
+  void baseHazard(double now_s, const std::string& what);
   /// A velocity space stamped stamp_s arrived.
   void space(double stamp_s);
 
@@ -121,6 +140,9 @@ class Supervisor {
   uint32_t deadlineMisses() const { return deadline_misses_; }
   double maxLateness_s() const { return max_lateness_s_; }
   const SupervisorConfig& config() const { return config_; }
+  const NavigationMonitor& navigation() const { return navigation_; }
+  /// True while turning in place on the goal towards its heading.
+  bool aligning() const { return aligning_; }
 
   /// The longest step one command may take credit for (a pause never licenses a larger jump than a_v times it).
   static constexpr double kMaxRampStepS = 0.1;
@@ -130,6 +152,9 @@ class Supervisor {
  private:
   void stop(const std::string& reason);
   void halt(const std::string& reason);
+  void emergencyZero();
+  /// The target on the goal: brake, then turn to the heading; reached once slow and aligned.
+  void onGoal(const Pose2& pose, double goal_distance);
   std::string decide(double now_s, const DecisionHooks& hooks, double tf_wait_s, std::optional<double>& goal_distance);
   void log(SupervisorLog level, const std::string& key, const std::string& text, double throttle_s = 0.0) const;
 
@@ -138,6 +163,12 @@ class Supervisor {
   GoalState state_ = GoalState::kIdle;
   std::string reason_;
   std::optional<Vec2> goal_;
+  std::optional<double> goal_yaw_;
+  bool aligning_ = false;
+  NavigationMonitor navigation_;
+  double odom_speed_mps_ = 0.0;
+  std::string hazard_, contact_;
+  bool emergency_ = false;
   int action_ = -1;
   Twist2 target_, command_;
   double last_scan_s_ = 0.0, last_odom_s_ = 0.0, last_space_s_ = 0.0;
