@@ -90,10 +90,13 @@ std::vector<double> squaredDistanceToOccupied(const std::vector<uint8_t>& occupi
   return out;
 }
 
+/// An open A* node. Among equal f the one closer to the goal (larger g) goes first: in open space many cells
+/// share the optimal f, and without the tie-break A* expands all of them.
 struct Open {
   float f;
+  float h;
   int cell;
-  bool operator>(const Open& o) const { return f > o.f; }
+  bool operator>(const Open& o) const { return f > o.f || (f == o.f && h > o.h); }
 };
 
 /// Distance from p to the segment a -> b and the segment parameter of the closest point, in [0, 1].
@@ -344,13 +347,16 @@ Route RoutePlanner::search(const Vec2& start, const Vec2& goal, const std::vecto
   std::vector<float> g(n, kInfF);
   std::vector<int32_t> parent(n, -1);
   std::vector<uint8_t> closed(n, 0);
-  auto heuristic = [gi, gj, this](size_t c) {
-    const int dx = std::abs(int(c % width_) - gi), dy = std::abs(int(c / width_) - gj);
+  auto heuristic = [gi, gj](int i, int j) {
+    const int dx = std::abs(i - gi), dy = std::abs(j - gj);
     return static_cast<float>(std::max(dx, dy) + (kSqrt2 - 1.0) * std::min(dx, dy));
   };
-  std::priority_queue<Open, std::vector<Open>, std::greater<Open>> open;
+  std::vector<Open> heap;
+  heap.reserve(std::min<size_t>(n, size_t(1) << 16));
+  std::priority_queue<Open, std::vector<Open>, std::greater<Open>> open(std::greater<Open>(), std::move(heap));
   g[start_cell] = 0.0f;
-  open.push({heuristic(start_cell), static_cast<int>(start_cell)});
+  const float h0 = heuristic(int(start_cell % width_), int(start_cell / width_));
+  open.push({h0, h0, static_cast<int>(start_cell)});
   static const int kDi[8] = {1, -1, 0, 0, 1, 1, -1, -1};
   static const int kDj[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   bool reached = false;
@@ -364,6 +370,7 @@ Route RoutePlanner::search(const Vec2& start, const Vec2& goal, const std::vecto
       break;
     }
     const int ci = int(c % width_), cj = int(c / width_);
+    const float gc = g[c];
     for (int k = 0; k < 8; ++k) {
       const int ni = ci + kDi[k], nj = cj + kDj[k];
       if (ni < 0 || nj < 0 || ni >= width_ || nj >= height_) continue;
@@ -371,11 +378,12 @@ Route RoutePlanner::search(const Vec2& start, const Vec2& goal, const std::vecto
       if (!passable[nc] || closed[nc]) continue;
       const bool diagonal = k >= 4;
       if (diagonal && (!passable[size_t(cj) * width_ + ni] || !passable[size_t(nj) * width_ + ci])) continue;
-      const float ng = g[c] + static_cast<float>(diagonal ? kSqrt2 : 1.0) * cost[nc];
+      const float ng = gc + static_cast<float>(diagonal ? kSqrt2 : 1.0) * cost[nc];
       if (ng < g[nc]) {
         g[nc] = ng;
         parent[nc] = static_cast<int32_t>(c);
-        open.push({ng + heuristic(nc), static_cast<int>(nc)});
+        const float h = heuristic(ni, nj);
+        open.push({ng + h, h, static_cast<int>(nc)});
       }
     }
   }
