@@ -1,6 +1,8 @@
-"""Writes and reads the `.dqnw` weight file of the Q-network (docs/weight_format.md).
+"""Writes and reads the `.dqnw` weight file of the Q-network (docs/weight_format.md), and writes the same network
+as an ONNX model beside it (`OUT.onnx`, for inspection and other runtimes; the robot runs only the `.dqnw`).
 
-    python -m dqn_dovs_py.export CHECKPOINT OUT.dqnw [--normalization FILE] [--note TEXT]
+    python -m dqn_dovs_py.export CHECKPOINT OUT.dqnw [--normalization FILE] [--note TEXT] [--no-onnx]
+    python -m dqn_dovs_py.export --onnx-from MODEL.dqnw [--onnx-out OUT.onnx]
 
 CHECKPOINT is a `torch.save`d dict with the keys
   "model"          state_dict of a DuelingQNet (required; a bare state_dict is accepted too),
@@ -13,12 +15,16 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import hashlib
+import inspect
+import io
 import json
 import math
 import os
 import struct
 import subprocess
 import sys
+import warnings
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,6 +54,12 @@ STREAM_NAMES = {STREAM_GRID: "grid", STREAM_FEATURE: "feature", STREAM_TRUNK: "t
 
 MAX_NAME_LENGTH = 255
 MAX_METADATA_LENGTH = 1 << 20
+
+# The ONNX model beside a .dqnw (docs/weight_format.md, "The .onnx beside the weight file").
+ONNX_OPSET = 17
+ONNX_INPUT = "state"
+ONNX_OUTPUT = "q_values"
+ONNX_PROP_PREFIX = "dqn_dovs."
 
 
 class WeightFileError(RuntimeError):
@@ -195,16 +207,30 @@ def weights_from_model(model: DuelingQNet, normalization: Mapping[str, float], m
                       model.action_count, records, metadata)
 
 
+def onnx_path_for(path: str | os.PathLike) -> Path:
+    """Where export_model writes the ONNX model of the weight file `path`: same directory and stem, `.onnx`."""
+    return Path(path).with_suffix(".onnx")
+
+
 def export_model(model: DuelingQNet, path: str | os.PathLike, normalization: Mapping[str, float],
-                 metadata: str) -> Path:
-    """Writes `model` to `path` (.dqnw). The file is written next to its target and renamed into place,
-    so a reader never sees half a file."""
+                 metadata: str, onnx: bool = True) -> Path:
+    """Writes `model` to `path` (.dqnw) and, unless `onnx` is False, the same network to `onnx_path_for(path)`
+    (write_onnx). Each file is written next to its target and renamed into place, so a reader never sees half a
+    file. Returns the .dqnw path."""
     path = Path(path)
+    if onnx and onnx_path_for(path) == path:
+        raise ValueError(f"{path}: the weight file needs another suffix than .onnx (the ONNX model goes beside it)")
     data = serialize(weights_from_model(model, normalization, metadata), str(path))
+    _atomic_write(path, data)
+    if onnx:
+        write_onnx(data, onnx_path_for(path), str(path))
+    return path
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_bytes(data)
     os.replace(tmp, path)
-    return path
 
 
 # --------------------------------------------------------------------------------------------- reading
@@ -324,6 +350,122 @@ def model_from_weights(weights: WeightFile) -> DuelingQNet:
     return model
 
 
+# --------------------------------------------------------------------------------------------- ONNX
+
+class OnnxExportError(RuntimeError):
+    """An ONNX model that cannot be written or read; the message names the file."""
+
+    def __init__(self, path: str | os.PathLike, reason: str) -> None:
+        super().__init__(f"onnx file '{path}': {reason}")
+        self.path = str(path)
+
+
+def state_layout_name(weights: WeightFile) -> str:
+    """Name of the network input's layout, e.g. `grid20x20+features8` (grid row-major, then the features)."""
+    return f"grid{weights.grid_rows}x{weights.grid_cols}+features{weights.feature_count}"
+
+
+def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> dict[str, str]:
+    """The metadata_props the ONNX model of the weight file image `data` (parsed: `weights`) carries, so that a
+    reader can tell which .dqnw it came from and what its input means."""
+    props = {
+        "weight_format_version": str(weights.format_version),
+        "weights_file": os.path.basename(weights_path),
+        "weights_sha256": hashlib.sha256(data).hexdigest(),
+        "weights_crc32": f"0x{struct.unpack('<I', data[-4:])[0]:08x}",
+        "state_layout": state_layout_name(weights),
+        "grid_rows": str(weights.grid_rows),
+        "grid_cols": str(weights.grid_cols),
+        "feature_count": str(weights.feature_count),
+        "action_count": str(weights.action_count),
+        # Values as the .dqnw stores them (float32), written as the exact double of that float32.
+        "normalization": json.dumps(weights.normalization),
+        "input_normalization": "by the caller: `state` is the state builder's output, already normalised with "
+                               "the constants in dqn_dovs.normalization; the graph applies none, like the .dqnw "
+                               "network",
+        "metadata": weights.metadata,
+    }
+    return {ONNX_PROP_PREFIX + k: v for k, v in props.items()}
+
+
+def _import_onnx(path: str | os.PathLike):
+    try:
+        import onnx  # noqa: PLC0415 - only the ONNX functions need it
+    except ImportError as exc:
+        raise OnnxExportError(path, "the onnx package is not installed (pip install -r python/requirements.txt), "
+                                    "or skip the .onnx (export_model(..., onnx=False), --no-onnx)") from exc
+    return onnx
+
+
+def write_onnx(data: bytes, out: str | os.PathLike, weights_path: str = "<memory>") -> Path:
+    """Writes the network of the weight file image `data` (read from `weights_path`, which names it in errors and
+    metadata) as an ONNX model to `out`: input `state` [N, state size] float32, output `q_values` [N, actions],
+    N dynamic, opset ONNX_OPSET, the weight file's description in metadata_props (onnx_metadata_props). The graph
+    is exported from the network rebuilt from `data`, so it holds exactly the file's float32 tensors."""
+    out = Path(out)
+    onnx = _import_onnx(out)
+    weights = parse(data, weights_path)
+    model = model_from_weights(weights).eval()
+    example = torch.zeros(1, model.state_size, dtype=torch.float32)
+    options = dict(opset_version=ONNX_OPSET, input_names=[ONNX_INPUT], output_names=[ONNX_OUTPUT],
+                   dynamic_axes={ONNX_INPUT: {0: "batch"}, ONNX_OUTPUT: {0: "batch"}}, do_constant_folding=True)
+    if "dynamo" in inspect.signature(torch.onnx.export).parameters:
+        options["dynamo"] = False  # the TorchScript exporter: no extra packages
+    buffer = io.BytesIO()
+    with warnings.catch_warnings():
+        # The tracer's note on the input-shape check in forward() and the exporter's deprecation notice.
+        warnings.simplefilter("ignore")
+        with torch.no_grad():
+            torch.onnx.export(model, (example,), buffer, **options)
+    proto = onnx.load_from_string(buffer.getvalue())
+    proto.producer_name = "dqn_dovs_py.export"
+    proto.doc_string = (f"DQN-DOVS dueling Q-network of {os.path.basename(weights_path)}: {ONNX_INPUT} "
+                        f"[N, {model.state_size}] float32 (normalised state, {state_layout_name(weights)}) -> "
+                        f"{ONNX_OUTPUT} [N, {weights.action_count}]")
+    del proto.metadata_props[:]
+    for key, value in onnx_metadata_props(weights, data, weights_path).items():
+        entry = proto.metadata_props.add()
+        entry.key, entry.value = key, value
+    onnx.checker.check_model(proto)
+    try:
+        _atomic_write(out, proto.SerializeToString())
+    except OSError as exc:
+        raise OnnxExportError(out, f"cannot write: {exc.strerror}") from exc
+    return out
+
+
+def onnx_from_weights(weights_path: str | os.PathLike, out: str | os.PathLike | None = None) -> Path:
+    """Converts an existing .dqnw to ONNX (write_onnx); `out` defaults to onnx_path_for(weights_path). The weight
+    file is checked as load_weights checks it (WeightFileError naming the file and field)."""
+    out = onnx_path_for(weights_path) if out is None else Path(out)
+    if out.resolve() == Path(weights_path).resolve():
+        raise OnnxExportError(out, "is the weight file itself; give an output path that ends in .onnx")
+    try:
+        data = Path(weights_path).read_bytes()
+    except OSError as exc:
+        raise WeightFileError(weights_path, "file", f"cannot open: {exc.strerror}") from exc
+    return write_onnx(data, out, str(weights_path))
+
+
+def read_onnx_metadata(path: str | os.PathLike) -> dict[str, str]:
+    """The metadata_props of an ONNX model written by write_onnx (all of them, keys as stored). Raises
+    OnnxExportError for a missing or unparsable file and for one without the dqn_dovs entries."""
+    onnx = _import_onnx(path)
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise OnnxExportError(path, f"cannot open: {exc.strerror}") from exc
+    try:
+        proto = onnx.load_from_string(data)
+        onnx.checker.check_model(proto)
+    except Exception as exc:  # noqa: BLE001 - protobuf and checker errors have no common base
+        raise OnnxExportError(path, f"not a valid ONNX model ({type(exc).__name__}: {exc})") from None
+    props = {p.key: p.value for p in proto.metadata_props}
+    if ONNX_PROP_PREFIX + "weights_sha256" not in props:
+        raise OnnxExportError(path, "carries no dqn_dovs metadata (not written by dqn_dovs_py.export)")
+    return props
+
+
 # --------------------------------------------------------------------------------------------- CLI
 
 def _git_describe() -> str:
@@ -363,12 +505,31 @@ def _load_mapping(path: str) -> dict[str, float]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m dqn_dovs_py.export",
-                                     description="Export a DQN-DOVS checkpoint to a .dqnw weight file.")
-    parser.add_argument("checkpoint", help="torch.save'd checkpoint (see the module docstring for its keys)")
-    parser.add_argument("out", help="output .dqnw path")
+                                     description="Export a DQN-DOVS checkpoint to a .dqnw weight file and an .onnx "
+                                                 "beside it, or convert an existing .dqnw to .onnx (--onnx-from).")
+    parser.add_argument("checkpoint", nargs="?", help="torch.save'd checkpoint (see the module docstring for its keys)")
+    parser.add_argument("out", nargs="?", help="output .dqnw path (the .onnx goes beside it, same stem)")
     parser.add_argument("--normalization", help="JSON or YAML mapping name -> value; overrides the checkpoint's")
     parser.add_argument("--note", help="extra text for the metadata")
+    parser.add_argument("--no-onnx", action="store_true", help="write only the .dqnw")
+    parser.add_argument("--onnx-from", metavar="MODEL.dqnw",
+                        help="convert this existing weight file to ONNX instead of exporting a checkpoint")
+    parser.add_argument("--onnx-out", metavar="OUT.onnx", help="with --onnx-from: output path (default: same stem)")
     args = parser.parse_args(argv)
+    if args.onnx_from:
+        if args.checkpoint or args.out or args.normalization or args.note or args.no_onnx:
+            parser.error("--onnx-from takes only --onnx-out")
+        try:
+            path = onnx_from_weights(args.onnx_from, args.onnx_out)
+        except (OSError, ValueError, RuntimeError) as exc:
+            print(f"onnx conversion failed: {exc}", file=sys.stderr)
+            return 1
+        print(f"wrote {path} ({path.stat().st_size} bytes) from {args.onnx_from}")
+        return 0
+    if not (args.checkpoint and args.out):
+        parser.error("give CHECKPOINT and OUT.dqnw, or --onnx-from MODEL.dqnw")
+    if args.onnx_out:
+        parser.error("--onnx-out goes with --onnx-from; a checkpoint export writes the .onnx beside OUT.dqnw")
     try:
         ckpt = torch.load(args.checkpoint, map_location="cpu", weights_only=True)
         if not isinstance(ckpt, dict):
@@ -380,12 +541,14 @@ def main(argv: list[str] | None = None) -> int:
         if not normalization:
             raise ValueError(f"{args.checkpoint} has no 'normalization' entry: pass --normalization FILE")
         metadata = build_metadata(ckpt.get("command"), os.path.abspath(args.checkpoint), args.note)
-        path = export_model(model.eval(), args.out, normalization, metadata)
+        path = export_model(model.eval(), args.out, normalization, metadata, onnx=not args.no_onnx)
     except (OSError, ValueError, RuntimeError, KeyError, TypeError) as exc:
         print(f"export failed: {exc}", file=sys.stderr)
         return 1
     n_params = sum(p.numel() for p in model.parameters())
     print(f"wrote {path} ({path.stat().st_size} bytes, {n_params} parameters)")
+    if not args.no_onnx:
+        print(f"wrote {onnx_path_for(path)} ({onnx_path_for(path).stat().st_size} bytes)")
     return 0
 
 

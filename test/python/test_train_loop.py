@@ -82,7 +82,10 @@ def test_training_learns_the_task_and_writes_every_file(full_run):
     assert evals[-1]["stage_name"] == "far"
     assert float(evals[-1]["success_rate"]) > float(evals[0]["success_rate"])
     # Snapshots: every network evaluated in the last stage ("far" starts at episode 120).
-    assert sorted(os.listdir(out / "snapshots")) == ["ep000150.dqnw", "ep000200.dqnw"]
+    # Each .dqnw with its .onnx beside it (the exporter's default).
+    assert sorted(os.listdir(out / "snapshots")) == ["ep000150.dqnw", "ep000150.onnx", "ep000200.dqnw",
+                                                     "ep000200.onnx"]
+    assert os.path.getsize(out / "model.onnx") > 0 and os.path.getsize(out / "best.onnx") > 0
     last = load_weights(out / "snapshots" / "ep000200.dqnw")
     final = load_weights(out / "model.dqnw")
     assert len(last.layers) == len(final.layers)
