@@ -441,7 +441,25 @@ Route RoutePlanner::search(const Vec2& start, const Vec2& goal, const std::vecto
   simple.push_back(kept.back());
 
   if (route.start_moved_m > 0.0) simple.insert(simple.begin(), start);
-  route.points = std::move(simple);
+  const double moved = route.start_moved_m;
+  route = routeFromPoints(std::move(simple));
+  route.start_moved_m = moved;
+  return route;
+}
+
+Route routeFromPoints(std::vector<Vec2> points) {
+  Route route;
+  for (const Vec2& p : points) {
+    if (!p.allFinite()) {
+      route.why = "a route point is NaN/inf";
+      return route;
+    }
+  }
+  if (points.empty()) {
+    route.why = "the route has no points";
+    return route;
+  }
+  route.points = std::move(points);
   route.arc_m.assign(route.points.size(), 0.0);
   for (size_t k = 1; k < route.points.size(); ++k) {
     route.arc_m[k] = route.arc_m[k - 1] + (route.points[k] - route.points[k - 1]).norm();
@@ -469,6 +487,13 @@ Vec2 routePointAt(const Route& route, double arc_m) {
 
 RouteProgress RoutePlanner::subgoal(const Route& route, const Vec2& robot, double lookahead_m,
                                     RouteFollower& follower) const {
+  return followRoute(
+      route, robot, lookahead_m, follower, [this](const Vec2& a, const Vec2& b) { return lineOfSight(a, b, true); },
+      0.5 * resolution_m_);
+}
+
+RouteProgress followRoute(const Route& route, const Vec2& robot, double lookahead_m, RouteFollower& follower,
+                          const std::function<bool(const Vec2&, const Vec2&)>& visible, double pull_step_m) {
   RouteProgress out;
   if (!route.found || route.points.empty()) {
     out.subgoal = robot;
@@ -509,10 +534,10 @@ RouteProgress RoutePlanner::subgoal(const Route& route, const Vec2& robot, doubl
   out.remaining_m = routeRemaining(route, best_arc);
 
   // Lookahead point, pulled back toward the projection until the robot sees it.
-  const double step = 0.5 * resolution_m_;
+  const double step = pull_step_m > 0.0 ? pull_step_m : 0.05;
   double arc = std::min(best_arc + lookahead_m, route.length_m);
   Vec2 target = routePointAt(route, arc);
-  while (arc > best_arc && !lineOfSight(robot, target, true)) {
+  while (visible && arc > best_arc && !visible(robot, target)) {
     arc = std::max(best_arc, arc - step);
     target = routePointAt(route, arc);
   }

@@ -17,6 +17,8 @@
 
 #include "conversions.h"
 #include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/planning/route_map.h"
+#include "dqn_dovs/sim/map.h"
 #include "pipeline_steps.h"
 #include "ros_params.h"
 
@@ -99,6 +101,9 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     return {};
   };
   hooks_.choose = [this](const Pose2& pose) { return choose(pose); };
+  hooks_.remaining = [this](const Pose2& pose) {
+    return route_ && route_remaining_m_ >= 0.0 ? route_remaining_m_ : (pose.position() - *supervisor_.goal()).norm();
+  };
   checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
   const std::string model_path = param<std::string>(pnh_, "model_path", "");
   if (model_path.empty()) throw ParameterError("parameter '" + pnh_.resolveName("model_path") + "' is not set");
@@ -141,6 +146,29 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   action_server_->registerGoalCallback([this] { onActionGoal(); });
   action_server_->registerPreemptCallback([this] { onActionPreempt(); });
   action_server_->start();
+  // Routes: on the occupancy grid of the map topic or of a map file (route/map_file), or a nav_msgs/Path from any
+  // global planner on `route` (it replaces ours for the goal it ends at).
+  route_lookahead_m_ = paramInRange(pnh_, "route/lookahead", 3.0, 1.0, 8.0);
+  route_off_m_ = paramInRange(pnh_, "route/replan_off_route", 1.0, 0.2, 10.0);
+  route_pub_ = nh_.advertise<nav_msgs::Path>("planner/route", 1, true);
+  if (param<bool>(pnh_, "route/enabled", true)) {
+    const std::string map_file = param<std::string>(pnh_, "route/map_file", "");
+    if (!map_file.empty()) {
+      sim::OccupancyMap map;
+      try {
+        map = sim::loadOccupancyMap(map_file);
+      } catch (const std::exception& e) {
+        throw ParameterError("route/map_file: " + std::string(e.what()));
+      }
+      map_frame_ = param<std::string>(pnh_, "route/map_frame", "map");
+      route_planner_ = std::make_unique<RoutePlanner>(routeGridFromMap(map), routeConfig());
+      ROS_INFO("planner: routes on '%s' (%d x %d cells of %.3f m) in '%s'", map_file.c_str(), map.width, map.height,
+               map.resolution_m, map_frame_.c_str());
+    } else {
+      map_sub_ = nh_.subscribe("map", 1, &PlannerNode::onMap, this);
+    }
+    path_sub_ = nh_.subscribe("route", 1, &PlannerNode::onPath, this);
+  }
   decide_timer_ = nh_.createTimer(ros::Duration(limits_.dt), &PlannerNode::onDecide, this);
   ramp_timer_ = nh_.createTimer(ros::Duration(1.0 / supervisor_.config().ramp_rate_hz), &PlannerNode::onRamp, this);
   ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz", model_path.c_str(),
@@ -206,6 +234,7 @@ std::string PlannerNode::scanFault(const sensor_msgs::LaserScan& msg) {
 }
 
 void PlannerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
+  last_scan_ = msg;
   supervisor_.scan(msg->header.stamp.toSec(), scanFault(*msg));
 }
 
@@ -241,6 +270,8 @@ void PlannerNode::onActionPreempt() {
 std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source) {
   local_goals_.clear();
   goal_.reset();
+  route_.reset();
+  route_remaining_m_ = -1.0;
   const auto& p = goal.pose.position;
   const auto& q = goal.pose.orientation;
   std::string refused;
@@ -269,6 +300,11 @@ std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, cons
     supervisor_.rejectGoal(goal_fault_);
     goal_.reset();
     return goal_fault_;
+  }
+  if (const std::string no_route = planRoute(); !no_route.empty()) {
+    supervisor_.rejectGoal(no_route);
+    goal_.reset();
+    return no_route;
   }
   const Vec2 fixed = *supervisor_.goal();
   ROS_INFO("planner: new goal from %s: (%.2f, %.2f) in '%s' = (%.2f, %.2f) in '%s'%s", source.c_str(), p.x, p.y,
@@ -303,15 +339,16 @@ void PlannerNode::refreshGoal(bool is_new) {
     supervisor_.moveGoal(goal, yaw);
   }
   // dovs_node builds the velocity space for this point (remapped to planner/local_goal by pipeline.launch).
+  const Vec2 target = is_new ? goal : localGoal(goal);
   geometry_msgs::PoseStamped local;
   local.header.stamp = goal_id_;
   local.header.frame_id = fixed_frame_;
-  local.pose.position.x = goal.x();
-  local.pose.position.y = goal.y();
+  local.pose.position.x = target.x();
+  local.pose.position.y = target.y();
   local.pose.orientation.w = 1.0;
   local_goal_pub_.publish(local);
   const double now = ros::Time::now().toSec();
-  local_goals_.emplace_back(now, goal);
+  local_goals_.emplace_back(now, target);
   while (local_goals_.size() > 1 && now - local_goals_.front().first > 1.0) local_goals_.pop_front();
 }
 
@@ -343,6 +380,170 @@ void PlannerNode::onBaseSafety(const BaseSafety::ConstPtr& msg) {
   if (msg->cliff) hazard = "cliff sensor sees no floor" + detail;
   if (msg->wheel_drop) hazard = (hazard.empty() ? "" : hazard + "; ") + "wheel drop" + detail;
   supervisor_.baseHazard(now, hazard);
+}
+
+RouteConfig PlannerNode::routeConfig() const {
+  RouteConfig c;
+  c.robot_radius_m = limits_.radius;
+  c.inflation_m = param<double>(pnh_, "route/inflation", c.inflation_m);
+  c.allow_unknown = param<bool>(pnh_, "route/allow_unknown", c.allow_unknown);
+  if (const std::string e = c.validate(); !e.empty()) throw ParameterError(pnh_.resolveName("route") + ": " + e);
+  return c;
+}
+
+void PlannerNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
+  sim::OccupancyMap map;
+  std::string error = occupancyMapFromMsg(*msg, map);
+  if (error.empty() && msg->header.frame_id.empty()) error = "empty header.frame_id";
+  if (!error.empty()) {
+    ROS_ERROR("planner: map ignored (the previous one, if any, is kept): %s", error.c_str());
+    return;
+  }
+  try {
+    route_planner_ = std::make_unique<RoutePlanner>(routeGridFromMap(map), routeConfig());
+  } catch (const std::exception& e) {
+    ROS_ERROR("planner: map ignored (the previous one, if any, is kept): %s", e.what());
+    return;
+  }
+  map_frame_ = msg->header.frame_id;
+  ROS_INFO("planner: routes on the map (%d x %d cells of %.3f m) in '%s'", map.width, map.height, map.resolution_m,
+           map_frame_.c_str());
+  if (goal_ && route_source_ != "route") {
+    if (const std::string why = planRoute(); !why.empty()) ROS_WARN("planner: %s", why.c_str());
+  }
+}
+
+void PlannerNode::onPath(const nav_msgs::Path::ConstPtr& msg) {
+  if (!goal_) {
+    ROS_WARN("planner: route ignored: there is no goal to follow it to");
+    return;
+  }
+  if (msg->header.frame_id.empty() || msg->poses.empty()) {
+    ROS_ERROR("planner: route ignored: %s", msg->poses.empty() ? "it has no poses" : "empty header.frame_id");
+    return;
+  }
+  std::vector<Vec2> points;
+  points.reserve(msg->poses.size());
+  for (const auto& p : msg->poses) points.emplace_back(p.pose.position.x, p.pose.position.y);
+  Route route = routeFromPoints(std::move(points));
+  if (!route.found) {
+    ROS_ERROR("planner: route ignored: %s", route.why.c_str());
+    return;
+  }
+  // It must lead to the goal being pursued.
+  try {
+    geometry_msgs::PoseStamped latest = *goal_;
+    latest.header.stamp = ros::Time(0);
+    const geometry_msgs::PoseStamped end = tf_buffer_.transform(latest, msg->header.frame_id);
+    const double miss = (route.points.back() - Vec2(end.pose.position.x, end.pose.position.y)).norm();
+    if (miss > 0.5) {
+      ROS_ERROR("planner: route ignored: it ends %.2f m from the goal", miss);
+      return;
+    }
+  } catch (const tf2::TransformException& e) {
+    ROS_ERROR("planner: route ignored: no transform from the goal's frame to '%s': %s", msg->header.frame_id.c_str(),
+              e.what());
+    return;
+  }
+  route_ = std::move(route);
+  route_frame_ = msg->header.frame_id;
+  route_source_ = "route";
+  follower_ = RouteFollower();
+  route_pub_.publish(*msg);
+  ROS_INFO("planner: following a route of %zu points, %.1f m, from the route topic", route_->points.size(),
+           route_->length_m);
+}
+
+std::vector<Vec2> PlannerNode::scanPointsInRouteFrame() {
+  std::vector<Vec2> out;
+  if (!last_scan_) return out;
+  LaserScan2 scan;
+  if (!laserScanFromMsg(*last_scan_, scan).empty()) return out;
+  geometry_msgs::TransformStamped tf;
+  try {
+    tf = tf_buffer_.lookupTransform(route_frame_, last_scan_->header.frame_id, ros::Time(0));
+  } catch (const tf2::TransformException&) {
+    return out;
+  }
+  Pose2 laser;
+  if (!poseFromTransform(tf.transform, laser)) return out;
+  for (size_t k = 0; k < scan.ranges.size(); ++k) {
+    const double r = scan.ranges[k];
+    if (!std::isfinite(r) || r < scan.range_min || r > scan.range_max) continue;
+    const double a = scan.angle_min + static_cast<double>(k) * scan.angle_increment;
+    out.push_back(laser.toWorld(Vec2(r * std::cos(a), r * std::sin(a))));
+  }
+  return out;
+}
+
+std::string PlannerNode::planRoute(const std::vector<Vec2>& extra) {
+  if (!route_planner_ || !goal_) return {};
+  route_frame_ = map_frame_;
+  Vec2 start, goal;
+  try {
+    geometry_msgs::PoseStamped latest = *goal_;
+    latest.header.stamp = ros::Time(0);
+    const geometry_msgs::PoseStamped g = tf_buffer_.transform(latest, route_frame_, ros::Duration(0.2));
+    goal = Vec2(g.pose.position.x, g.pose.position.y);
+    const geometry_msgs::TransformStamped robot =
+        tf_buffer_.lookupTransform(route_frame_, base_frame_, ros::Time(0), ros::Duration(0.2));
+    start = Vec2(robot.transform.translation.x, robot.transform.translation.y);
+  } catch (const tf2::TransformException& e) {
+    return "no route: the map's frame '" + route_frame_ + "' cannot be related to the goal and the robot: " + e.what();
+  }
+  Route route = route_planner_->plan(start, goal, extra);
+  if (!route.found) return "no route: " + route.why;
+  route_ = std::move(route);
+  route_source_ = "map";
+  follower_ = RouteFollower();
+  nav_msgs::Path path;
+  path.header.stamp = ros::Time::now();
+  path.header.frame_id = route_frame_;
+  for (const Vec2& p : route_->points) {
+    geometry_msgs::PoseStamped ps;
+    ps.header = path.header;
+    ps.pose.position.x = p.x();
+    ps.pose.position.y = p.y();
+    ps.pose.orientation.w = 1.0;
+    path.poses.push_back(ps);
+  }
+  route_pub_.publish(path);
+  ROS_INFO("planner: route of %.1f m (%zu points) in '%s'", route_->length_m, route_->points.size(),
+           route_frame_.c_str());
+  return {};
+}
+
+Vec2 PlannerNode::localGoal(const Vec2& goal_fixed) {
+  route_remaining_m_ = -1.0;
+  if (!route_) return goal_fixed;
+  geometry_msgs::TransformStamped to_route, to_fixed;
+  Pose2 robot_in_route, route_in_fixed;
+  try {
+    to_route = tf_buffer_.lookupTransform(route_frame_, base_frame_, ros::Time(0));
+    to_fixed = tf_buffer_.lookupTransform(fixed_frame_, route_frame_, ros::Time(0));
+  } catch (const tf2::TransformException&) {
+    return goal_fixed;  // the supervisor halts on the robot transform; the goal itself meanwhile
+  }
+  if (!poseFromTransform(to_route.transform, robot_in_route) ||
+      !poseFromTransform(to_fixed.transform, route_in_fixed)) {
+    return goal_fixed;
+  }
+  const RouteProgress p =
+      route_planner_ && route_source_ == "map"
+          ? route_planner_->subgoal(*route_, robot_in_route.position(), route_lookahead_m_, follower_)
+          : followRoute(*route_, robot_in_route.position(), route_lookahead_m_, follower_);
+  route_remaining_m_ = p.remaining_m;
+  // Off the route (pushed aside, a detour around people), or a recovery round just ended: plan again from here,
+  // the obstacles the laser sees now included.
+  const int rounds = supervisor_.navigation().rounds();
+  const bool after_round = rounds > route_rounds_seen_;
+  route_rounds_seen_ = rounds;
+  if (route_source_ == "map" && (p.off_route_m > route_off_m_ || after_round)) {
+    ++route_replans_;
+    const std::string why = planRoute(after_round ? scanPointsInRouteFrame() : std::vector<Vec2>());
+    if (!why.empty()) ROS_WARN_THROTTLE(2.0, "planner: replanning failed, keeping the route: %s", why.c_str());
+  }
+  return p.final_goal ? goal_fixed : route_in_fixed.toWorld(p.subgoal);
 }
 
 void PlannerNode::updateAction(const ros::Time& now) {
@@ -491,7 +692,7 @@ void PlannerNode::publishStatus(const ros::Time& now, double goal_distance) {
   s.reason = supervisor_.reason().empty() ? goalStateName(supervisor_.state()) : supervisor_.reason();
   s.action = static_cast<int8_t>(supervisor_.action());
   s.goal_distance = goal_distance;
-  s.route_remaining = goal_distance;
+  s.route_remaining = route_ ? route_remaining_m_ : goal_distance;
   s.goal_frame = goal_ ? goal_->header.frame_id : std::string();
   const NavigationMonitor& nav = supervisor_.navigation();
   s.recovery = nav.recovering() ? recoveryStepName(nav.step()) : "";

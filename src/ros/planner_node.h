@@ -7,7 +7,9 @@
 #include <actionlib/server/simple_action_server.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <move_base_msgs/MoveBaseAction.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <std_msgs/Empty.h>
@@ -24,6 +26,7 @@
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/common/robot_model.h"
+#include "dqn_dovs/planning/route.h"
 #include "dqn_dovs/policy/dovs_decision.h"
 #include "dqn_dovs/policy/qnetwork.h"
 #include "dqn_dovs/policy/static_safety.h"
@@ -46,6 +49,18 @@ class PlannerNode {
   void onActionGoal();     // move_base action: a new goal (it preempts the one before)
   void onActionPreempt();  // move_base action: the client cancelled
   void onBaseSafety(const BaseSafety::ConstPtr& msg);
+  void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg);
+  void onPath(const nav_msgs::Path::ConstPtr& msg);
+  /// Plans the route to the goal on the map (route_planner_), from the robot, with `extra` obstacle points (route
+  /// frame); "" when planned (or there is no map: the goal is driven at straight), else why there is no route.
+  std::string planRoute(const std::vector<Vec2>& extra = {});
+  /// The point the velocity space is built for now: the subgoal on the route (its frame converted to the fixed
+  /// frame), or the goal itself; sets route_remaining_m_.
+  Vec2 localGoal(const Vec2& goal_fixed);
+  /// The route planner's settings: robot/radius and route/* parameters.
+  RouteConfig routeConfig() const;
+  /// The last scan's returns in the route's frame (obstacles the map does not have), empty when tf cannot place it.
+  std::vector<Vec2> scanPointsInRouteFrame();
   /// Accepts `goal` (any frame tf knows) as the goal; `source` names where it came from for the log. Returns why
   /// it was refused ("" when accepted); a refused goal leaves the robot stopped with that reason.
   std::string acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source);
@@ -92,6 +107,14 @@ class PlannerNode {
   ros::Time goal_id_;
   std::string goal_fault_;
   bool use_goal_yaw_ = true;
+  // The route to the goal (route_frame_): planned on the map, or taken from a nav_msgs/Path; none: straight at it.
+  std::unique_ptr<RoutePlanner> route_planner_;
+  std::string map_frame_, route_frame_, route_source_;
+  std::optional<Route> route_;
+  RouteFollower follower_;
+  double route_lookahead_m_ = 3.0, route_off_m_ = 1.0, route_remaining_m_ = -1.0;
+  int route_replans_ = 0, route_rounds_seen_ = 0;
+  sensor_msgs::LaserScan::ConstPtr last_scan_;
   // The local goals published for the current goal over the last second (ROS time, position in the fixed frame):
   // a Dovs built for none of them is not used.
   std::deque<std::pair<double, Vec2>> local_goals_;
@@ -104,8 +127,8 @@ class PlannerNode {
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_, safety_sub_;
-  ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_, local_goal_pub_;
+  ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_, safety_sub_, map_sub_, path_sub_;
+  ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_, local_goal_pub_, route_pub_;
   ros::Timer decide_timer_, ramp_timer_;
 };
 

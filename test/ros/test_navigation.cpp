@@ -7,11 +7,15 @@
 //     tf does not know is aborted with a text naming the frame;
 //   - wheels that do not turn (stall) start a recovery round, and the goal is aborted saying so once the rounds
 //     are used up;
-//   - a bumper contact drops the command to zero at once (not along the deceleration ramp); a cliff aborts.
+//   - a bumper contact drops the command to zero at once (not along the deceleration ramp); a cliff aborts;
+//   - with a map on `map`, a goal behind a wall is reached along a route around the wall's end: the robot never
+//     crosses the wall, and the route the planner publishes is longer than the straight line.
 #include <actionlib/client/simple_action_client.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
 #include <move_base_msgs/MoveBaseAction.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <tf2_ros/transform_broadcaster.h>
 
@@ -227,6 +231,65 @@ TEST_F(Navigation, BumperStopsAtOnceAndACliffAborts) {
   EXPECT_EQ(client_->getState(), SimpleClientGoalState::ABORTED);
   EXPECT_NE(client_->getState().getText().find("cliff"), std::string::npos) << client_->getState().getText();
   EXPECT_TRUE(waitFor([] { return robot().lastCommand().v == 0.0; }, 0.5));
+}
+
+TEST_F(Navigation, GoalBehindAWallIsReachedAlongARouteOnTheMap) {
+  // A 10 x 10 m grid aligned with the robot, the robot at (3, 5) in it, a wall 0.2 m thick across x = 4.5 from
+  // y = 0 to 6.5 (so the way round is past its end, 1.5 m to the robot's left), the goal at (7, 5) behind it.
+  const dqn_dovs::Pose2 r = robot().pose();
+  const dqn_dovs::Vec2 off = localisation_->offset();
+  const dqn_dovs::Pose2 robot_in_map{r.x + off.x(), r.y + off.y(), r.theta};
+  const dqn_dovs::Pose2 grid_origin{robot_in_map.toWorld({-3.0, -5.0}).x(), robot_in_map.toWorld({-3.0, -5.0}).y(),
+                                    r.theta};
+  nav_msgs::OccupancyGrid map;
+  map.header.frame_id = "map";
+  map.header.stamp = ros::Time::now();
+  map.info.resolution = 0.1f;
+  map.info.width = 100;
+  map.info.height = 100;
+  map.info.origin.position.x = grid_origin.x;
+  map.info.origin.position.y = grid_origin.y;
+  map.info.origin.orientation.z = std::sin(r.theta / 2.0);
+  map.info.origin.orientation.w = std::cos(r.theta / 2.0);
+  map.data.assign(100 * 100, 0);
+  for (int j = 0; j < 65; ++j) {
+    for (int i = 44; i < 46; ++i) map.data[static_cast<size_t>(j * 100 + i)] = 100;
+  }
+  ros::Publisher map_pub = h_->nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+  TopicLog<nav_msgs::Path> routes(h_->nh, "planner/route", 5);
+  map_pub.publish(map);
+  ros::WallDuration(1.0).sleep();  // the planner takes the map before the goal
+
+  move_base_msgs::MoveBaseGoal goal;
+  goal.target_pose.header.frame_id = "map";
+  goal.target_pose.header.stamp = ros::Time::now();
+  const dqn_dovs::Vec2 goal_in_map = grid_origin.toWorld({7.0, 5.0});
+  goal.target_pose.pose.position.x = goal_in_map.x();
+  goal.target_pose.pose.position.y = goal_in_map.y();
+  goal.target_pose.pose.orientation.w = 1.0;
+  client_->sendGoal(goal);
+  double closest_to_wall = 1e9;
+  const double deadline = wallNow() + 80.0;
+  while (!finished() && wallNow() < deadline) {
+    const dqn_dovs::Pose2 p = robot().pose();
+    const dqn_dovs::Vec2 in_grid = grid_origin.toLocal({p.x + off.x(), p.y + off.y()});
+    const double dy = std::max(0.0, in_grid.y() - 6.5);
+    closest_to_wall = std::min(closest_to_wall, std::hypot(std::max(0.0, std::abs(in_grid.x() - 4.5) - 0.1), dy));
+    ros::WallDuration(0.02).sleep();
+  }
+  ASSERT_TRUE(finished()) << "no result; planner says: " << h_->lastStatus().reason;
+  EXPECT_EQ(client_->getState(), SimpleClientGoalState::SUCCEEDED) << client_->getState().getText();
+  // The robot's radius is 0.2 m; the map's cells are 0.1 m.
+  EXPECT_GT(closest_to_wall, 0.15) << "the robot crossed or brushed the wall (the fake robot goes through walls)";
+  ASSERT_TRUE(routes.any()) << "no route published on planner/route";
+  const nav_msgs::Path route = routes.entries().front().msg;
+  double length = 0.0;
+  for (size_t k = 1; k < route.poses.size(); ++k) {
+    length += std::hypot(route.poses[k].pose.position.x - route.poses[k - 1].pose.position.x,
+                         route.poses[k].pose.position.y - route.poses[k - 1].pose.position.y);
+  }
+  EXPECT_GT(length, 4.5) << "the route must go round the wall (straight line 4 m)";
+  EXPECT_EQ(route.header.frame_id, "map");
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -170,6 +171,15 @@ class RoutePlanner {
   std::vector<float> cost_;         ///< per cell step factor (1 + weighted inflation + unknown penalty)
   std::vector<uint8_t> passable_;   ///< per cell: the route may use it
 };
+
+/// A route through `points` as given (a nav_msgs/Path from another global planner): arc lengths and length filled;
+/// not found, with `why`, when there are no points or one is NaN/inf.
+Route routeFromPoints(std::vector<Vec2> points);
+
+/// RoutePlanner::subgoal without a grid of its own: `visible` (unset: everything is visible) says whether the
+/// robot sees a point on the route; the lookahead point is pulled back by pull_step_m until it does.
+RouteProgress followRoute(const Route& route, const Vec2& robot, double lookahead_m, RouteFollower& follower,
+                          const std::function<bool(const Vec2&, const Vec2&)>& visible = {}, double pull_step_m = 0.05);
 
 /// Remaining length of `route` from arc length arc_m to its end, m (0 beyond the end).
 double routeRemaining(const Route& route, double arc_m);
