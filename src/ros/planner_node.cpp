@@ -70,12 +70,9 @@ SupervisorConfig supervisorConfig(const ros::NodeHandle& pnh, const RobotLimits&
   n.recovery_rotate_rad = param<double>(pnh, "recovery_rotate_angle", n.recovery_rotate_rad);
   n.recovery_rotate_speed = param<double>(pnh, "recovery_rotate_speed", n.recovery_rotate_speed);
   n.max_recovery_rounds = param<int>(pnh, "max_recovery_rounds", n.max_recovery_rounds);
-  if (param<bool>(pnh, "allow_reverse", false)) {
-    // The safety envelope admits v >= 0 only (robot_model.h): a back-off would be cut to a stop.
-    throw ParameterError("parameter '" + pnh.resolveName("allow_reverse") +
-                         "' = true: this planner never commands reverse speed (the safety envelope admits v >= 0); "
-                         "set it to false");
-  }
+  n.allow_reverse = param<bool>(pnh, "allow_reverse", n.allow_reverse);
+  n.backoff_distance_m = param<double>(pnh, "backoff_distance", n.backoff_distance_m);
+  n.backoff_speed_mps = param<double>(pnh, "backoff_speed", n.backoff_speed_mps);
   if (const std::string e = c.validate(); !e.empty()) throw ParameterError(pnh.resolveName("") + ": " + e);
   return c;
 }
@@ -150,6 +147,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   // global planner on `route` (it replaces ours for the goal it ends at).
   route_lookahead_m_ = paramInRange(pnh_, "route/lookahead", 3.0, 1.0, 8.0);
   route_off_m_ = paramInRange(pnh_, "route/replan_off_route", 1.0, 0.2, 10.0);
+  route_memory_s_ = paramInRange(pnh_, "route/obstacle_memory", 60.0, 0.0, 3600.0);
   route_pub_ = nh_.advertise<nav_msgs::Path>("planner/route", 1, true);
   if (param<bool>(pnh_, "route/enabled", true)) {
     const std::string map_file = param<std::string>(pnh_, "route/map_file", "");
@@ -271,6 +269,7 @@ std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, cons
   local_goals_.clear();
   goal_.reset();
   route_.reset();
+  route_obstacles_.clear();
   route_remaining_m_ = -1.0;
   const auto& p = goal.pose.position;
   const auto& q = goal.pose.orientation;
@@ -292,7 +291,7 @@ std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, cons
   // The stamp that names this goal on planner/local_goal and in the Dovs built for it: the goal's own stamp (a
   // dovs_node fed the same goal directly agrees), made unique when two goals carry the same one.
   ros::Time id = goal.header.stamp;
-  if (id <= goal_id_ && !goal_id_.isZero()) id = goal_id_ + ros::Duration(0, 1000);
+  if (id == goal_id_) id += ros::Duration(0, 1000);
   goal_id_ = id;
   goal_fault_.clear();
   refreshGoal(true);
@@ -355,10 +354,15 @@ void PlannerNode::refreshGoal(bool is_new) {
 std::string PlannerNode::localGoalFault(const Dovs& dovs) const {
   if (local_goals_.empty()) return "no goal";
   std::string fault;
+  // Built for one of the recent local goals, under the id this node gave the goal or (a dovs_node fed the goal
+  // directly, not planner/local_goal) under the goal's own stamp.
+  const double own_stamp = goal_ ? goal_->header.stamp.toSec() : goal_id_.toSec();
   for (auto it = local_goals_.rbegin(); it != local_goals_.rend(); ++it) {
-    const std::string f = dovsGoalFault(dovs, goal_id_.toSec(), it->second);
-    if (f.empty()) return {};
-    if (fault.empty()) fault = f;
+    for (const double stamp : {goal_id_.toSec(), own_stamp}) {
+      const std::string f = dovsGoalFault(dovs, stamp, it->second);
+      if (f.empty()) return {};
+      if (fault.empty()) fault = f;
+    }
   }
   return fault;
 }
@@ -408,7 +412,7 @@ void PlannerNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
   map_frame_ = msg->header.frame_id;
   ROS_INFO("planner: routes on the map (%d x %d cells of %.3f m) in '%s'", map.width, map.height, map.resolution_m,
            map_frame_.c_str());
-  if (goal_ && route_source_ != "route") {
+  if (goal_ && supervisor_.state() != GoalState::kReached && route_source_ != "route") {
     if (const std::string why = planRoute(); !why.empty()) ROS_WARN("planner: %s", why.c_str());
   }
 }
@@ -476,8 +480,18 @@ std::vector<Vec2> PlannerNode::scanPointsInRouteFrame() {
   return out;
 }
 
-std::string PlannerNode::planRoute(const std::vector<Vec2>& extra) {
+std::string PlannerNode::planRoute(const std::vector<Vec2>& seen) {
   if (!route_planner_ || !goal_) return {};
+  // What the laser found on earlier routes to this goal stays an obstacle for route_memory_s_: a route planned
+  // again (off the route, say) must not lead back through it.
+  const double now = ros::Time::now().toSec();
+  while (!route_obstacles_.empty() && now - route_obstacles_.front().first > route_memory_s_) {
+    route_obstacles_.pop_front();
+  }
+  for (const Vec2& p : seen) route_obstacles_.emplace_back(now, p);
+  std::vector<Vec2> extra;
+  extra.reserve(route_obstacles_.size());
+  for (const auto& [t, p] : route_obstacles_) extra.push_back(p);
   route_frame_ = map_frame_;
   Vec2 start, goal;
   try {
@@ -538,9 +552,24 @@ Vec2 PlannerNode::localGoal(const Vec2& goal_fixed) {
   const int rounds = supervisor_.navigation().rounds();
   const bool after_round = rounds > route_rounds_seen_;
   route_rounds_seen_ = rounds;
-  if (route_source_ == "map" && (p.off_route_m > route_off_m_ || after_round)) {
+  // Blocked: the laser sees something on the next route_lookahead_m of route, twice a second apart (a person
+  // walking across is gone by then; a door that closed, a cart left in the corridor is not).
+  bool blocked = false;
+  std::vector<Vec2> seen;
+  const double now = ros::Time::now().toSec();
+  if (route_source_ == "map" && now - route_blocked_check_s_ >= 1.0) {
+    route_blocked_check_s_ = now;
+    seen = scanPointsInRouteFrame();
+    // Within 3/4 of the radius: mapped walls beside the route (kept a radius away by the plan) never count.
+    const bool on_route = routeBlocked(*route_, follower_, seen, 0.75 * limits_.radius, route_lookahead_m_);
+    blocked = on_route && route_blocked_before_;
+    route_blocked_before_ = on_route && !blocked;
+  }
+  if (route_source_ == "map" && (p.off_route_m > route_off_m_ || after_round || blocked)) {
     ++route_replans_;
-    const std::string why = planRoute(after_round ? scanPointsInRouteFrame() : std::vector<Vec2>());
+    if ((after_round || blocked) && seen.empty()) seen = scanPointsInRouteFrame();
+    if (blocked) ROS_INFO("planner: the route is blocked ahead; planning again around what the laser sees");
+    const std::string why = planRoute(after_round || blocked ? seen : std::vector<Vec2>());
     if (!why.empty()) ROS_WARN_THROTTLE(2.0, "planner: replanning failed, keeping the route: %s", why.c_str());
   }
   return p.final_goal ? goal_fixed : route_in_fixed.toWorld(p.subgoal);

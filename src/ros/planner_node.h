@@ -51,9 +51,10 @@ class PlannerNode {
   void onBaseSafety(const BaseSafety::ConstPtr& msg);
   void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg);
   void onPath(const nav_msgs::Path::ConstPtr& msg);
-  /// Plans the route to the goal on the map (route_planner_), from the robot, with `extra` obstacle points (route
-  /// frame); "" when planned (or there is no map: the goal is driven at straight), else why there is no route.
-  std::string planRoute(const std::vector<Vec2>& extra = {});
+  /// Plans the route to the goal on the map (route_planner_), from the robot, around the obstacle points the laser
+  /// found on routes to this goal (`seen` now, in the route frame, and those of the last route/obstacle_memory s);
+  /// "" when planned (or there is no map: the goal is driven at straight), else why there is no route.
+  std::string planRoute(const std::vector<Vec2>& seen = {});
   /// The point the velocity space is built for now: the subgoal on the route (its frame converted to the fixed
   /// frame), or the goal itself; sets route_remaining_m_.
   Vec2 localGoal(const Vec2& goal_fixed);
@@ -112,8 +113,11 @@ class PlannerNode {
   std::string map_frame_, route_frame_, route_source_;
   std::optional<Route> route_;
   RouteFollower follower_;
-  double route_lookahead_m_ = 3.0, route_off_m_ = 1.0, route_remaining_m_ = -1.0;
+  double route_lookahead_m_ = 3.0, route_off_m_ = 1.0, route_remaining_m_ = -1.0, route_memory_s_ = 60.0;
+  std::deque<std::pair<double, Vec2>> route_obstacles_;  // (ROS time seen, route frame)
   int route_replans_ = 0, route_rounds_seen_ = 0;
+  double route_blocked_check_s_ = 0.0;
+  bool route_blocked_before_ = false;
   sensor_msgs::LaserScan::ConstPtr last_scan_;
   // The local goals published for the current goal over the last second (ROS time, position in the fixed frame):
   // a Dovs built for none of them is not used.

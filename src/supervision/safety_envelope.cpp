@@ -14,16 +14,23 @@ double effectiveStep(double dt_s) { return std::isfinite(dt_s) && dt_s > 0.0 ? d
 
 bool finite(const Twist2& t) { return std::isfinite(t.v) && std::isfinite(t.w); }
 
+/// Straight reverse within `reverse` (m/s; 0: none).
+bool inReverse(const Twist2& t, double reverse, double tol) {
+  return reverse > 0.0 && t.v < 0.0 && t.v >= -reverse - tol && std::abs(t.w) <= tol;
+}
+
 /// The previous command the acceleration limits are measured from: itself when feasible, else its clip.
-Twist2 effectivePrevious(const Twist2& previous, const RobotLimits& limits, bool& was_bad) {
-  was_bad = !finite(previous) || !limits.feasible(previous, kEnvelopeTolerance);
+Twist2 effectivePrevious(const Twist2& previous, const RobotLimits& limits, double reverse, bool& was_bad) {
+  was_bad = !finite(previous) ||
+            (!limits.feasible(previous, kEnvelopeTolerance) && !inReverse(previous, reverse, kEnvelopeTolerance));
   return was_bad ? limits.clipToFeasible(previous) : previous;
 }
 
-uint32_t violationsFrom(const Twist2& prev, const Twist2& c, const RobotLimits& limits, double dt, double tol) {
+uint32_t violationsFrom(const Twist2& prev, const Twist2& c, const RobotLimits& limits, double dt, double tol,
+                        double reverse) {
   if (!finite(c)) return kEnvelopeNotFinite;
   uint32_t v = 0;
-  if (c.v < -tol) v |= kEnvelopeReverse;
+  if (c.v < -tol && !inReverse(c, reverse, tol)) v |= kEnvelopeReverse;
   if (c.v > limits.v_max + tol) v |= kEnvelopeOverSpeed;
   if (std::abs(c.w) > limits.wLimitAt(c.v) + tol) v |= kEnvelopeTriangle;
   if (std::abs(c.v - prev.v) > limits.a_v * dt + tol) v |= kEnvelopeLinearAccel;
@@ -85,21 +92,34 @@ std::string describeEnvelopeViolations(uint32_t violations) {
 }
 
 uint32_t envelopeViolations(const Twist2& previous, const Twist2& command, const RobotLimits& limits, double dt_s,
-                            double tol) {
+                            double tol, double reverse_mps) {
   bool bad_prev = false;
-  const Twist2 prev = effectivePrevious(previous, limits, bad_prev);
-  return violationsFrom(prev, command, limits, effectiveStep(dt_s), tol) | (bad_prev ? kEnvelopeBadPrevious : 0u);
+  const Twist2 prev = effectivePrevious(previous, limits, reverse_mps, bad_prev);
+  return violationsFrom(prev, command, limits, effectiveStep(dt_s), tol, reverse_mps) |
+         (bad_prev ? kEnvelopeBadPrevious : 0u);
 }
 
-EnvelopeResult enforceEnvelope(const Twist2& previous, const Twist2& command, const RobotLimits& limits, double dt_s) {
+EnvelopeResult enforceEnvelope(const Twist2& previous, const Twist2& command, const RobotLimits& limits, double dt_s,
+                               double reverse_mps) {
   const double dt = effectiveStep(dt_s);
   bool bad_prev = false;
-  const Twist2 prev = effectivePrevious(previous, limits, bad_prev);
+  const Twist2 prev = effectivePrevious(previous, limits, reverse_mps, bad_prev);
   EnvelopeResult r;
-  r.violations = violationsFrom(prev, command, limits, dt, kEnvelopeTolerance) | (bad_prev ? kEnvelopeBadPrevious : 0u);
+  r.violations = violationsFrom(prev, command, limits, dt, kEnvelopeTolerance, reverse_mps) |
+                 (bad_prev ? kEnvelopeBadPrevious : 0u);
   if (!(r.violations & ~static_cast<uint32_t>(kEnvelopeBadPrevious))) {
     r.command = command;
     return r;
+  }
+  if (reverse_mps > 0.0 && finite(command) && std::abs(prev.w) <= limits.a_w * dt) {
+    // Straight reverse: asked for (a back-off), or the only way on from a reverse the acceleration limit does not
+    // let end this step. The turn rate goes to zero; the speed is clamped into the box and the reverse limit.
+    const double lo = std::max(-reverse_mps, prev.v - limits.a_v * dt), hi = std::min(0.0, prev.v + limits.a_v * dt);
+    const bool stays_in_reverse = prev.v + limits.a_v * dt < 0.0;
+    if ((command.v < 0.0 || stays_in_reverse) && lo <= hi) {
+      r.command = {std::clamp(command.v, lo, hi), 0.0};
+      if (r.command.v < 0.0 || stays_in_reverse) return r;
+    }
   }
 
   // The admissible set in normalised coordinates: the acceleration box around `prev`, clipped to v >= 0,
@@ -138,12 +158,14 @@ EnvelopeResult enforceEnvelope(const Twist2& previous, const Twist2& command, co
   return r;
 }
 
-SafetyEnvelope::SafetyEnvelope(const RobotLimits& limits, double max_step_s)
-    : limits_(limits), max_step_s_(std::isfinite(max_step_s) && max_step_s > 0.0 ? max_step_s : 0.1) {}
+SafetyEnvelope::SafetyEnvelope(const RobotLimits& limits, double max_step_s, double reverse_mps)
+    : limits_(limits),
+      max_step_s_(std::isfinite(max_step_s) && max_step_s > 0.0 ? max_step_s : 0.1),
+      reverse_mps_(std::isfinite(reverse_mps) && reverse_mps > 0.0 ? reverse_mps : 0.0) {}
 
 EnvelopeResult SafetyEnvelope::filter(const Twist2& command, double dt_s) {
   const double dt = std::min(effectiveStep(dt_s), max_step_s_);
-  const EnvelopeResult r = enforceEnvelope(last_, command, limits_, dt);
+  const EnvelopeResult r = enforceEnvelope(last_, command, limits_, dt, reverse_mps_);
   ++checked_;
   if (r.modified()) {
     ++corrected_;

@@ -59,7 +59,8 @@ Supervisor::Supervisor(const SupervisorConfig& config, SupervisorLogSink log)
     : config_(checked(config)),
       log_(std::move(log)),
       navigation_(config.navigation),
-      envelope_(config.limits, kMaxRampStepS) {}
+      envelope_(config.limits, kMaxRampStepS,
+                config.navigation.allow_reverse ? config.navigation.backoff_speed_mps : 0.0) {}
 
 void Supervisor::log(SupervisorLog level, const std::string& key, const std::string& text, double throttle_s) const {
   if (log_) log_(level, key, text, throttle_s);
@@ -353,6 +354,21 @@ std::optional<double> Supervisor::controlPeriod(double now_s, std::optional<doub
   return goal_distance;
 }
 
+Twist2 Supervisor::rampStep(const Twist2& last, double dt) const {
+  const double reverse = config_.navigation.allow_reverse ? config_.navigation.backoff_speed_mps : 0.0;
+  if (reverse <= 0.0 || (target_.v >= 0.0 && last.v >= 0.0)) {
+    return applyAccelerationLimits(last, target_, config_.limits, dt);
+  }
+  // Into, during or out of a back-off: straight only, so the turn rate goes to zero first (at rest meanwhile).
+  const double max_dv = config_.limits.a_v * dt, max_dw = config_.limits.a_w * dt;
+  Twist2 next;
+  next.w = last.w + std::clamp(-last.w, -max_dw, max_dw);
+  const double v_goal = next.w != 0.0 ? std::max(0.0, target_.v) : target_.v;
+  next.v = std::clamp(last.v + std::clamp(v_goal - last.v, -max_dv, max_dv), -reverse, config_.limits.v_max);
+  if (next.v > 0.0 && next.w != 0.0) return applyAccelerationLimits(last, target_, config_.limits, dt);
+  return next;
+}
+
 RampCommand Supervisor::ramp(double now_s, const DecisionHooks& hooks) {
   // The watchdog runs at the ramp rate: a fault stops the ramp's climb within one ramp step, not at the next
   // control period.
@@ -376,7 +392,7 @@ RampCommand Supervisor::ramp(double now_s, const DecisionHooks& hooks) {
     out.publish = true;
     return out;
   }
-  const Twist2 next = applyAccelerationLimits(envelope_.last(), target_, config_.limits, dt);
+  const Twist2 next = rampStep(envelope_.last(), dt);
   const bool still = next.v == 0.0 && next.w == 0.0;
   idle_zero_messages_ = still ? idle_zero_messages_ + 1 : 0;
   RampCommand out;

@@ -13,7 +13,7 @@
 // Switches (atomics, flipped from the test while the robot runs):
 //   feed_tf (odom -> base_footprint only; the laser stays on the base), feed_odom, feed_scan, feed_obstacles
 //   stop that input; scan_fault spoils every scan (ScanFault); odom_lag_s stamps odom that far in the past;
-//   stuck blocks the wheels (the pose holds, odom says zero speed).
+//   stuck blocks the wheels (the pose holds, odom says zero speed); setWalls puts walls into the scans.
 //   firstFaultyScanWall / firstLaggedOdomWall say when the first spoiled message left (armFaultClocks resets).
 // Around it: TopicLog (what a topic published, with receipt wall times), RobotHarness (node handle, robot,
 // goal publisher, planner/status log, spinner: what a test fixture sets up), waitFor, runRostestNode, and the
@@ -213,6 +213,12 @@ class FakeRobot {
   // Wheels blocked: the pose stays where it is and odom measures zero speed, whatever is commanded.
   std::atomic<bool> stuck{false};
 
+  /// Walls the scans see (segments in odom), replacing the open space; set while running.
+  void setWalls(std::vector<Segment> walls) {
+    std::lock_guard<std::mutex> l(mutex_);
+    walls_ = std::move(walls);
+  }
+
   explicit FakeRobot(ros::NodeHandle& nh, FakeRobotOptions options = {})
       : options_(std::move(options)),
         scan_pub_(nh.advertise<sensor_msgs::LaserScan>("scan", 5)),
@@ -348,6 +354,7 @@ class FakeRobot {
         if (feed_scan) {
           const ScanFault fault = scan_fault;
           sensor_msgs::LaserScan s = makeScan(stamp, options_.scan);
+          renderWalls(s, p);
           spoilScan(s, fault);
           scan_pub_.publish(s);
           if (fault != ScanFault::kNone && first_bad_scan_wall_ == 0.0) first_bad_scan_wall_ = now_wall;
@@ -356,6 +363,29 @@ class FakeRobot {
       }
       ++tick;
       rate.sleep();
+    }
+  }
+
+  // Each beam's range to the nearest wall (the laser sits on the base).
+  void renderWalls(sensor_msgs::LaserScan& s, const Pose2& p) {
+    std::vector<Segment> walls;
+    {
+      std::lock_guard<std::mutex> l(mutex_);
+      walls = walls_;
+    }
+    for (size_t k = 0; k < s.ranges.size() && !walls.empty(); ++k) {
+      const double a = p.theta + s.angle_min + static_cast<double>(k) * s.angle_increment;
+      const Vec2 o(p.x, p.y), d(std::cos(a), std::sin(a));
+      double best = std::numeric_limits<double>::infinity();
+      for (const Segment& w : walls) {
+        const Vec2 e = w.b - w.a;
+        const double den = d.x() * e.y() - d.y() * e.x();
+        if (std::abs(den) < 1e-12) continue;
+        const Vec2 q = w.a - o;
+        const double t = (q.x() * e.y() - q.y() * e.x()) / den, u = (q.x() * d.y() - q.y() * d.x()) / den;
+        if (t > 0.0 && u >= 0.0 && u <= 1.0) best = std::min(best, t);
+      }
+      if (best >= s.range_min && best <= s.range_max) s.ranges[k] = static_cast<float>(best);
     }
   }
 
@@ -368,6 +398,7 @@ class FakeRobot {
   std::mutex mutex_;
   Pose2 pose_{0.0, 0.0, 0.0};
   double v_ = 0.0, w_ = 0.0;
+  std::vector<Segment> walls_;
   ros::Time last_tf_stamp_;
   std::vector<Command> commands_;
   std::atomic<double> first_bad_scan_wall_{0.0}, first_lagged_odom_wall_{0.0}, last_tf_wall_{0.0};

@@ -134,7 +134,7 @@ TEST(PlannerBadParams, OutOfRangeParametersAreFatalAndNamed) {
       {"yaw_tolerance", "_yaw_tolerance:=0.0"},
       {"progress_timeout", "_progress_timeout:=-1.0"},
       {"max_recovery_rounds", "_max_recovery_rounds:=-2"},
-      {"allow_reverse", "_allow_reverse:=true"},
+      {"backoff_speed", "_backoff_speed:=2.0"},
       {"tf_timeout", "_tf_timeout:=-0.1"},
       {"scan_max_nan_fraction", "_scan_max_nan_fraction:=1.5"},
       {"deadline_fraction", "_deadline_fraction:=0.0"},

@@ -162,7 +162,7 @@ TEST(NavigationMonitor, BadConfigurationIsNamed) {
 
 // The supervisor with a robot the test places and a decision that drives at 0.3 m/s.
 struct Robot {
-  Robot() : supervisor(config()) {
+  explicit Robot(const SupervisorConfig& c = config()) : supervisor(c) {
     hooks.robot_pose = [this](double) {
       RobotPoseLookup p;
       p.stamp_s = stamp;
@@ -251,6 +251,44 @@ TEST(SupervisorNavigation, BumperDropsTheCommandAtOnceAndHoldsUntilReleased) {
   r.supervisor.contact(8.0, "");
   for (double t = 8.0; t < 9.0; t += 0.2) r.period(t, 0.3);
   EXPECT_GT(r.supervisor.command().v, 0.0) << "driving again after the release";
+}
+
+TEST(SupervisorNavigation, BackOffWithReverseAllowedIsStraightSlowAndWithinTheLimits) {
+  SupervisorConfig c = Robot::config();
+  c.navigation.recovery_wait_s = 0.0;
+  c.navigation.recovery_rotate_rad = 0.0;
+  c.navigation.allow_reverse = true;
+  c.navigation.backoff_speed_mps = 0.1;
+  c.navigation.backoff_distance_m = 0.3;
+  Robot r(c);
+  r.supervisor.newGoal({10.0, 0.0}, std::nullopt, 0.0);
+  for (double t = 0.0; t < 1.0; t += 0.2) r.period(t, 0.3);
+  r.supervisor.contact(1.0, "bumper pressed");
+  r.supervisor.contact(1.05, "");  // released at once: the round backs off
+  double most_reverse = 0.0;
+  Twist2 previous;  // the contact dropped the command to zero at once
+  for (double t = 1.2; t < 6.0; t += 0.2) {
+    r.period(t);
+    most_reverse = std::min(most_reverse, r.supervisor.command().v);
+    if (r.supervisor.command().v < 0.0) {
+      EXPECT_EQ(r.supervisor.command().w, 0.0);
+    }
+    EXPECT_LE(std::abs(r.supervisor.command().v - previous.v), c.limits.a_v * 0.2 + 1e-9);
+    previous = r.supervisor.command();
+  }
+  EXPECT_LT(most_reverse, -0.05) << "no back-off";
+  EXPECT_GE(most_reverse, -0.1 - 1e-9);
+  EXPECT_EQ(r.supervisor.envelope().corrected(), 0u) << r.supervisor.envelope().lastCorrection();
+  // Without allow_reverse the same contact never reverses.
+  Robot plain;
+  plain.supervisor.newGoal({10.0, 0.0}, std::nullopt, 0.0);
+  for (double t = 0.0; t < 1.0; t += 0.2) plain.period(t, 0.3);
+  plain.supervisor.contact(1.0, "bumper pressed");
+  plain.supervisor.contact(1.05, "");
+  for (double t = 1.2; t < 6.0; t += 0.2) {
+    plain.period(t);
+    EXPECT_GE(plain.supervisor.command().v, 0.0);
+  }
 }
 
 TEST(SupervisorNavigation, CliffAbortsAndNothingDrivesUntilItClears) {

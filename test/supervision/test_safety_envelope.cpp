@@ -253,3 +253,34 @@ TEST(SafetyEnvelope, ViolationsAreNamed) {
 
 }  // namespace
 }  // namespace dqn_dovs
+
+namespace dqn_dovs {
+namespace {
+
+TEST(SafetyEnvelopeReverse, StraightReverseOnlyWhenAdmittedAndWithinItsLimit) {
+  const RobotLimits l;
+  // Without a reverse allowance any reverse speed is a violation (the default everywhere).
+  EXPECT_EQ(envelopeViolations({0.0, 0.0}, {-0.05, 0.0}, l, 0.1), static_cast<uint32_t>(kEnvelopeReverse));
+  // With 0.1 m/s: straight reverse within it is admissible, turning while reversing or faster is not.
+  EXPECT_EQ(envelopeViolations({0.0, 0.0}, {-0.05, 0.0}, l, 0.1, kEnvelopeTolerance, 0.1), 0u);
+  EXPECT_TRUE(envelopeViolations({0.0, 0.0}, {-0.05, 0.2}, l, 0.1, kEnvelopeTolerance, 0.1) & kEnvelopeReverse);
+  EXPECT_TRUE(envelopeViolations({-0.1, 0.0}, {-0.15, 0.0}, l, 0.1, kEnvelopeTolerance, 0.1) & kEnvelopeReverse);
+  // A previous reverse command is not a bad previous one.
+  EXPECT_EQ(envelopeViolations({-0.1, 0.0}, {-0.1, 0.0}, l, 0.02, kEnvelopeTolerance, 0.1), 0u);
+  // Projection: a reverse command far off is brought within the acceleration box, straight.
+  EnvelopeResult r = enforceEnvelope({0.0, 0.0}, {-0.3, 0.5}, l, 0.02, 0.1);
+  EXPECT_NEAR(r.command.v, -l.a_v * 0.02, 1e-12);
+  EXPECT_EQ(r.command.w, 0.0);
+  EXPECT_EQ(envelopeViolations({0.0, 0.0}, r.command, l, 0.02, kEnvelopeTolerance, 0.1), 0u);
+  // From fast forward, a reverse command brakes first (no reverse reachable this step).
+  r = enforceEnvelope({0.5, 0.0}, {-0.1, 0.0}, l, 0.02, 0.1);
+  EXPECT_NEAR(r.command.v, 0.5 - l.a_v * 0.02, 1e-12);
+  // Out of a reverse that cannot end this step, a forward command stays straight reverse, slowing down.
+  r = enforceEnvelope({-0.1, 0.0}, {0.3, 0.0}, l, 0.02, 0.1);
+  EXPECT_NEAR(r.command.v, -0.1 + l.a_v * 0.02, 1e-12);
+  EXPECT_EQ(r.command.w, 0.0);
+  EXPECT_EQ(envelopeViolations({-0.1, 0.0}, r.command, l, 0.02, kEnvelopeTolerance, 0.1), 0u);
+}
+
+}  // namespace
+}  // namespace dqn_dovs

@@ -1,5 +1,6 @@
 // The last check between a planner and the motors: every velocity command, just before it leaves, must lie
-// in the robot's feasible set (v in [0, v_max], |w| <= w_max (1 - v / v_max)) and within the acceleration
+// in the robot's feasible set (v in [0, v_max], |w| <= w_max (1 - v / v_max); when asked, also straight reverse
+// v in [-reverse, 0) with w = 0, for a recovery's back-off) and within the acceleration
 // limits of the previously sent command over the time actually elapsed since then:
 //     |v - v_prev| <= a_v * dt,   |w - w_prev| <= a_w * dt,
 // and be finite. A command that is not is replaced by the nearest admissible one (distance measured in
@@ -39,20 +40,25 @@ struct EnvelopeResult {
 constexpr double kEnvelopeTolerance = 1e-9;
 
 /// The EnvelopeViolation flags of `command` sent dt_s after `previous` (0: admissible). dt_s that is
-/// negative or not finite counts as 0 (then only `previous` itself is admissible).
+/// negative or not finite counts as 0 (then only `previous` itself is admissible). With reverse_mps > 0 the
+/// feasible set also holds straight reverse, v in [-reverse_mps, 0) with w = 0 (a recovery's slow back-off).
 uint32_t envelopeViolations(const Twist2& previous, const Twist2& command, const RobotLimits& limits, double dt_s,
-                            double tol = kEnvelopeTolerance);
+                            double tol = kEnvelopeTolerance, double reverse_mps = 0.0);
 
 /// Checks `command` against the envelope around `previous` for a step of dt_s and projects it when needed.
 /// The output is always finite, feasible and within the acceleration limits of `previous` (or of its
 /// clipped version when `previous` was infeasible), and equals `command` exactly when that was admissible.
-EnvelopeResult enforceEnvelope(const Twist2& previous, const Twist2& command, const RobotLimits& limits, double dt_s);
+/// reverse_mps as for envelopeViolations: a reverse command is projected onto straight reverse when the turn rate
+/// can reach zero this step, else onto the forward set.
+EnvelopeResult enforceEnvelope(const Twist2& previous, const Twist2& command, const RobotLimits& limits, double dt_s,
+                               double reverse_mps = 0.0);
 
 /// enforceEnvelope with its memory: the previous output, the step cap and the counters.
 class SafetyEnvelope {
  public:
-  /// max_step_s caps dt (a long pause between two commands never licenses a jump larger than this step).
-  explicit SafetyEnvelope(const RobotLimits& limits, double max_step_s = 0.1);
+  /// max_step_s caps dt (a long pause between two commands never licenses a jump larger than this step);
+  /// reverse_mps > 0 admits straight reverse down to -reverse_mps (envelopeViolations).
+  explicit SafetyEnvelope(const RobotLimits& limits, double max_step_s = 0.1, double reverse_mps = 0.0);
 
   /// Filters the next command, sent dt_s after the previous output, and remembers the result.
   EnvelopeResult filter(const Twist2& command, double dt_s);
@@ -69,7 +75,7 @@ class SafetyEnvelope {
 
  private:
   RobotLimits limits_;
-  double max_step_s_;
+  double max_step_s_, reverse_mps_;
   Twist2 last_;
   uint64_t checked_ = 0, corrected_ = 0;
   std::string last_correction_;

@@ -153,6 +153,9 @@ class Supervisor {
   void stop(const std::string& reason);
   void halt(const std::string& reason);
   void emergencyZero();
+  /// The next ramp command from `last` towards the target within the acceleration limits over dt (straight
+  /// reverse for a back-off when navigation.allow_reverse).
+  Twist2 rampStep(const Twist2& last, double dt) const;
   /// The target on the goal: brake, then turn to the heading; reached once slow and aligned.
   void onGoal(const Pose2& pose, double goal_distance);
   std::string decide(double now_s, const DecisionHooks& hooks, double tf_wait_s, std::optional<double>& goal_distance);
