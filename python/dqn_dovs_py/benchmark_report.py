@@ -340,8 +340,10 @@ def oracle_share_table(s: Summary) -> str:
     return _table(["N", "oracle success"] + methods + ["oracle unsolved (collisions / timeouts)"], rows)
 
 
-def unsolved_table(unsolved: list[Unsolved], limit: int = MAX_UNSOLVED_ROWS) -> str:
-    """The oracle's unsolved episodes, the first `limit` of them: N, episode, scenario, outcome, time, solved by."""
+def unsolved_table(unsolved: list[Unsolved], limit: int | None = None) -> str:
+    """The oracle's unsolved episodes, the first `limit` (default MAX_UNSOLVED_ROWS) of them: N, episode, scenario,
+    outcome, time, solved by."""
+    limit = MAX_UNSOLVED_ROWS if limit is None else limit
     rows = [[str(u.obstacles), str(u.episode), f"`{u.scenario}`" if u.scenario else "-", u.outcome_text(),
              _f(u.time_s, 1), ", ".join(u.solved_by) or "none"] for u in unsolved[:limit]]
     return _table(["N", "episode", "scenario", "outcome", "time (s)", "solved by"], rows)
