@@ -59,7 +59,7 @@ for perception in tracker perfect; do
   tail -n 1 "$dir/eval.log"
   rm -f "$dir/eval.log"  # one progress line per episode; summary.md holds the figures
   # One trajectory picture is kept (dqn_dovs's); the others only make the folder heavy.
-  find "$dir" -name 'trajectories_*.png' ! -name 'trajectories_dqn_dovs_n*' -delete
+  find "$dir" -name 'trajectories_*.png' ! -name 'trajectories_dqn_dovs_n[0-9]*' -delete
 done
 total_end=$(date +%s.%N)
 
