@@ -2,12 +2,17 @@
 # Regenerates docs/benchmark.md: every method on the shared scenarios with the evaluation CLI, once with the
 # LIDAR + tracker in the loop (docs/benchmark/tracker/) and once with perfect information
 # (docs/benchmark/perfect/), then python/dqn_dovs_py/benchmark_report.py writes the tables, plots and verdicts.
-# Run from anywhere (make benchmark-table does). With the defaults (2 x 9000 episodes) about 10 min on an idle
-# 2-core machine: 1000 CPU-s measured from a 2-episode run (tracker 0.065, perfect information 0.042 CPU-s per
-# episode); proportionally longer when the cores are shared.
+# `oracle` (docs/planners.md section 9: the physical limit, a search that reads the simulator's future) runs on the
+# same episodes in both runs; the report gives its column, each method's share of its successes and the episodes it
+# did not solve. It is a ceiling, never a baseline. ORACLE=0 leaves it out.
+# Run from anywhere (make benchmark-table does). With the defaults (2 x 10500 episodes) about 17 min on an idle
+# 2-core machine: 1960 CPU-s. The eight planners: 1000 CPU-s measured from a 2-episode run (tracker 0.065, perfect
+# information 0.042 CPU-s per episode); the oracle: 0.32 CPU-s per episode in either run (measured on N = 1..15,
+# 2 episodes each: dqn_dovs_eval --methods oracle --obstacles 1-15 --episodes 2 --threads 1, 9.6 s), 960 CPU-s. With
+# ORACLE=0 about 10 min. Proportionally longer when the cores are shared.
 # Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
-# METHODS (all eight), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md),
-# OUT_DIR (docs/benchmark).
+# METHODS (all eight), ORACLE (1: add oracle to METHODS unless it is there; 0: leave it out), DQN_DOVS_EVAL (default
+# install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md), OUT_DIR (docs/benchmark).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # shellcheck source=scripts/env.sh
@@ -18,6 +23,11 @@ obstacles="${OBSTACLES:-1-15}"
 threads="${THREADS:-2}"
 model="${MODEL:-models/dqn_dovs.dqnw}"
 methods="${METHODS:-dqn_dovs,dqn_dovs_latest_escape,dqn_dovs_no_escape,dqn_dovs_unshielded,s_dovs,orca_holonomic,orca_diffdrive,dwa}"
+case "${ORACLE:-1}" in
+  1) [[ ",$methods," == *,oracle,* ]] || methods="$methods,oracle" ;;
+  0) methods=$(echo ",$methods," | sed 's/,oracle,/,/g; s/^,//; s/,$//') ;;
+  *) echo "benchmark_table: ORACLE must be 0 or 1 (got '$ORACLE')" >&2; exit 2 ;;
+esac
 scenarios="../shared/scenarios/rumor"
 exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
 out_doc="${OUT_DOC:-docs/benchmark.md}"
@@ -49,7 +59,7 @@ for perception in tracker perfect; do
   tail -n 1 "$dir/eval.log"
   rm -f "$dir/eval.log"  # one progress line per episode; summary.md holds the figures
   # One trajectory picture is kept (dqn_dovs's); the others only make the folder heavy.
-  find "$dir" -name 'trajectories_*.png' ! -name 'trajectories_dqn_dovs_n*' -delete
+  find "$dir" -name 'trajectories_*.png' ! -name 'trajectories_dqn_dovs_n[0-9]*' -delete
 done
 total_end=$(date +%s.%N)
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates docs/benchmark_worlds.md: dqn_dovs and s_dovs with the evaluation CLI on generated worlds, LIDAR +
-# tracker in the loop, seed 11001 (the seed of this report, never used to tune anything):
+# Regenerates docs/benchmark_worlds.md: dqn_dovs and s_dovs, and oracle (the physical limit, a search that reads
+# the simulator's future; docs/planners.md section 9) on the same episodes, with the evaluation CLI on generated
+# worlds, LIDAR + tracker in the loop, seed 11001 (the seed of this report, never used to tune anything):
 # - every world family (room, crowd, corridor, doorway, clutter, junction) at N = 5, 10 and 15 with the sim LIDAR
 #   and social-force people to whom the robot is invisible: docs/benchmark_worlds/FAMILY_nN/;
 # - crowd at N = 10 with the hokuyo, urg04lx and rplidar_a1 profiles (crowd_n10_PROFILE/; sim is crowd_n10/);
@@ -12,10 +13,16 @@
 # A run the tool stops (a world it cannot generate) keeps only failed.txt, its error; the others go on, the report
 # shows it as not run and the script exits 1 at the end.
 # Run from anywhere (make benchmark-worlds does); one progress line per run with its wall time. With the defaults
-# (24 runs x 2 methods x 50 episodes) about 3 min on 2 cores (189 s measured while the machine also compiled; the
-# doorway and junction runs take 15-20 s each, the others 3-8 s).
-# Environment: EPISODES (50 per run and method), THREADS (2), MODEL (models/dqn_dovs.dqnw), DQN_DOVS_EVAL (default
-# install/lib/dqn_dovs/dqn_dovs_eval), OUT_DIR (docs/benchmark_worlds), OUT_DOC (docs/benchmark_worlds.md).
+# (24 runs x 3 methods x 50 episodes) about 16 min on 2 cores. The planners: about 3 min (189 s measured while the
+# machine also compiled; the doorway and junction runs take 15-20 s each, the others 3-8 s). The oracle: about
+# 1500 CPU-s, mostly where it times out (100 s of simulated time, up to 5 CPU-s): measured per episode (dqn_dovs_eval
+# --methods oracle --world W --generate 11001 --obstacles N --episodes 2) at N = 10 room 0.4, crowd 0.6, corridor
+# 0.9, clutter 0.9, junction 1.3 and doorway 3.5 CPU-s; at N = 5 / 15 junction 2.2 / 5.0, doorway 2.8 / 4.2,
+# corridor 0.8 / 0.8, clutter 0.3 / 0.6. So a doorway or junction run takes up to 2 min, the others under 40 s.
+# ORACLE=0 leaves it out (about 3 min).
+# Environment: EPISODES (50 per run and method), THREADS (2), ORACLE (1: with oracle; 0: dqn_dovs and s_dovs only),
+# MODEL (models/dqn_dovs.dqnw), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval), OUT_DIR
+# (docs/benchmark_worlds), OUT_DOC (docs/benchmark_worlds.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # shellcheck source=scripts/env.sh
@@ -29,6 +36,11 @@ exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
 out_dir="${OUT_DIR:-docs/benchmark_worlds}"
 out_doc="${OUT_DOC:-docs/benchmark_worlds.md}"
 families=(room crowd corridor doorway clutter junction)
+case "${ORACLE:-1}" in
+  1) methods=dqn_dovs,s_dovs,oracle ;;
+  0) methods=dqn_dovs,s_dovs ;;
+  *) echo "benchmark_worlds: ORACLE must be 0 or 1 (got '$ORACLE')" >&2; exit 2 ;;
+esac
 counts=(5 10 15)
 # The installed tools find the core library through the install tree.
 export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
@@ -41,21 +53,21 @@ total_runs=$(( ${#families[@]} * ${#counts[@]} + 6 ))
 done_runs=0
 failed=()
 
-# evaluate NAME N TRAJECTORIES [dqn_dovs_eval options...]: one run of both methods at N into OUT_DIR/NAME/.
+# evaluate NAME N TRAJECTORIES [dqn_dovs_eval options...]: one run of the methods at N into OUT_DIR/NAME/.
 evaluate() {
   local name=$1 n=$2 trajectories=$3
   shift 3
   local dir="$out_dir/$name"
   rm -rf "$dir"
   mkdir -p "$dir"
-  local args=(--methods dqn_dovs,s_dovs --generate "$seed" --obstacles "$n" --episodes "$episodes"
+  local args=(--methods "$methods" --generate "$seed" --obstacles "$n" --episodes "$episodes"
               --threads "$threads" --model "$model" --trajectories "$trajectories" --out "$dir" "$@")
   local start end
   start=$(date +%s.%N)
   local outcome
   if "$exe" "${args[@]}" >"$dir/eval.log" 2>&1; then
-    # The console table's mean row: success, c = collision, t = timeout of dqn_dovs then s_dovs.
-    outcome="dqn_dovs / s_dovs:$(grep -E '^ +mean ' "$dir/eval.log" | sed -E 's/^ +mean//; s/ +/ /g')"
+    # The console table's mean row: success, c = collision, t = timeout of each method in order.
+    outcome="${methods//,/ / }:$(grep -E '^ +mean ' "$dir/eval.log" | sed -E 's/^ +mean//; s/ +/ /g')"
   else
     # The tool stops at its first error (its last line); the report shows the run as not run, with it.
     tail -n 1 "$dir/eval.log" >"$dir/failed.txt"

@@ -18,7 +18,12 @@ method and obstacle count, the figures of an evaluation's summary (dqn_dovs_py.r
 - collisions by kind (static geometry / robot at rest / robot moving) and the robot's speed at contact (mean and
   nearest-rank 95th percentile over the collisions); the pooled row sums every count;
 - collisions by the planner's last decision before the contact (the network's action and the shield level that
-  allowed it, or the escape and its tier), pooled over every count.
+  allowed it, or the escape and its tier), pooled over every count;
+- with `oracle` among the methods (the physical limit, docs/planners.md section 9): its success rate beside the
+  others, each method's share of its successes (report.oracle_share) per count and overall, and the episodes it did
+  not solve with the methods that solved them all the same. The oracle is a ceiling, never a baseline: it is left
+  out of the paired comparisons and of the "beats every baseline" verdicts. A file without oracle episodes shows
+  it as not run.
 
 scripts/benchmark_table.sh (make benchmark-table) runs the evaluations and then this module. The discussion
 file is hand-written and included verbatim.
@@ -49,6 +54,11 @@ from .report import fixed as _f  # noqa: E402
 from .report import nan_mean as _mean  # noqa: E402
 
 REFERENCE = "dqn_dovs"
+# The physical limit (a search that reads the simulator's future): a ceiling, never a baseline.
+ORACLE = report.ORACLE
+NOT_RUN = "not run"
+# At most this many of the oracle's unsolved episodes are listed per perception; the rest are in results.csv.
+MAX_UNSOLVED_ROWS = 100
 # Ablations of our own method, not baselines.
 ABLATIONS = ("dqn_dovs_latest_escape", "dqn_dovs_no_escape", "dqn_dovs_unshielded")
 # Baselines that drive the differential-drive robot within its acceleration limits (orca_holonomic does not).
@@ -69,12 +79,67 @@ def read_results(path: str) -> list[Record]:
 
 
 def summarize(records: list[Record], reference: str = REFERENCE) -> Summary:
-    """Per (method, count) cells and a per-method overall cell (report.summarize)."""
-    return report.summarize(records, reference)
+    """Per (method, count) cells and a per-method overall cell (report.summarize); the methods in the order of the
+    records, the oracle last."""
+    order = list(dict.fromkeys(r.method for r in records if r.method != ORACLE))
+    return report.summarize(records, reference, order)
 
 
 def baselines_of(summary: Summary, method: str = REFERENCE) -> list[str]:
-    return [m for m in summary.methods if m != method and m not in ABLATIONS]
+    """Every method but `method`, the ablations and the oracle (a ceiling)."""
+    return [m for m in summary.methods if m != method and m not in ABLATIONS and m != ORACLE]
+
+
+def has_oracle(s: Summary) -> bool:
+    """Whether the summary's records hold oracle episodes."""
+    return ORACLE in s.methods and s.overall[ORACLE].episodes > 0
+
+
+@dataclass
+class Unsolved:
+    """An episode the oracle did not solve, and the other methods that solved it (same count and episode number)."""
+
+    obstacles: int
+    episode: int
+    scenario: str
+    outcome: str  # collision or timeout
+    collision_kind: str | None  # report.COLLISION_KINDS, None when not recorded
+    time_s: float
+    solved_by: list[str]
+
+    def outcome_text(self) -> str:
+        if self.outcome != "collision" or not self.collision_kind:
+            return self.outcome
+        return {"rest": "collision, robot at rest", "moving": "collision, robot moving",
+                "static": "collision, static geometry"}[self.collision_kind]
+
+
+def oracle_unsolved(records: list[Record]) -> list[Unsolved]:
+    """The oracle's episodes that did not end in success, by obstacle count and episode, each with the methods
+    (in the records' order) that solved the same episode; empty without oracle episodes."""
+    solved: dict[tuple[int, int], list[str]] = {}
+    for r in records:
+        if r.method != ORACLE and r.outcome == "success":
+            names = solved.setdefault((r.obstacles, r.episode), [])
+            if r.method not in names:
+                names.append(r.method)
+    out = [Unsolved(r.obstacles, r.episode, r.scenario, r.outcome, r.collision_kind, r.time_s,
+                    solved.get((r.obstacles, r.episode), []))
+           for r in records if r.method == ORACLE and r.outcome != "success"]
+    return sorted(out, key=lambda u: (u.obstacles, u.episode))
+
+
+def unsolved_counts(unsolved: list[Unsolved]) -> str:
+    """"C collisions (R robot at rest, M robot moving, S static geometry), T timeouts"."""
+    crashes = [u for u in unsolved if u.outcome == "collision"]
+    kinds = [f"{sum(u.collision_kind == k for u in crashes)} {label}" for k, label in
+             (("rest", "robot at rest"), ("moving", "robot moving"), ("static", "static geometry"))]
+    unknown = sum(u.collision_kind is None for u in crashes)
+    if unknown:
+        kinds.append(f"{unknown} of kind not recorded")
+    timeouts = sum(u.outcome == "timeout" for u in unsolved)
+    return (f"{len(crashes)} collision{'s' * (len(crashes) != 1)} ({', '.join(kinds)}), "
+            f"{timeouts} timeout{'s' * (timeouts != 1)}")
 
 
 def beats_every_baseline(summary: Summary, n: int, method: str = REFERENCE,
@@ -172,14 +237,19 @@ def _paper_cell(paper, method: str, n: int | None) -> str:
 
 
 def success_table(s: Summary, paper: dict[str, dict[int, float]] | None) -> str:
+    """Success rate (time ratio) per N and the mean row: every method, the oracle last (NOT_RUN without oracle
+    episodes), then the paper's columns."""
     pm = _paper_methods(paper) if paper else []
-    header = ["N"] + s.methods + [f"paper {m}" for m in pm]
+    methods = s.methods if has_oracle(s) else [m for m in s.methods if m != ORACLE]
+    header = ["N"] + methods + ([] if has_oracle(s) else [ORACLE]) + [f"paper {m}" for m in pm]
     rows = []
     for n in list(s.counts) + [None]:
         row = ["mean" if n is None else str(n)]
-        for m in s.methods:
+        for m in methods:
             c = s.overall[m] if n is None else s.cell(m, n)
             row.append(_f(c.success_rate) + ("" if m == s.reference else f" ({_f(c.time_ratio)})"))
+        if not has_oracle(s):
+            row.append(NOT_RUN)
         for m in pm:
             if n is not None and n not in paper[m]:
                 row.append("-")
@@ -254,6 +324,63 @@ def stand_list(s: Summary, counts=STAND_COUNTS, method: str = REFERENCE) -> list
     return lines
 
 
+def oracle_share_table(s: Summary) -> str:
+    """Per N and over every N (`all`): the oracle's success rate, each other method's share of its successes
+    (report.oracle_share) and the oracle's unsolved episodes (collisions / timeouts). Needs oracle episodes."""
+    methods = [m for m in s.methods if m != ORACLE]
+    rows = []
+    for n in list(s.counts) + [None]:
+        o = s.overall[ORACLE] if n is None else s.cell(ORACLE, n)
+        label = "all" if n is None else str(n)
+        if not o.episodes:
+            rows.append([label, NOT_RUN] + ["-"] * len(methods) + ["-"])
+            continue
+        rows.append([label, _f(o.success_rate)]
+                    + [_f(report.oracle_share(s, m, n)) for m in methods] + [f"{o.collisions} / {o.timeouts}"])
+    return _table(["N", "oracle success"] + methods + ["oracle unsolved (collisions / timeouts)"], rows)
+
+
+def unsolved_table(unsolved: list[Unsolved], limit: int | None = None) -> str:
+    """The oracle's unsolved episodes, the first `limit` (default MAX_UNSOLVED_ROWS) of them: N, episode, scenario,
+    outcome, time, solved by."""
+    limit = MAX_UNSOLVED_ROWS if limit is None else limit
+    rows = [[str(u.obstacles), str(u.episode), f"`{u.scenario}`" if u.scenario else "-", u.outcome_text(),
+             _f(u.time_s, 1), ", ".join(u.solved_by) or "none"] for u in unsolved[:limit]]
+    return _table(["N", "episode", "scenario", "outcome", "time (s)", "solved by"], rows)
+
+
+def oracle_lines(s: Summary, records: list[Record] | None, source: str | None = None) -> list[str]:
+    """The oracle's subsections of a perception: the share of its successes and its unsolved episodes; NOT_RUN
+    without oracle episodes."""
+    out = ["### Share of the oracle's successes", ""]
+    if not has_oracle(s):
+        return out + [f"Not run: no `{ORACLE}` episodes in this run (`ORACLE=0`, or a run from before the oracle "
+                      "was in the benchmark).", ""]
+    out += [f"`{ORACLE}` is the physical limit (docs/planners.md section 9): a search that knows the obstacles' "
+            "future, not deployable; a ceiling, so it is in no paired comparison and no \"beats every baseline\" "
+            "verdict. Each method's cell: its successes over the oracle's on the same episodes (`all`: pooled over "
+            "every N; the oracle's column there is the mean of its per-N rates). Above 1 where a method solves "
+            "episodes the oracle does not: its search is a lower bound of the limit, not the limit.", "",
+            oracle_share_table(s), ""]
+    unsolved = oracle_unsolved(records or [])
+    out += ["### Episodes the oracle did not solve", ""]
+    if not unsolved:
+        return out + ["None: the oracle solved every episode.", ""]
+    out += ["Unavoidable as far as the oracle's search tells (a collision: every searched trajectory collides; a "
+            "timeout: no sequence reaches the goal in time): no method is to blame for these. `solved by`: the "
+            "methods that solved the episode all the same, where the search and not physics is the limit. "
+            "Scenario: the file under the scenarios folder (N-obstacle folder / episode).", "",
+            f"- {len(unsolved)} of the oracle's {s.overall[ORACLE].episodes} episodes unsolved: "
+            f"{unsolved_counts(unsolved)}; {sum(bool(u.solved_by) for u in unsolved)} of them solved by another "
+            "method, the others by none.", ""]
+    out += [unsolved_table(unsolved), ""]
+    if len(unsolved) > MAX_UNSOLVED_ROWS:
+        where = f"`{source}`" if source else "results.csv"
+        out += [f"The first {MAX_UNSOLVED_ROWS} of {len(unsolved)}; every one: the `{ORACLE}` rows of {where} "
+                "whose outcome is not success.", ""]
+    return out
+
+
 SIGNIFICANCE = 0.05
 
 
@@ -292,7 +419,9 @@ def plot_success(s: Summary, paper, title: str, path: str) -> None:
     fig, ax = plt.subplots(figsize=(8, 5))
     colors = {}
     for m in s.methods:
-        line = ax.plot(s.counts, [s.cell(m, n).success_rate for n in s.counts], marker="o", ms=3, label=m)[0]
+        style = {"color": "k", "ls": ":"} if m == ORACLE else {}
+        line = ax.plot(s.counts, [s.cell(m, n).success_rate for n in s.counts], marker="o", ms=3, label=m,
+                       **style)[0]
         colors[m] = line.get_color()
     if paper:
         # Dashed, in the colour of our counterpart (the paper's ORCA is CrowdNav's holonomic one).
@@ -374,13 +503,15 @@ def last_decision_table(records: list[Record], methods: list[str]) -> str | None
 
 
 def _perception_section(title: str, s: Summary, paper, plot_rel: str,
-                        records: list[Record] | None = None) -> list[str]:
+                        records: list[Record] | None = None, source: str | None = None) -> list[str]:
     out = [f"## {title}", ""]
     out += ["### Success rate", "",
             "Reached the goal and stopped on it. In brackets: total time of the method over total time of "
-            f"`{s.reference}` on the episodes both solved (the paper's ratio). The `paper` columns are the "
-            "paper's Table 1 (its own simulator and baselines); `mean` averages the per-N rates.", "",
+            f"`{s.reference}` on the episodes both solved (the paper's ratio). `{ORACLE}`: the physical limit "
+            "(below). The `paper` columns are the paper's Table 1 (its own simulator and baselines); `mean` "
+            "averages the per-N rates.", "",
             success_table(s, paper), "", f"![Success rate vs N]({plot_rel})", ""]
+    out += oracle_lines(s, records, source)
     out += ["### Collision rate", "", "Episodes ending in contact with an obstacle or a wall.", "",
             metric_table(s, "collision_rate"), ""]
     out += ["### Collisions by kind", "",
@@ -416,8 +547,11 @@ def _perception_section(title: str, s: Summary, paper, plot_rel: str,
 
 
 def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: dict, discussion: str | None,
-           plots: dict[str, str], records: dict[str, list[Record]] | None = None) -> str:
+           plots: dict[str, str], records: dict[str, list[Record]] | None = None,
+           sources: dict[str, str] | None = None) -> str:
+    """sources: the results.csv of each perception, named where the list of the oracle's unsolved episodes is cut."""
     records = records or {}
+    sources = sources or {}
     out = ["# Benchmark: DQN-DOVS and the baselines on the shared scenarios", "",
            "Generated by `make benchmark-table` (scripts/benchmark_table.sh, python/dqn_dovs_py/benchmark_report.py); "
            "do not edit by hand except `docs/benchmark_discussion.md`, included below.", ""]
@@ -449,19 +583,20 @@ def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: di
     out += ["## Where we stand", "",
             "Computed from the tables below: for each N, whether `dqn_dovs`'s success rate is strictly above every "
             f"baseline's ({', '.join(baselines_of(s0)) if s0 else '-'}; "
-            f"{', '.join(f'`{m}`' for m in ABLATIONS)} are our ablations, not baselines).", ""]
+            f"{', '.join(f'`{m}`' for m in ABLATIONS)} are our ablations and `{ORACLE}` the physical limit, not "
+            "baselines).", ""]
     for label, s in (("Tracker in the loop", tracker), ("Perfect information", perfect)):
         if s is None:
             continue
         out += [f"**{label}**", ""] + stand_list(s) + [""]
     if tracker is not None:
         out += _perception_section("Tracker in the loop (LIDAR + obstacle tracker)", tracker, paper,
-                                   plots.get("tracker", ""), records.get("tracker"))
+                                   plots.get("tracker", ""), records.get("tracker"), sources.get("tracker"))
     else:
         out += ["## Tracker in the loop", "", "Not run (no results.csv).", ""]
     if perfect is not None:
         out += _perception_section("Perfect information (simulator ground truth)", perfect, paper,
-                                   plots.get("perfect", ""), records.get("perfect"))
+                                   plots.get("perfect", ""), records.get("perfect"), sources.get("perfect"))
     else:
         out += ["## Perfect information", "", "Not run (no results.csv).", ""]
     if "collision" in plots:
@@ -482,10 +617,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", default="docs/benchmark.md")
     a = p.parse_args(argv)
 
-    summaries, records = {}, {}
+    summaries, records, sources = {}, {}, {}
     for key, path in (("tracker", a.tracker), ("perfect", a.perfect)):
         if path and os.path.exists(path):
             records[key] = read_results(path)
+            sources[key] = path
             summaries[key] = summarize(records[key])
         else:
             print(f"benchmark_report: {path} does not exist; that section says 'not run'", file=sys.stderr)
@@ -515,7 +651,8 @@ def main(argv=None) -> int:
     plot_collision(summaries, path)
     plots["collision"] = os.path.relpath(path, out_dir)
 
-    text = render(summaries.get("tracker"), summaries.get("perfect"), paper, run_info, discussion, plots, records)
+    text = render(summaries.get("tracker"), summaries.get("perfect"), paper, run_info, discussion, plots, records,
+                  sources)
     with open(a.out, "w") as f:
         f.write(text)
     print(f"wrote {a.out}")

@@ -1,10 +1,11 @@
-"""docs/benchmark_worlds.md: dqn_dovs and s_dovs across the generated world families, LIDAR profiles and people
-models, from the run folders scripts/benchmark_worlds.sh (make benchmark-worlds) writes.
+"""docs/benchmark_worlds.md: dqn_dovs and s_dovs (and the oracle, the physical limit) across the generated world
+families, LIDAR profiles and people models, from the run folders scripts/benchmark_worlds.sh (make benchmark-worlds)
+writes.
 
     python -m dqn_dovs_py.worlds_report --runs docs/benchmark_worlds --out docs/benchmark_worlds.md
 
-Each run folder holds one dqn_dovs_eval run of both methods at one count N (results.csv, run.json), LIDAR + tracker
-in the loop:
+Each run folder holds one dqn_dovs_eval run of both methods, and of `oracle` unless the script ran with ORACLE=0, at
+one count N (results.csv, run.json), LIDAR + tracker in the loop:
 
 - FAMILY_nN for every family (room, crowd, corridor, doorway, clutter, junction) and N = 5, 10, 15: LIDAR profile
   sim, social-force people to whom the robot is invisible;
@@ -14,7 +15,11 @@ in the loop:
 
 The figures are dqn_dovs_py.report's (success / collision / timeout rate, mean time on success; the `all N` row
 averages the per-N rates) and the paired comparison is dqn_dovs_py.benchmark_report's (episodes one method solved
-and the other did not, exact two-sided sign test). Writes the Markdown file and RUNS/success_by_world.png.
+and the other did not, exact two-sided sign test). The oracle (docs/planners.md section 9) is a ceiling, never a
+baseline: with it, the report gives its success per family and N, each method's share of its successes
+(report.oracle_share) and its unsolved episodes (the truly unavoidable ones as far as its search tells) per run, the
+first MAX_LISTED_EPISODES of each listed; runs without it show it as not run. Writes the Markdown file and
+RUNS/success_by_world.png.
 
 With --commit, --model and --total-wall (the script's record of the run) it first writes RUNS/run_info.json (date,
 commit, model and its sha256, machine, total wall time); without them it reads the one there, if any. The
@@ -35,9 +40,9 @@ from dataclasses import dataclass, field
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .benchmark_report import SIGNIFICANCE, Paired, paired_comparison
+from .benchmark_report import ORACLE, SIGNIFICANCE, Paired, Unsolved, oracle_unsolved, paired_comparison
 from .performance_report import machine_info
-from .report import EMPTY, Cell, Record, RunInfo, Summary, fixed, read_results, read_run, summarize
+from .report import EMPTY, Cell, Record, RunInfo, Summary, fixed, oracle_share, read_results, read_run, summarize
 from .run_info import sha256_of
 
 METHOD, RIVAL = "dqn_dovs", "s_dovs"
@@ -61,6 +66,8 @@ FAILED = "failed.txt"
 NOT_RUN = "not run"
 DISCUSSION_BEGIN = "<!-- BEGIN {path}: hand-written, copied verbatim by worlds_report -->"
 DISCUSSION_END = "<!-- END {path} -->"
+# The oracle's unsolved episodes listed per run; the others are in the run's results.csv.
+MAX_LISTED_EPISODES = 8
 
 
 # ----------------------------------------------------------------------------------------------- run folders
@@ -176,16 +183,24 @@ def load_runs(runs_dir: str) -> dict[str, Run]:
 
 @dataclass
 class Comparison:
-    """Both methods over some runs: report.summarize's cells per N and mean row, the paired comparison of METHOD
-    against RIVAL per N and pooled (key None), and the counts whose run the tool stopped, with its error."""
+    """Both methods over some runs: report.summarize's cells per N and mean row (the oracle's too when the runs
+    hold its episodes), the paired comparison of METHOD against RIVAL per N and pooled (key None), the counts whose
+    run the tool stopped, with its error, and the oracle's unsolved episodes."""
 
     summary: Summary
     paired: dict[int | None, Paired]
     not_run: dict[int, str] = field(default_factory=dict)
+    unsolved: list[Unsolved] = field(default_factory=list)
 
     def significant(self, n: int | None) -> bool:
         p = self.paired.get(n)
         return p is not None and p.p_value < SIGNIFICANCE
+
+    def oracle_cell(self, n: int | None) -> Cell:
+        """The oracle at `n` (None: over every N); an empty cell when it did not run."""
+        if ORACLE not in self.summary.methods:
+            return Cell()
+        return self.summary.overall[ORACLE] if n is None else self.summary.cell(ORACLE, n)
 
 
 def compare(runs: Sequence[Run]) -> Comparison:
@@ -195,7 +210,7 @@ def compare(runs: Sequence[Run]) -> Comparison:
     if not records:
         return Comparison(Summary([METHOD, RIVAL], [], METHOD, overall={METHOD: Cell(), RIVAL: Cell()}), {}, not_run)
     return Comparison(summarize(records, METHOD, (METHOD, RIVAL)), paired_comparison(records, METHOD, RIVAL),
-                      not_run)
+                      not_run, oracle_unsolved(records))
 
 
 def family_comparisons(runs: dict[str, Run]) -> dict[str, Comparison]:
@@ -289,6 +304,84 @@ def probe_table(label: str, rows: Sequence[tuple[str, Comparison]]) -> str:
     return markdown_table([label] + COMPARISON_COLUMNS, [comparison_row(name, c, PROBE_N) for name, c in rows])
 
 
+ORACLE_COLUMNS = ["world", "N", f"`{ORACLE}` success", f"`{METHOD}` share", f"`{RIVAL}` share", "unsolved",
+                  "collisions (rest / moving / static)", "timeouts", "solved by a planner"]
+
+
+def oracle_row(world: str, c: Comparison, n: int | None, n_label: str) -> list[str]:
+    """A row of the oracle table: its success at `n` (None: the mean of the per-N rates, shares and counts pooled),
+    both methods' shares of its successes and its unsolved episodes; NOT_RUN when the run or the oracle did not
+    run."""
+    o = c.oracle_cell(n)
+    if n in c.not_run or not o.episodes:
+        return [world, n_label, NOT_RUN] + [EMPTY] * (len(ORACLE_COLUMNS) - 3)
+    unsolved = [u for u in c.unsolved if n is None or u.obstacles == n]
+    crashes = [u for u in unsolved if u.outcome == "collision"]
+    kinds = ("-" if any(u.collision_kind is None for u in crashes) else
+             " / ".join(str(sum(u.collision_kind == k for u in crashes)) for k in ("rest", "moving", "static")))
+    rescued = sum(any(m in (METHOD, RIVAL) for m in u.solved_by) for u in unsolved)
+    return [world, n_label, fixed(o.success_rate), fixed(oracle_share(c.summary, METHOD, n)),
+            fixed(oracle_share(c.summary, RIVAL, n)), f"{len(unsolved)} of {o.episodes}", kinds,
+            str(len(unsolved) - len(crashes)), str(rescued)]
+
+
+def oracle_table(families: dict[str, Comparison], probes: Sequence[tuple[str, Comparison]]) -> str:
+    """Per family and N (and all N), then the probe runs at PROBE_N: the oracle's figures (oracle_row)."""
+    rows = []
+    for w, c in families.items():
+        rows += [oracle_row(w, c, n, str(n)) for n in COUNTS] + [oracle_row(w, c, None, all_label(c))]
+    rows += [oracle_row(label, c, PROBE_N, str(PROBE_N)) for label, c in probes]
+    return markdown_table(ORACLE_COLUMNS, rows)
+
+
+def episode_text(u: Unsolved) -> str:
+    """An unsolved episode in the list: "7 (timeout; solved by s_dovs)"."""
+    solved = [m for m in u.solved_by if m != ORACLE]
+    return f"{u.episode} ({u.outcome_text()}" + (f"; solved by {', '.join(solved)})" if solved else ")")
+
+
+def unsolved_table(runs: dict[str, Run], runs_dir: str) -> str | None:
+    """One row per run whose oracle did not solve every episode: how many, and the first MAX_LISTED_EPISODES with
+    their outcome (and the planners that solved them), the rest pointed to in the run's results.csv; None when no
+    run has an unsolved oracle episode."""
+    rows = []
+    for name, run in runs.items():
+        unsolved = oracle_unsolved(run.records)
+        if not unsolved:
+            continue
+        ran = sum(r.method == ORACLE for r in run.records)
+        listed = ", ".join(episode_text(u) for u in unsolved[:MAX_LISTED_EPISODES])
+        if len(unsolved) > MAX_LISTED_EPISODES:
+            listed += (f"; {len(unsolved) - MAX_LISTED_EPISODES} more in "
+                       f"`{os.path.join(runs_dir, name, 'results.csv')}`")
+        rows.append([f"`{name}`", f"{len(unsolved)} of {ran}", listed])
+    return markdown_table(["run", "unsolved", "episodes (outcome)"], rows) if rows else None
+
+
+def oracle_section(runs: dict[str, Run], families: dict[str, Comparison], probes: Sequence[tuple[str, Comparison]],
+                   runs_dir: str) -> list[str]:
+    """The oracle's section: its table and its unsolved episodes, or NOT_RUN when no run holds its episodes."""
+    out = ["## The oracle: the physical limit", ""]
+    if not any(r.method == ORACLE for run in runs.values() for r in run.records):
+        return out + [f"Not run: no run folder holds `{ORACLE}` episodes (`ORACLE=0`, or runs from before the "
+                      "oracle was in this benchmark).", ""]
+    out += [f"`{ORACLE}` (docs/planners.md section 9) searches the robot's commands knowing the people's future "
+            "(they ignore the robot, so it is fixed by the seed): not deployable, a ceiling and never a baseline. "
+            f"Share: a planner's successes over the oracle's on the same episodes (above 1 where the planner solves "
+            "episodes the oracle does not: the search is a lower bound of the limit). Unsolved: the oracle's "
+            "collisions (robot at rest / moving / static geometry) and timeouts, unavoidable as far as its search "
+            f"tells; `solved by a planner`: those `{METHOD}` or `{RIVAL}` solved all the same. `all N` averages the "
+            "per-N success rates and pools the shares and counts. The probe runs are crowd, N = "
+            f"{PROBE_N} (the sim LIDAR and social-force rows are the family's).", "",
+            oracle_table(families, probes), "", "### Episodes the oracle did not solve", ""]
+    table = unsolved_table(runs, runs_dir)
+    if table is None:
+        return out + ["None: the oracle solved every episode of every run.", ""]
+    return out + [f"Per run (episodes in order, the first {MAX_LISTED_EPISODES}; every one: the `{ORACLE}` rows of "
+                  "the run's results.csv whose outcome is not success). Runs not listed: the oracle solved every "
+                  "episode, or did not run.", "", table, ""]
+
+
 # ----------------------------------------------------------------------------------------------- how it was made
 
 
@@ -335,7 +428,7 @@ def how_made(runs: dict[str, Run], run_info: dict | None, runs_dir: str) -> list
     infos = [r.info for r in runs.values() if r.info is not None]
     out += [f"- Generated episodes, seed {_joined([i.seed for i in infos])} (the seed of this report, not used to "
             f"tune anything); {_joined([i.episodes for i in infos])} episodes per run and method, the same episodes "
-            f"for both methods; LIDAR + tracker in the loop; step {_joined([i.step_s for i in infos])} s, "
+            f"for every method; LIDAR + tracker in the loop; step {_joined([i.step_s for i in infos])} s, "
             f"limit {_joined([i.max_steps for i in infos])} steps",
             "- Regenerate: `make benchmark-worlds` (EPISODES=K for a shorter run)", "",
             "The runs (`wall`: the evaluation's own wall time, from run.json; a run the tool stopped shows its "
@@ -358,6 +451,9 @@ def plot_success_by_world(families: dict[str, Comparison], path: str) -> Figure:
     for ax, (world, c) in zip(axes.flat, families.items()):
         for m in (METHOD, RIVAL):
             ax.plot(COUNTS, [c.summary.cell(m, n).success_rate for n in COUNTS], marker="o", ms=4, label=m)
+        if c.oracle_cell(None).episodes:
+            ax.plot(COUNTS, [c.oracle_cell(n).success_rate for n in COUNTS], marker="o", ms=4, color="k", ls=":",
+                    label=ORACLE)
         for n in COUNTS:
             if c.significant(n):
                 ax.annotate("*", (n, 1.0), ha="center", fontsize=14)
@@ -371,8 +467,11 @@ def plot_success_by_world(families: dict[str, Comparison], path: str) -> Figure:
         ax.set_xlabel("N (people; disc obstacles in room)")
     for ax in axes[:, 0]:
         ax.set_ylabel("success rate")
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncol=2,
+    legend = {}
+    for ax in axes.flat:  # the oracle may be in some panels only
+        for handle, label in zip(*ax.get_legend_handles_labels()):
+            legend.setdefault(label, handle)
+    fig.legend(list(legend.values()), list(legend), loc="outside lower center", ncol=len(legend),
                title=f"method (*: paired sign test p < {SIGNIFICANCE})")
     fig.suptitle("Success rate vs N per world family (LIDAR + tracker in the loop)")
     fig.savefig(path)
@@ -405,15 +504,18 @@ def render(runs: dict[str, Run], run_info: dict | None, runs_dir: str, plot_rel:
             summary_table(families), "", "Significant paired differences:", ""]
     out += significant_lines(families) + ["", f"![Success rate vs N per family]({plot_rel})", ""]
     out += discussion_section(discussion_path)
+    sensors = [(f"`{s}`", compare([runs[sensor_spec(s).name]])) for s in SENSORS]
+    people = [(label, compare([runs[spec.name]])) for label, spec in people_specs()]
+    probes = [(f"{PROBE_WORLD}, LIDAR {s}", c) for s, c in zip(SENSORS, (c for _, c in sensors)) if s != "sim"]
+    probes += [(f"{PROBE_WORLD}, {label}", c) for label, c in people[1:]]
+    out += oracle_section(runs, families, probes, runs_dir)
     out += ["## Per family", "", "LIDAR profile sim, social-force people to whom the robot is invisible. "
             + COMPARISON_NOTE + " The `all N` row averages the per-N rates and pools the pairs.", ""]
     for w, c in families.items():
         out += [f"### {w}", "", FAMILY_LAYOUTS[w] + ".", "", family_table(c), ""] + not_run_lines(c)
-    sensors = [(f"`{s}`", compare([runs[sensor_spec(s).name]])) for s in SENSORS]
     out += ["## LIDAR profiles", "", f"{PROBE_WORLD}, N = {PROBE_N}, social-force people; the LIDAR profiles of "
             "docs/simulator.md (`sim` is the run of the family table). " + COMPARISON_NOTE, "",
             probe_table("profile", sensors), ""]
-    people = [(label, compare([runs[spec.name]])) for label, spec in people_specs()]
     out += ["## People models", "", f"{PROBE_WORLD}, N = {PROBE_N}, LIDAR profile sim (the first row is the run of "
             "the family table). " + COMPARISON_NOTE, "", probe_table("people", people), ""]
     return "\n".join(out)

@@ -165,7 +165,8 @@ def test_report_end_to_end(tmp_path):
     text = out.read_text()
     assert "Hand-written *prose*, kept verbatim.\n\n- a point\n" in text
     assert "## Where we stand" in text and "**Perfect information**" in text
-    assert "| 5 | 1.00 | 0.50 (1.50) | 0.00 (-) | 1.00 (1.00) | 0.82 | 0.73 (1.07) | 0.76 |" in text
+    # No oracle in these files: its column says so, before the paper's.
+    assert "| 5 | 1.00 | 0.50 (1.50) | 0.00 (-) | 1.00 (1.00) | not run | 0.82 | 0.73 (1.07) | 0.76 |" in text
     for png in ("success_vs_n_tracker.png", "success_vs_n_perfect.png", "collision_vs_n.png"):
         assert os.path.getsize(plots / png) > 1000
         assert f"(benchmark/{png})" in text
@@ -339,3 +340,107 @@ def test_report_has_the_collision_kind_tables(tmp_path):
     assert "| all | - | 0 / 0 / 0 | - | 0 / 0 / 0 |" in perfect_part
     # The rate tables keep their mean row (collision rate: mean of 0.5 and 1.0, of 0.5 and 0.0).
     assert "| mean | 0.75 | 0.25 |" in tracker_part
+
+
+# With the oracle (its rows first in the file, as they may come in any order), collision kinds recorded. N = 5:
+# oracle solves 1-3 and is walked into at rest on 4 (no method solves 4); N = 6: oracle solves 1-3 and times out on
+# 4, which dqn_dovs solves. dqn_dovs solves (5,1), (5,2), (6,1), (6,4); s_dovs (5,1), (6,3).
+def _oracle_rows():
+    rows = [("oracle", 5, k, "success", 8.0, 0, 40, "", "") for k in (1, 2, 3)]
+    rows += [("oracle", 5, 4, "collision", 6.0, 3, 30, "rest", 0.0)]
+    rows += [("oracle", 6, k, "success", 8.0, 0, 40, "", "") for k in (1, 2, 3)]
+    rows += [("oracle", 6, 4, "timeout", 100.0, 0, 500, "", "")]
+    solved = {"dqn_dovs": {(5, 1), (5, 2), (6, 1), (6, 4)}, "s_dovs": {(5, 1), (6, 3)}}
+    for m, ok in solved.items():
+        for n in (5, 6):
+            for k in (1, 2, 3, 4):
+                rows.append((m, n, k, "success", 10.0, 0, 50, "", "") if (n, k) in ok else
+                            (m, n, k, "collision", 3.0, 2, 15, "moving", 0.5))
+    return rows
+
+
+ORACLE_ROWS = _oracle_rows()
+
+
+@pytest.fixture
+def oracle_records(tmp_path):
+    return br.read_results(write_results(tmp_path / "oracle.csv", ORACLE_ROWS, HEADER_KINDS))
+
+
+def test_oracle_is_a_ceiling_not_a_baseline(oracle_records):
+    s = br.summarize(oracle_records)
+    assert s.methods == ["dqn_dovs", "s_dovs", "oracle"]  # the oracle last although its rows come first
+    assert br.has_oracle(s) and br.baselines_of(s) == ["s_dovs"]
+    # The oracle (0.75) is above dqn_dovs (0.50) at both counts; against the baselines dqn_dovs still wins.
+    assert br.beats_every_baseline(s, 5) == (True, "s_dovs", 0.25)
+    assert all("**beats every baseline**" in line for line in br.stand_list(s, counts=(5, 6))[:2])
+    table, lines = br.paired_table(oracle_records, s)
+    assert table.splitlines()[0] == "| N | vs s_dovs |" and "oracle" not in "\n".join(lines)
+    # The success table: the oracle's column last, with its time ratio against dqn_dovs (8 / 10 on (5,1), (5,2)).
+    rows = br.success_table(s, None).splitlines()
+    assert rows[0] == "| N | dqn_dovs | s_dovs | oracle |"
+    assert rows[2] == "| 5 | 0.50 | 0.25 (1.00) | 0.75 (0.80) |"
+    assert rows[4] == "| mean | 0.50 | 0.25 (1.00) | 0.75 (0.80) |"
+
+
+def test_oracle_share_and_unsolved_episodes(oracle_records):
+    s = br.summarize(oracle_records)
+    share = br.oracle_share_table(s).splitlines()
+    assert share[0] == "| N | oracle success | dqn_dovs | s_dovs | oracle unsolved (collisions / timeouts) |"
+    # N = 5: 2 and 1 of the oracle's 3; N = 6: 2 and 1 of 3; all: 4 and 2 of 6 pooled.
+    assert share[2:] == ["| 5 | 0.75 | 0.67 | 0.33 | 1 / 0 |", "| 6 | 0.75 | 0.67 | 0.33 | 0 / 1 |",
+                         "| all | 0.75 | 0.67 | 0.33 | 1 / 1 |"]
+    unsolved = br.oracle_unsolved(oracle_records)
+    assert [(u.obstacles, u.episode, u.scenario, u.outcome_text(), u.solved_by) for u in unsolved] == [
+        (5, 4, "1-5/4", "collision, robot at rest", []), (6, 4, "1-6/4", "timeout", ["dqn_dovs"])]
+    assert br.unsolved_counts(unsolved) == ("1 collision (1 robot at rest, 0 robot moving, 0 static geometry), "
+                                            "1 timeout")
+    assert br.unsolved_table(unsolved).splitlines()[2:] == [
+        "| 5 | 4 | `1-5/4` | collision, robot at rest | 6.0 | none |",
+        "| 6 | 4 | `1-6/4` | timeout | 100.0 | dqn_dovs |"]
+    # Files without an oracle: nothing unsolved, no share.
+    plain = [r for r in oracle_records if r.method != "oracle"]
+    assert br.oracle_unsolved(plain) == [] and not br.has_oracle(br.summarize(plain))
+
+
+def _report(tmp_path, tracker, perfect=""):
+    out = tmp_path / "benchmark.md"
+    assert br.main(["--tracker", str(tracker), "--perfect", str(perfect), "--paper", "", "--discussion", "",
+                    "--run-info", "", "--plots", str(tmp_path), "--out", str(out)]) == 0
+    return out.read_text()
+
+
+def test_report_with_the_oracle(tmp_path):
+    tracker = write_results(tmp_path / "tracker.csv", ORACLE_ROWS, HEADER_KINDS)
+    # Perfect information: every planner solves everything, the oracle's outcomes are the same.
+    perfect = write_results(tmp_path / "perfect.csv", [r if r[0] == "oracle" else
+                                                       r[:3] + ("success", 10.0, 0, 50, "", "") for r in ORACLE_ROWS],
+                            HEADER_KINDS)
+    text = _report(tmp_path, tracker, perfect)
+    tracker_part, perfect_part = text.split("## Perfect information")
+    assert "| 6 | 0.50 | 0.25 (-) | 0.75 (0.80) |" in tracker_part
+    assert "| all | 0.75 | 0.67 | 0.33 | 1 / 1 |" in tracker_part
+    assert ("- 2 of the oracle's 8 episodes unsolved: 1 collision (1 robot at rest, 0 robot moving, 0 static "
+            "geometry), 1 timeout; 1 of them solved by another method, the others by none.") in tracker_part
+    assert "| 5 | 4 | `1-5/4` | collision, robot at rest | 6.0 | none |" in tracker_part
+    # With perfect information both planners solve the oracle's two failures, and more than its successes.
+    assert "| all | 0.75 | 1.33 | 1.33 | 1 / 1 |" in perfect_part
+    assert "| 5 | 4 | `1-5/4` | collision, robot at rest | 6.0 | dqn_dovs, s_dovs |" in perfect_part
+    assert "2 of them solved by another method" in perfect_part
+    assert "vs oracle" not in text and "The first" not in text
+
+
+def test_the_unsolved_list_is_cut_with_a_pointer_to_the_file(tmp_path, monkeypatch):
+    monkeypatch.setattr(br, "MAX_UNSOLVED_ROWS", 1)
+    tracker = write_results(tmp_path / "tracker.csv", ORACLE_ROWS, HEADER_KINDS)
+    text = _report(tmp_path, tracker)
+    assert "| 5 | 4 | `1-5/4` |" in text and "| 6 | 4 | `1-6/4` |" not in text
+    assert f"The first 1 of 2; every one: the `oracle` rows of `{tracker}` whose outcome is not success." in text
+
+
+def test_report_of_a_run_without_the_oracle(tmp_path):
+    text = _report(tmp_path, write_results(tmp_path / "tracker.csv", ROWS))
+    assert "| N | dqn_dovs | s_dovs | dwa | dqn_dovs_unshielded | oracle |" in text
+    assert "| mean | 0.75 | 0.75 (1.35) | 0.50 (1.00) | 1.00 (1.00) | not run |" in text
+    assert "### Share of the oracle's successes\n\nNot run: no `oracle` episodes in this run" in text
+    assert "### Episodes the oracle did not solve" not in text

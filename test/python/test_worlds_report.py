@@ -27,19 +27,25 @@ SOLVED = {
 
 
 def write_run(runs: Path, spec: wr.RunSpec, solved: dict[str, set[int]] | None = None) -> Path:
-    """results.csv and run.json of `spec`'s run, as dqn_dovs_eval writes them."""
+    """results.csv and run.json of `spec`'s run, as dqn_dovs_eval writes them: the methods of `solved` (default
+    both planners solving ODD). A planner's failure is a collision while moving; the oracle's is a collision at rest
+    on odd episodes and a timeout on even ones."""
     folder = runs / spec.name
     folder.mkdir(parents=True)
     solved = solved or {"dqn_dovs": ODD, "s_dovs": ODD}
     with open(folder / "results.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(RESULTS_COLUMNS)
-        for method in ("dqn_dovs", "s_dovs"):
+        for method in solved:
             for k in range(1, EPISODES + 1):
                 ok = k in solved[method]
-                w.writerow([method, spec.n, k, f"{spec.world}/11001/{spec.n}/{k}", "success" if ok else "collision",
-                            SUCCESS_S if ok else COLLISION_S, 5.0, 0.3, 0, 60 if ok else 15, 0,
-                            "" if ok else "moving", "" if ok else 0.4, "action 1 (shield: robust)"])
+                timeout = not ok and method == "oracle" and k % 2 == 0
+                outcome = "success" if ok else "timeout" if timeout else "collision"
+                kind = "" if ok or timeout else "rest" if method == "oracle" else "moving"
+                w.writerow([method, spec.n, k, f"{spec.world}/11001/{spec.n}/{k}", outcome,
+                            SUCCESS_S if ok else 100.0 if timeout else COLLISION_S, 5.0, 0.3, 0,
+                            60 if ok else 500 if timeout else 15, 0, kind,
+                            "" if ok or timeout else 0.0 if method == "oracle" else 0.4, "action 1 (shield: robust)"])
     run = {"command": f"dqn_dovs_eval --world {spec.world} --obstacles {spec.n} --out {folder}",
            "scenarios": "generated", "seed": 11001, "obstacles_min": spec.n, "obstacles_max": spec.n,
            "episodes": EPISODES, "dynamic_fraction": 0.85, "world": spec.world, "sensor": spec.sensor,
@@ -205,3 +211,87 @@ def test_main_records_the_run_then_reports(runs: Path, tmp_path: Path, capsys):
     assert f"wrote {out}" in capsys.readouterr().out
     # Regenerating without the record keeps it.
     assert wr.main(args) == 0 and "commit `abc1234`" in out.read_text()
+
+
+# The same runs with the oracle: it solves episodes 1-9 (10 times out) unless listed. In doorway_n10 it solves only
+# episode 1, and the planners solve 2 (s_dovs) and 3 (dqn_dovs) of its failures; crowd_n10_orca ran without it.
+ORACLE_SOLVED = set(range(1, EPISODES))
+SOLVED_WITH_ORACLE = {
+    "doorway_n10": {"dqn_dovs": {1, 3}, "s_dovs": {2}, "oracle": {1}},
+    "crowd_n10_orca": {"dqn_dovs": ODD, "s_dovs": ODD},
+}
+
+
+@pytest.fixture
+def oracle_runs(tmp_path: Path) -> Path:
+    root = tmp_path / "with_oracle"
+    for spec in wr.all_specs():
+        solved = SOLVED_WITH_ORACLE.get(spec.name) or {**SOLVED.get(spec.name, {"dqn_dovs": ODD, "s_dovs": ODD}),
+                                                       "oracle": ORACLE_SOLVED}
+        write_run(root, spec, solved)
+    return root
+
+
+def oracle_rows(text: str) -> dict[tuple[str, str], str]:
+    """The oracle table's rows by (world, N)."""
+    section = text.split("## The oracle: the physical limit")[1].split("### Episodes the oracle")[0]
+    rows = [line for line in section.splitlines() if line.startswith("| ") and not line.startswith("| world")]
+    return {tuple(row.split(" | ")[:2]): row for row in rows}
+
+
+def test_oracle_success_share_and_unsolved_counts(oracle_runs: Path, tmp_path: Path):
+    text = make_report(oracle_runs, tmp_path)
+    rows = oracle_rows(text)
+    assert rows[("| room", "5")] == "| room | 5 | 0.90 | 0.11 | 0.33 | 1 of 10 | 0 / 0 / 0 | 1 | 0 |"
+    # Oracle 1 success, dqn_dovs 2, s_dovs 1; unsolved: 4 collisions at rest (3, 5, 7, 9), 5 timeouts, 2 solved.
+    assert rows[("| doorway", "10")] == "| doorway | 10 | 0.10 | 2.00 | 1.00 | 9 of 10 | 4 / 0 / 0 | 5 | 2 |"
+    # all N: the mean of 0.9, 0.1, 0.9; shares pooled, (5 + 2 + 5) / 19 and (5 + 1 + 5) / 19.
+    assert rows[("| doorway", "all N")] == "| doorway | all N | 0.63 | 0.63 | 0.58 | 11 of 30 | 4 / 0 / 0 | 7 | 2 |"
+    assert rows[("| crowd, LIDAR hokuyo", "10")] == (
+        "| crowd, LIDAR hokuyo | 10 | 0.90 | 0.00 | 0.67 | 1 of 10 | 0 / 0 / 0 | 1 | 0 |")
+    orca = ("| crowd, reciprocal avoidance (ORCA), robot invisible to people", "10")
+    assert rows[orca].split(" | ")[2:4] == ["not run", "–"]
+    assert len(rows) == 6 * 4 + 3 + 3  # every family's N and all N, then the probe runs
+    # The paired comparison and the summary do not change with the oracle beside them.
+    assert "| 10 | 1.00 | 0.00 | 0.00 | 12.0 | 0.20 | 0.80 | 0.00 | 12.0 | +8 / -0 of 10 | **0.0078** |" in text
+    assert "| room | 0.10 / 0.30 | 1.00 / 0.20 * | 0.50 / 0.50 | 0.53 / 0.33 |" in text
+    assert "oracle` better" not in text
+
+
+def test_oracle_unsolved_episodes_are_listed_and_cut(oracle_runs: Path, tmp_path: Path):
+    text = make_report(oracle_runs, tmp_path)
+    listing = text.split("### Episodes the oracle did not solve")[1].split("## Per family")[0]
+    lines = {line.split(" | ")[0]: line for line in listing.splitlines() if line.startswith("| `")}
+    assert lines["| `doorway_n10`"] == (
+        "| `doorway_n10` | 9 of 10 | 2 (timeout; solved by s_dovs), 3 (collision, robot at rest; solved by dqn_dovs), "
+        "4 (timeout), 5 (collision, robot at rest), 6 (timeout), 7 (collision, robot at rest), 8 (timeout), "
+        f"9 (collision, robot at rest); 1 more in `{oracle_runs / 'doorway_n10' / 'results.csv'}` |")
+    assert lines["| `room_n5`"] == "| `room_n5` | 1 of 10 | 10 (timeout) |"
+    assert "| `crowd_n10_orca`" not in lines  # ran without the oracle
+    assert len(lines) == len(wr.all_specs()) - 1
+
+
+def test_a_stopped_run_and_the_plot_with_the_oracle(oracle_runs: Path, tmp_path: Path):
+    folder = oracle_runs / "corridor_n15"
+    for f in folder.iterdir():
+        f.unlink()
+    (folder / wr.FAILED).write_text("dqn_dovs_eval: no free place for person 11\n")
+    text = make_report(oracle_runs, tmp_path)
+    rows = oracle_rows(text)
+    assert rows[("| corridor", "15")].split(" | ")[2] == "not run"
+    assert rows[("| corridor", "all N that ran")] == (
+        "| corridor | all N that ran | 0.90 | 0.56 | 0.56 | 2 of 20 | 0 / 0 / 0 | 2 | 0 |")
+    fig = wr.plot_success_by_world(wr.family_comparisons(wr.load_runs(str(oracle_runs))), str(tmp_path / "p.png"))
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["dqn_dovs", "s_dovs", "oracle"]
+    doorway = next(ax for ax in fig.axes if ax.get_title() == "doorway")
+    oracle_line = next(line for line in doorway.get_lines() if line.get_label() == "oracle")
+    assert list(oracle_line.get_ydata()) == pytest.approx([0.9, 0.1, 0.9])
+
+
+def test_runs_without_the_oracle_say_so(runs: Path, tmp_path: Path):
+    text = make_report(runs, tmp_path)
+    assert ("## The oracle: the physical limit\n\nNot run: no run folder holds `oracle` episodes (`ORACLE=0`, or "
+            "runs from before the oracle was in this benchmark).") in text
+    assert "### Episodes the oracle did not solve" not in text
+    assert wr.family_comparisons(wr.load_runs(str(runs)))["room"].unsolved == []
