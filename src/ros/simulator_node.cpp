@@ -233,11 +233,11 @@ void SimulatorNode::loadScenario(const sim::Scenario& scenario, uint64_t seed) {
   command_stamp_s_ = -1e9;
   next_scan_s_ = 0.0;
   collided_reported_ = false;
-  // In the odom frame, which coincides with the room frame at the start of an episode (the odometry starts on the
-  // true pose): the planner takes the goal without waiting for a map -> odom transform.
+  // In the room frame: map_frame when there is one (odometry drifts from it; the planner re-transforms the goal
+  // through map -> odom every control period), else odom, which then is the room frame.
   geometry_msgs::PoseStamped goal;
   goal.header.stamp = simNow();
-  goal.header.frame_id = odom_frame_;
+  goal.header.frame_id = truth_frame_;
   goal.pose = poseToMsg(Pose2{scenario_.goal.x(), scenario_.goal.y(), 0.0});
   goal_pub_.publish(goal);
 }
@@ -277,7 +277,7 @@ bool SimulatorNode::onLoadScenario(LoadScenario::Request& req, LoadScenario::Res
     loadScenario(scenario, static_cast<uint64_t>(std::max<int64_t>(0, req.seed)));
     res.success = true;
     res.message = "loaded '" + scenario_.name + "' with " + std::to_string(scenario_.obstacles.size()) + " obstacles";
-    res.goal.header.frame_id = odom_frame_;
+    res.goal.header.frame_id = truth_frame_;
     res.goal.header.stamp = simNow();
     res.goal.pose = poseToMsg(Pose2{scenario_.goal.x(), scenario_.goal.y(), 0.0});
     ROS_INFO("simulator: %s", res.message.c_str());
