@@ -286,4 +286,47 @@ visualization_msgs::MarkerArray obstacleMarkers(const TrackedObstacleArray& msg,
   return out;
 }
 
+diagnostic_msgs::DiagnosticStatus plannerDiagnostics(const PlannerStatus& status, const PlannerStatus& previous,
+                                                     const std::string& name, const std::string& hardware_id) {
+  diagnostic_msgs::DiagnosticStatus d;
+  d.name = name;
+  d.hardware_id = hardware_id;
+  d.level = diagnostic_msgs::DiagnosticStatus::OK;
+  d.message = status.reason;
+  auto warn = [&](const std::string& why) {
+    if (d.level == diagnostic_msgs::DiagnosticStatus::OK) d.message = why;
+    d.level = diagnostic_msgs::DiagnosticStatus::WARN;
+  };
+  if (status.state == PlannerStatus::STOPPED) warn("stopped: " + status.reason);
+  if (status.state == PlannerStatus::ABORTED) warn("goal aborted: " + status.reason);
+  if (!status.recovery.empty()) warn("recovering (" + status.recovery + "): " + status.last_trigger);
+  if (status.deadline_misses > previous.deadline_misses) {
+    warn(std::to_string(status.deadline_misses - previous.deadline_misses) + " control periods missed their deadline");
+  }
+  if (status.envelope_corrections > previous.envelope_corrections) {
+    warn("commands corrected by the safety envelope: " + status.envelope_last);
+  }
+  auto add = [&](const std::string& key, const std::string& value) {
+    diagnostic_msgs::KeyValue kv;
+    kv.key = key;
+    kv.value = value;
+    d.values.push_back(kv);
+  };
+  static const char* const kStates[] = {"idle", "active", "reached", "stopped", "aborted"};
+  add("state", status.state < 5 ? kStates[status.state] : std::to_string(status.state));
+  add("reason", status.reason);
+  add("goal frame", status.goal_frame);
+  add("goal distance (m)", std::to_string(status.goal_distance));
+  add("route remaining (m)", std::to_string(status.route_remaining));
+  add("recovery", status.recovery);
+  add("recovery rounds", std::to_string(status.recovery_rounds));
+  add("last trigger", status.last_trigger);
+  add("control periods", std::to_string(status.control_periods));
+  add("deadline misses", std::to_string(status.deadline_misses));
+  add("max period lateness (s)", std::to_string(status.max_period_lateness));
+  add("envelope corrections", std::to_string(status.envelope_corrections));
+  add("static corrections", std::to_string(status.static_corrections));
+  return d;
+}
+
 }  // namespace dqn_dovs

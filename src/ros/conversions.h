@@ -1,6 +1,7 @@
 // Conversions between ROS messages and the ROS-free core types, with input checking.
 #pragma once
 
+#include <diagnostic_msgs/DiagnosticStatus.h>
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -10,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/sim/map.h"
@@ -43,5 +45,11 @@ std::string observationObstaclesFromMsg(const TrackedObstacleArray& msg, std::ve
 /// Cylinders, id labels and velocity arrows for rviz (namespace `ns`); deletes stale markers first.
 visualization_msgs::MarkerArray obstacleMarkers(const TrackedObstacleArray& msg, const std::string& ns, float r,
                                                 float g, float b);
+
+/// planner_node's health for /diagnostics from its last status: OK while idle, driving or on the goal; WARN while
+/// stopped (the reason is the message), recovering, after an aborted goal, or when deadline misses or envelope
+/// corrections grew since `previous` (the status of the last report); the status's figures as key-values.
+diagnostic_msgs::DiagnosticStatus plannerDiagnostics(const PlannerStatus& status, const PlannerStatus& previous,
+                                                     const std::string& name, const std::string& hardware_id);
 
 }  // namespace dqn_dovs

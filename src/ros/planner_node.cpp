@@ -1,5 +1,6 @@
 #include "planner_node.h"
 
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/Twist.h>
 #include <geometry_msgs/TwistStamped.h>
 #include <std_msgs/Float64.h>
@@ -128,6 +129,8 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   cmd_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 5);
   cmd_stamped_pub_ = nh_.advertise<geometry_msgs::TwistStamped>("planner/cmd_vel_stamped", 50);
   status_pub_ = nh_.advertise<PlannerStatus>("planner/status", 5, true);
+  diagnostics_pub_ = nh_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 5);
+  diagnostics_timer_ = nh_.createTimer(ros::Duration(1.0), &PlannerNode::onDiagnostics, this);
   action_pub_ = nh_.advertise<std_msgs::Int8>("planner/action", 5);
   latency_pub_ = nh_.advertise<std_msgs::Float64>("planner/latency", 20);
   dovs_sub_ = nh_.subscribe("dovs", 2, &PlannerNode::onDovs, this, ros::TransportHints().tcpNoDelay());
@@ -739,6 +742,16 @@ void PlannerNode::publishStatus(const ros::Time& now, double goal_distance) {
   s.deadline_misses = supervisor_.deadlineMisses();
   s.max_period_lateness = supervisor_.maxLateness_s();
   status_pub_.publish(s);
+  last_status_ = s;
+}
+
+void PlannerNode::onDiagnostics(const ros::TimerEvent&) {
+  diagnostic_msgs::DiagnosticArray a;
+  a.header.stamp = ros::Time::now();
+  a.status.push_back(
+      plannerDiagnostics(last_status_, last_reported_, ros::this_node::getName() + ": planner", base_frame_));
+  diagnostics_pub_.publish(a);
+  last_reported_ = last_status_;
 }
 
 }  // namespace dqn_dovs

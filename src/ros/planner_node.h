@@ -88,6 +88,7 @@ class PlannerNode {
   /// The network's action for last_dovs_ (computed once per message); -1 with `why` when there is none.
   int actionForLastDovs(std::string& why);
   void publishStatus(const ros::Time& now, double goal_distance);
+  void onDiagnostics(const ros::TimerEvent& event);  // 1 Hz: /diagnostics from the last status
 
   ros::NodeHandle nh_, pnh_;
   std::string fixed_frame_, base_frame_;
@@ -133,7 +134,9 @@ class PlannerNode {
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_, safety_sub_, map_sub_, path_sub_;
   ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_, local_goal_pub_, route_pub_;
-  ros::Timer decide_timer_, ramp_timer_;
+  ros::Timer decide_timer_, ramp_timer_, diagnostics_timer_;
+  ros::Publisher diagnostics_pub_;
+  PlannerStatus last_status_, last_reported_;
 };
 
 }  // namespace dqn_dovs

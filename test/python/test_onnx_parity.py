@@ -20,34 +20,15 @@ import pytest
 import torch
 
 from built_tools import built_tool
+from qnet_samples import random_net, random_states
 from dqn_dovs_py.export import (FORMAT_VERSION, ONNX_OPSET, OnnxExportError, export_model, load_weights, main,
                                 onnx_from_weights, read_onnx_metadata)
-from dqn_dovs_py.model import DuelingQNet, masked_argmax
+from dqn_dovs_py.model import masked_argmax
 
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"
 NORMALIZATION = {"v_max": 0.7, "w_max": 3.14159265, "goal_distance_scale": 8.0}
 TOLERANCE = 1e-4
-
-
-def _random_net(seed: int) -> DuelingQNet:
-    torch.manual_seed(seed)
-    net = DuelingQNet().eval()
-    with torch.no_grad():  # larger biases than the default initialisation, so every bias add shows
-        for module in net.modules():
-            if isinstance(module, (torch.nn.Conv2d, torch.nn.Linear)):
-                module.bias.add_(0.3 * torch.randn_like(module.bias))
-    return net
-
-
-def _random_states(n: int, seed: int) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    grid = np.where(rng.random((n, 400)) < 0.7, 1.0, -1.0)
-    features = rng.uniform(-1.0, 1.0, size=(n, 8))
-    states = np.concatenate([grid, features], axis=1).astype(np.float32)
-    states[0, :400], states[1, :400] = 1.0, -1.0  # everything free, everything unsafe
-    states[2, 400:], states[3, 400:] = 1.0, -1.0  # features at the clip limits
-    return states
 
 
 def _eigen_q(weights: Path, states: np.ndarray, tmp_path: Path) -> np.ndarray:
@@ -121,12 +102,12 @@ def _assert_metadata_matches(onnx_path: Path, weights_path: Path) -> None:
 
 @pytest.mark.parametrize("seed", [0, 1])
 def test_fresh_network_onnx_matches_eigen(tmp_path: Path, seed: int) -> None:
-    net = _random_net(seed)
+    net = random_net(seed)
     weights = export_model(net, tmp_path / "net.dqnw", NORMALIZATION, f"onnx parity seed {seed}")
     onnx_path = tmp_path / "net.onnx"
     assert onnx_path.is_file(), "export_model writes the .onnx beside the .dqnw by default"
     _assert_metadata_matches(onnx_path, weights)
-    states = _random_states(500, seed + 200)
+    states = random_states(500, seed + 200, edge_rows=True)
     _assert_same_function(onnx_path, weights, states, tmp_path)
     # The same function as the PyTorch network it came from, and the batch axis is dynamic (one state alone).
     with torch.no_grad():
@@ -136,12 +117,12 @@ def test_fresh_network_onnx_matches_eigen(tmp_path: Path, seed: int) -> None:
 
 
 def test_export_without_onnx_writes_only_the_weight_file(tmp_path: Path) -> None:
-    export_model(_random_net(2), tmp_path / "net.dqnw", NORMALIZATION, "no onnx", onnx=False)
+    export_model(random_net(2), tmp_path / "net.dqnw", NORMALIZATION, "no onnx", onnx=False)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["net.dqnw"]
     with pytest.raises(ValueError, match="suffix"):
-        export_model(_random_net(2), tmp_path / "net.onnx", NORMALIZATION, "")
+        export_model(random_net(2), tmp_path / "net.onnx", NORMALIZATION, "")
     ckpt = tmp_path / "ckpt.pt"
-    torch.save({"model": _random_net(2).state_dict(), "normalization": NORMALIZATION}, ckpt)
+    torch.save({"model": random_net(2).state_dict(), "normalization": NORMALIZATION}, ckpt)
     assert main([str(ckpt), str(tmp_path / "cli.dqnw"), "--no-onnx"]) == 0
     assert not (tmp_path / "cli.onnx").exists()
     assert main([str(ckpt), str(tmp_path / "cli.dqnw")]) == 0
@@ -155,7 +136,7 @@ def test_shipped_onnx_is_current_and_matches_eigen(tmp_path: Path, name: str) ->
     _assert_metadata_matches(shipped, weights)
     converted = onnx_from_weights(weights, tmp_path / f"{name}.onnx")
     assert read_onnx_metadata(converted) == read_onnx_metadata(shipped)
-    states = _random_states(400, 300)
+    states = random_states(400, 300, edge_rows=True)
     _assert_same_function(shipped, weights, states, tmp_path)
     np.testing.assert_array_equal(_onnx_q(converted, states), _onnx_q(shipped, states))
 
@@ -185,7 +166,7 @@ def _convert(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, 
 
 
 def test_converter_reports_bad_inputs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    good = export_model(_random_net(3), tmp_path / "good.dqnw", NORMALIZATION, "converter errors", onnx=False)
+    good = export_model(random_net(3), tmp_path / "good.dqnw", NORMALIZATION, "converter errors", onnx=False)
     out = tmp_path / "out.onnx"
 
     missing = tmp_path / "missing.dqnw"
@@ -217,7 +198,7 @@ def test_converter_reports_bad_inputs(tmp_path: Path, capsys: pytest.CaptureFixt
 
 
 def test_reading_a_corrupt_onnx_names_the_file(tmp_path: Path) -> None:
-    onnx_path = export_model(_random_net(4), tmp_path / "net.dqnw", NORMALIZATION, "corrupt onnx").with_suffix(".onnx")
+    onnx_path = export_model(random_net(4), tmp_path / "net.dqnw", NORMALIZATION, "corrupt onnx").with_suffix(".onnx")
     assert read_onnx_metadata(onnx_path)["dqn_dovs.metadata"] == "corrupt onnx"
     truncated = tmp_path / "truncated.onnx"
     truncated.write_bytes(onnx_path.read_bytes()[: onnx_path.stat().st_size // 2])

@@ -14,32 +14,15 @@ import pytest
 import torch
 
 from built_tools import built_tool
+from qnet_samples import random_net, random_states
 from dqn_dovs_py.export import export_model
-from dqn_dovs_py.model import DuelingQNet, masked_argmax
+from dqn_dovs_py.model import masked_argmax
 
 NORMALIZATION = {"v_max": 0.7, "w_max": 3.14159265, "goal_distance_scale": 8.0}
 
 
 def _eval_tool() -> Path:
     return built_tool("dqn_dovs_qnet_eval")
-
-
-def _random_net(seed: int) -> DuelingQNet:
-    torch.manual_seed(seed)
-    net = DuelingQNet().eval()
-    # Fresh biases are small; larger ones make every bias add visible in the comparison.
-    with torch.no_grad():
-        for module in net.modules():
-            if isinstance(module, (torch.nn.Conv2d, torch.nn.Linear)):
-                module.bias.add_(0.3 * torch.randn_like(module.bias))
-    return net
-
-
-def _random_states(n: int, seed: int) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    grid = np.where(rng.random((n, 400)) < 0.7, 1.0, -1.0)
-    features = rng.uniform(-1.0, 1.0, size=(n, 8))
-    return np.concatenate([grid, features], axis=1).astype(np.float32)
 
 
 def _cpp_q(tool: Path, weights: Path, states: np.ndarray, tmp_path: Path) -> np.ndarray:
@@ -55,9 +38,9 @@ def _cpp_q(tool: Path, weights: Path, states: np.ndarray, tmp_path: Path) -> np.
 @pytest.mark.parametrize("seed", [0, 1])
 def test_cpp_q_values_match_pytorch(tmp_path: Path, seed: int) -> None:
     tool = _eval_tool()
-    net = _random_net(seed)
+    net = random_net(seed)
     weights = export_model(net, tmp_path / "net.dqnw", NORMALIZATION, f"parity test seed {seed}")
-    states = _random_states(500, seed + 100)
+    states = random_states(500, seed + 100)
     with torch.no_grad():
         q_torch = net(torch.from_numpy(states)).numpy()
     q_cpp = _cpp_q(tool, weights, states, tmp_path)
@@ -77,11 +60,11 @@ def test_cpp_q_values_match_pytorch(tmp_path: Path, seed: int) -> None:
 
 def test_cpp_tool_rejects_corrupt_file(tmp_path: Path) -> None:
     tool = _eval_tool()
-    weights = export_model(_random_net(3), tmp_path / "net.dqnw", NORMALIZATION, "corrupt")
+    weights = export_model(random_net(3), tmp_path / "net.dqnw", NORMALIZATION, "corrupt")
     data = bytearray(weights.read_bytes())
     data[len(data) // 2] ^= 0x10
     weights.write_bytes(bytes(data))
-    states = _random_states(2, 0)
+    states = random_states(2, 0)
     states.astype("<f4").tofile(tmp_path / "s.f32")
     result = subprocess.run([str(tool), str(weights), str(tmp_path / "s.f32"), str(tmp_path / "q.f32")],
                             capture_output=True, text=True, timeout=60)

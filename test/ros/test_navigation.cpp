@@ -13,6 +13,7 @@
 //     not have, put on the route while the robot drives, is seen by the laser, and the route is planned again
 //     around it (and never back through it), and the local goals lead round it.
 #include <actionlib/client/simple_action_client.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
@@ -95,6 +96,7 @@ class Navigation : public ::testing::Test {
     localisation_ = new Localisation();
     safety_pub_ = new ros::Publisher(h_->nh.advertise<BaseSafety>("base_safety", 10, true));
     client_ = new Client(h_->nh, "move_base", false);
+    diagnostics_ = new TopicLog<diagnostic_msgs::DiagnosticArray>(h_->nh, "/diagnostics", 20, 5);
     // dovs_node takes the planner's local goal here, so the simple goal has one subscriber: the planner.
     ASSERT_TRUE(h_->waitUntilReadyFor(1, 1, 30.0));
     ASSERT_TRUE(client_->waitForServer(ros::Duration(30.0))) << "no move_base action server";
@@ -103,6 +105,7 @@ class Navigation : public ::testing::Test {
   static void TearDownTestSuite() {
     h_->stop();
     delete client_;
+    delete diagnostics_;
     delete safety_pub_;
     delete localisation_;
     delete h_;
@@ -193,11 +196,13 @@ class Navigation : public ::testing::Test {
   static Localisation* localisation_;
   static ros::Publisher* safety_pub_;
   static Client* client_;
+  static TopicLog<diagnostic_msgs::DiagnosticArray>* diagnostics_;
 };
 RobotHarness* Navigation::h_ = nullptr;
 Localisation* Navigation::localisation_ = nullptr;
 ros::Publisher* Navigation::safety_pub_ = nullptr;
 Client* Navigation::client_ = nullptr;
+TopicLog<diagnostic_msgs::DiagnosticArray>* Navigation::diagnostics_ = nullptr;
 
 TEST_F(Navigation, MapGoalIsReachedInPositionAndHeadingAndFollowsALocalisationJump) {
   const move_base_msgs::MoveBaseGoal goal = goalAheadInMap(2.0, 1.2);
@@ -251,6 +256,15 @@ TEST_F(Navigation, StalledWheelsStartARecoveryRoundThenTheGoalIsAborted) {
   robot().stuck = true;
   ASSERT_TRUE(waitFor([] { return !h_->lastStatus().recovery.empty(); }, 5.0)) << "no recovery after the stall";
   EXPECT_NE(h_->lastStatus().last_trigger.find("stalled"), std::string::npos) << h_->lastStatus().last_trigger;
+  // /diagnostics says so too (1 Hz).
+  EXPECT_TRUE(waitFor(
+      [] {
+        const diagnostic_msgs::DiagnosticArray a = diagnostics_->last();
+        return !a.status.empty() && a.status[0].level == diagnostic_msgs::DiagnosticStatus::WARN &&
+               a.status[0].message.find("stalled") != std::string::npos;
+      },
+      3.0))
+      << "no WARN naming the stall on /diagnostics";
   ASSERT_TRUE(waitFor(finished, 15.0)) << "the goal was never given up; planner: " << h_->lastStatus().reason;
   EXPECT_EQ(client_->getState(), SimpleClientGoalState::ABORTED);
   EXPECT_NE(client_->getState().getText().find("stalled"), std::string::npos) << client_->getState().getText();

@@ -241,3 +241,49 @@ TEST(PipelineSteps, ThePlannerActsOnlyOnVelocitySpacesBuiltForItsGoal) {
 
 }  // namespace
 }  // namespace dqn_dovs
+
+namespace dqn_dovs {
+namespace {
+
+TEST(PlannerDiagnostics, LevelFollowsTheStateAndWhatGrew) {
+  PlannerStatus s;
+  s.state = PlannerStatus::ACTIVE;
+  s.reason = "active";
+  const PlannerStatus before = s;
+  diagnostic_msgs::DiagnosticStatus d = plannerDiagnostics(s, before, "planner", "base_footprint");
+  EXPECT_EQ(d.level, diagnostic_msgs::DiagnosticStatus::OK);
+  ASSERT_FALSE(d.values.empty());
+  EXPECT_EQ(d.values.front().key, "state");
+  EXPECT_EQ(d.values.front().value, "active");
+
+  s.state = PlannerStatus::STOPPED;
+  s.reason = "scan is stale or missing";
+  d = plannerDiagnostics(s, before, "planner", "base_footprint");
+  EXPECT_EQ(d.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_EQ(d.message, "stopped: scan is stale or missing");
+
+  s = before;
+  s.recovery = "wait";
+  s.last_trigger = "no progress: 8 m left";
+  d = plannerDiagnostics(s, before, "planner", "base_footprint");
+  EXPECT_EQ(d.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_NE(d.message.find("no progress"), std::string::npos) << d.message;
+
+  s = before;
+  s.deadline_misses = 3;
+  d = plannerDiagnostics(s, before, "planner", "base_footprint");
+  EXPECT_EQ(d.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_NE(d.message.find("3 control periods"), std::string::npos) << d.message;
+  // The same count again is no news.
+  EXPECT_EQ(plannerDiagnostics(s, s, "planner", "base_footprint").level, diagnostic_msgs::DiagnosticStatus::OK);
+
+  s = before;
+  s.state = PlannerStatus::ABORTED;
+  s.reason = "cliff sensor sees no floor";
+  d = plannerDiagnostics(s, before, "planner", "base_footprint");
+  EXPECT_EQ(d.level, diagnostic_msgs::DiagnosticStatus::WARN);
+  EXPECT_EQ(d.message, "goal aborted: cliff sensor sees no floor");
+}
+
+}  // namespace
+}  // namespace dqn_dovs
