@@ -263,17 +263,20 @@ void PlannerNode::onActionPreempt() {
   // being pursued (from move_base_simple/goal, say) is not the one cancelled.
   if (!action_server_->isActive()) return;
   supervisor_.cancel();
-  goal_.reset();
-  local_goals_.clear();
-  if (action_server_->isActive()) action_server_->setPreempted(move_base_msgs::MoveBaseResult(), "cancelled");
+  dropGoal();
+  action_server_->setPreempted(move_base_msgs::MoveBaseResult(), "cancelled");
 }
 
-std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source) {
-  local_goals_.clear();
+void PlannerNode::dropGoal() {
   goal_.reset();
+  local_goals_.clear();
   route_.reset();
   route_obstacles_.clear();
   route_remaining_m_ = -1.0;
+}
+
+std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source) {
+  dropGoal();
   const auto& p = goal.pose.position;
   const auto& q = goal.pose.orientation;
   std::string refused;
@@ -300,12 +303,12 @@ std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, cons
   refreshGoal(true);
   if (!goal_fault_.empty()) {
     supervisor_.rejectGoal(goal_fault_);
-    goal_.reset();
+    dropGoal();
     return goal_fault_;
   }
   if (const std::string no_route = planRoute(); !no_route.empty()) {
     supervisor_.rejectGoal(no_route);
-    goal_.reset();
+    dropGoal();
     return no_route;
   }
   const Vec2 fixed = *supervisor_.goal();
@@ -372,8 +375,7 @@ std::string PlannerNode::localGoalFault(const Dovs& dovs) const {
 
 void PlannerNode::onCancel(const std_msgs::Empty::ConstPtr&) {
   supervisor_.cancel();
-  goal_.reset();
-  local_goals_.clear();
+  dropGoal();
   if (action_server_->isActive()) {
     action_server_->setPreempted(move_base_msgs::MoveBaseResult(), "cancelled on planner/cancel");
   }
@@ -686,10 +688,7 @@ void PlannerNode::onDecide(const ros::TimerEvent& event) {
   }
   refreshGoal();
   const std::optional<double> goal_distance = supervisor_.controlPeriod(now.toSec(), lateness, hooks_, tf_timeout_s_);
-  if (supervisor_.state() == GoalState::kAborted && goal_) {
-    goal_.reset();
-    local_goals_.clear();
-  }
+  if (supervisor_.state() == GoalState::kAborted && goal_) dropGoal();
   updateAction(now);
   std_msgs::Int8 a;
   a.data = static_cast<int8_t>(supervisor_.action());

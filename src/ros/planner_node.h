@@ -69,6 +69,8 @@ class PlannerNode {
   /// the map against odom), handed to the supervisor (as a new goal when `is_new`) and published on planner/local_goal
   /// for dovs_node.
   void refreshGoal(bool is_new = false);
+  /// Forgets the goal, its local goals and its route (cancelled, aborted, replaced).
+  void dropGoal();
   /// Why `dovs` was not built for the current goal ("" when it was built for one of its recent local goals).
   std::string localGoalFault(const Dovs& dovs) const;
   /// The action's feedback, and its end when the goal was reached, aborted or dropped.
