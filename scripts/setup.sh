@@ -20,7 +20,7 @@ APT_PACKAGES=(
   python3-geometry-msgs python3-visualization-msgs python3-tf2-ros
   libcv-bridge-dev libimage-transport-dev libopencv-dev
   libactionlib-dev libmove-base-msgs-dev python3-actionlib python3-move-base-msgs
-  libdiagnostic-msgs-dev
+  libdiagnostic-msgs-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libeigen3-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   librviz-dev rviz pluginlib-dev libclass-loader-dev
   googletest libgtest-dev libgmock-dev

@@ -172,6 +172,10 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   }
   decide_timer_ = nh_.createTimer(ros::Duration(limits_.dt), &PlannerNode::onDecide, this);
   ramp_timer_ = nh_.createTimer(ros::Duration(1.0 / supervisor_.config().ramp_rate_hz), &PlannerNode::onRamp, this);
+  // Runtime tuning (rqt_reconfigure): from the settings loaded above, not the .cfg's defaults.
+  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<PlannerConfig>>(pnh_);
+  reconfigure_server_->updateConfig(reconfigurable());
+  reconfigure_server_->setCallback([this](PlannerConfig& c, uint32_t level) { onReconfigure(c, level); });
   ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz", model_path.c_str(),
            network_->metadata().c_str(), limits_.dt, supervisor_.config().ramp_rate_hz);
   publishStatus(ros::Time::now(), 0.0);
@@ -742,6 +746,62 @@ void PlannerNode::publishStatus(const ros::Time& now, double goal_distance) {
   s.max_period_lateness = supervisor_.maxLateness_s();
   status_pub_.publish(s);
   last_status_ = s;
+}
+
+PlannerConfig PlannerNode::reconfigurable() const {
+  const SupervisorConfig& s = supervisor_.config();
+  const NavigationConfig& n = s.navigation;
+  PlannerConfig c;
+  c.goal_tolerance = s.goal_tolerance_m;
+  c.goal_speed = s.goal_speed_mps;
+  c.use_goal_yaw = use_goal_yaw_;
+  c.yaw_tolerance = s.yaw_tolerance_rad;
+  c.align_speed = s.align_speed;
+  c.progress_timeout = n.progress_timeout_s;
+  c.progress_distance = n.progress_distance_m;
+  c.oscillation_timeout = n.oscillation_timeout_s;
+  c.oscillation_distance = n.oscillation_distance_m;
+  c.oscillation_flips = n.oscillation_flips;
+  c.stall_command_speed = n.stall_command_mps;
+  c.stall_odom_speed = n.stall_odom_mps;
+  c.stall_time = n.stall_time_s;
+  c.recovery_wait = n.recovery_wait_s;
+  c.recovery_rotate_angle = n.recovery_rotate_rad;
+  c.recovery_rotate_speed = n.recovery_rotate_speed;
+  c.max_recovery_rounds = n.max_recovery_rounds;
+  c.route_lookahead = route_lookahead_m_;
+  c.route_replan_off_route = route_off_m_;
+  return c;
+}
+
+void PlannerNode::onReconfigure(PlannerConfig& c, uint32_t) {
+  SupervisorConfig s = supervisor_.config();
+  NavigationConfig& n = s.navigation;
+  s.goal_tolerance_m = c.goal_tolerance;
+  s.goal_speed_mps = c.goal_speed;
+  s.yaw_tolerance_rad = c.yaw_tolerance;
+  s.align_speed = c.align_speed;
+  n.progress_timeout_s = c.progress_timeout;
+  n.progress_distance_m = c.progress_distance;
+  n.oscillation_timeout_s = c.oscillation_timeout;
+  n.oscillation_distance_m = c.oscillation_distance;
+  n.oscillation_flips = c.oscillation_flips;
+  n.stall_command_mps = c.stall_command_speed;
+  n.stall_odom_mps = c.stall_odom_speed;
+  n.stall_time_s = c.stall_time;
+  n.recovery_wait_s = c.recovery_wait;
+  n.recovery_rotate_rad = c.recovery_rotate_angle;
+  n.recovery_rotate_speed = c.recovery_rotate_speed;
+  n.max_recovery_rounds = c.max_recovery_rounds;
+  if (const std::string refused = supervisor_.reconfigure(s); !refused.empty()) {
+    ROS_ERROR("planner: reconfiguration refused, the settings stay as they were: %s", refused.c_str());
+    c = reconfigurable();
+    return;
+  }
+  use_goal_yaw_ = c.use_goal_yaw;
+  route_lookahead_m_ = c.route_lookahead;
+  route_off_m_ = c.route_replan_off_route;
+  ROS_INFO("planner: reconfigured");
 }
 
 void PlannerNode::onDiagnostics(const ros::TimerEvent&) {

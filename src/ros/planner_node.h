@@ -5,6 +5,7 @@
 #pragma once
 
 #include <actionlib/server/simple_action_server.h>
+#include <dynamic_reconfigure/server.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <move_base_msgs/MoveBaseAction.h>
 #include <nav_msgs/OccupancyGrid.h>
@@ -24,6 +25,7 @@
 
 #include "dqn_dovs/BaseSafety.h"
 #include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/PlannerConfig.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/common/robot_model.h"
 #include "dqn_dovs/planning/route.h"
@@ -91,6 +93,11 @@ class PlannerNode {
   int actionForLastDovs(std::string& why);
   void publishStatus(const ros::Time& now, double goal_distance);
   void onDiagnostics(const ros::TimerEvent& event);  // 1 Hz: /diagnostics from the last status
+  /// dynamic_reconfigure: applies `config` (cfg/Planner.cfg), or puts the settings in force back into it with
+  /// the reason in the log when the supervisor refuses them.
+  void onReconfigure(PlannerConfig& config, uint32_t level);
+  /// The settings in force, as cfg/Planner.cfg names them.
+  PlannerConfig reconfigurable() const;
 
   ros::NodeHandle nh_, pnh_;
   std::string fixed_frame_, base_frame_;
@@ -138,6 +145,7 @@ class PlannerNode {
   ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_, local_goal_pub_, route_pub_;
   ros::Timer decide_timer_, ramp_timer_, diagnostics_timer_;
   ros::Publisher diagnostics_pub_;
+  std::unique_ptr<dynamic_reconfigure::Server<PlannerConfig>> reconfigure_server_;
   PlannerStatus last_status_, last_reported_;
 };
 

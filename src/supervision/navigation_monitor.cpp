@@ -68,6 +68,8 @@ int sign(double x, double dead_band) { return x > dead_band ? 1 : (x < -dead_ban
 
 NavigationMonitor::NavigationMonitor(const NavigationConfig& config) : config_(checked(config)) {}
 
+void NavigationMonitor::setConfig(const NavigationConfig& config) { config_ = checked(config); }
+
 void NavigationMonitor::reset(double now_s) {
   have_progress_ = false;
   progress_since_s_ = now_s;

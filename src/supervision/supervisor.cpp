@@ -66,6 +66,25 @@ void Supervisor::log(SupervisorLog level, const std::string& key, const std::str
   if (log_) log_(level, key, text, throttle_s);
 }
 
+std::string Supervisor::reconfigure(const SupervisorConfig& c) {
+  if (const std::string e = c.validate(); !e.empty()) return e;
+  const RobotLimits& a = c.limits;
+  const RobotLimits& b = config_.limits;
+  const bool same_limits = a.v_max == b.v_max && a.w_max == b.w_max && a.a_v == b.a_v && a.a_w == b.a_w &&
+                           a.dt == b.dt && a.radius == b.radius;
+  if (!same_limits || c.max_input_age_s != config_.max_input_age_s || c.ramp_rate_hz != config_.ramp_rate_hz ||
+      c.deadline_fraction != config_.deadline_fraction ||
+      c.navigation.allow_reverse != config_.navigation.allow_reverse ||
+      c.navigation.backoff_speed_mps != config_.navigation.backoff_speed_mps) {
+    return "the robot's limits, max_input_age, ramp_rate, deadline_fraction, allow_reverse and backoff_speed are "
+           "fixed at start";
+  }
+  navigation_.setConfig(c.navigation);
+  config_ = c;
+  log(SupervisorLog::kInfo, "reconfigure", "new settings applied");
+  return {};
+}
+
 void Supervisor::newGoal(const Vec2& goal, std::optional<double> yaw, double now_s) {
   goal_ = goal;  // a new goal cancels the previous one
   goal_yaw_ = yaw;

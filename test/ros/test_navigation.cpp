@@ -7,6 +7,8 @@
 //     tf does not know is aborted with a text naming the frame;
 //   - wheels that do not turn (stall) start a recovery round, and the goal is aborted saying so once the rounds
 //     are used up;
+//   - runtime tuning (dynamic_reconfigure): settings the supervisor refuses are put back as they were; accepted
+//     ones act at once (no recovery round left: the first stall aborts);
 //   - a bumper contact drops the command to zero at once (not along the deceleration ramp); a cliff aborts;
 //   - with a map on `map`, a goal behind a wall is reached along a route around the wall's end: the robot never
 //     crosses the wall, and the route the planner publishes is longer than the straight line; a panel the map does
@@ -14,6 +16,7 @@
 //     around it (and never back through it), and the local goals lead round it.
 #include <actionlib/client/simple_action_client.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <dynamic_reconfigure/client.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
@@ -33,6 +36,7 @@
 #include <vector>
 
 #include "dqn_dovs/BaseSafety.h"
+#include "dqn_dovs/PlannerConfig.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "fake_robot.h"
 
@@ -270,6 +274,31 @@ TEST_F(Navigation, StalledWheelsStartARecoveryRoundThenTheGoalIsAborted) {
   EXPECT_NE(client_->getState().getText().find("stalled"), std::string::npos) << client_->getState().getText();
   EXPECT_EQ(h_->lastStatus().state, PlannerStatus::ABORTED);
   EXPECT_TRUE(waitFor([] { return robot().lastCommand().v == 0.0; }, 3.0));
+}
+
+TEST_F(Navigation, ReconfigurationRefusesBadSettingsAndAppliesGoodOnesAtOnce) {
+  dynamic_reconfigure::Client<dqn_dovs::PlannerConfig> reconfigure("/planner");
+  dqn_dovs::PlannerConfig config;
+  ASSERT_TRUE(reconfigure.getCurrentConfiguration(config, ros::Duration(5.0))) << "no configuration from the planner";
+  EXPECT_DOUBLE_EQ(config.stall_time, 0.6) << "the server must start from the node's parameters";
+  // A stall threshold above the command threshold is refused: the reply carries the settings in force.
+  dqn_dovs::PlannerConfig bad = config;
+  bad.stall_odom_speed = 0.5;
+  ASSERT_TRUE(reconfigure.setConfiguration(bad));
+  EXPECT_DOUBLE_EQ(bad.stall_odom_speed, config.stall_odom_speed);
+  // No recovery round left: the first stall gives the goal up.
+  dqn_dovs::PlannerConfig none = config;
+  none.max_recovery_rounds = 0;
+  ASSERT_TRUE(reconfigure.setConfiguration(none));
+  EXPECT_EQ(none.max_recovery_rounds, 0);
+  client_->sendGoal(goalAheadInMap(4.0, 0.0));
+  ASSERT_TRUE(drivesFasterThan(0.15, 20.0));
+  robot().stuck = true;
+  ASSERT_TRUE(waitFor(finished, 10.0)) << "the goal was never given up; planner: " << h_->lastStatus().reason;
+  EXPECT_EQ(client_->getState(), SimpleClientGoalState::ABORTED);
+  EXPECT_NE(client_->getState().getText().find("gave up after 0 recovery rounds"), std::string::npos)
+      << client_->getState().getText();
+  ASSERT_TRUE(reconfigure.setConfiguration(config));  // as it was, for the tests after this one
 }
 
 TEST_F(Navigation, BumperStopsAtOnceAndACliffAborts) {

@@ -291,6 +291,27 @@ TEST(SupervisorNavigation, BackOffWithReverseAllowedIsStraightSlowAndWithinTheLi
   }
 }
 
+TEST(SupervisorNavigation, ReconfigureChangesTheChecksButNeverTheLimits) {
+  Robot r;
+  SupervisorConfig c = r.supervisor.config();
+  c.goal_tolerance_m = 0.3;
+  c.navigation.max_recovery_rounds = 5;
+  EXPECT_EQ(r.supervisor.reconfigure(c), "");
+  EXPECT_EQ(r.supervisor.config().goal_tolerance_m, 0.3);
+  EXPECT_EQ(r.supervisor.navigation().config().max_recovery_rounds, 5);
+  SupervisorConfig faster = r.supervisor.config();
+  faster.limits.v_max = 1.5;
+  EXPECT_NE(r.supervisor.reconfigure(faster).find("fixed at start"), std::string::npos);
+  EXPECT_EQ(r.supervisor.config().limits.v_max, RobotLimits().v_max);
+  SupervisorConfig reverse = r.supervisor.config();
+  reverse.navigation.allow_reverse = true;
+  EXPECT_NE(r.supervisor.reconfigure(reverse).find("fixed at start"), std::string::npos);
+  SupervisorConfig bad = r.supervisor.config();
+  bad.yaw_tolerance_rad = 0.0;
+  EXPECT_NE(r.supervisor.reconfigure(bad).find("yaw_tolerance"), std::string::npos);
+  EXPECT_EQ(r.supervisor.config().yaw_tolerance_rad, SupervisorConfig().yaw_tolerance_rad);
+}
+
 TEST(SupervisorNavigation, CliffAbortsAndNothingDrivesUntilItClears) {
   Robot r;
   r.supervisor.newGoal({10.0, 0.0}, std::nullopt, 0.0);

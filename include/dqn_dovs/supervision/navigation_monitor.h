@@ -88,6 +88,9 @@ class NavigationMonitor {
   /// A pending contact trigger, taken by the adapter (cleared on read).
   std::string takeContact();
   const NavigationConfig& config() const { return config_; }
+  /// New settings while running (windows, rounds and any recovery in progress are kept); throws
+  /// std::invalid_argument naming the field of a bad configuration, leaving the old one.
+  void setConfig(const NavigationConfig& config);
 
  private:
   struct Sample {

@@ -140,6 +140,11 @@ class Supervisor {
   uint32_t deadlineMisses() const { return deadline_misses_; }
   double maxLateness_s() const { return max_lateness_s_; }
   const SupervisorConfig& config() const { return config_; }
+  /// New settings while running: the goal tolerances, the heading and the navigation checks. The robot's limits,
+  /// the input ages, the ramp rate, the deadline fraction and allow_reverse are fixed at construction (they bound
+  /// what the envelope admits); a change to them, or a configuration validate() refuses, is refused with the
+  /// reason ("" when applied).
+  std::string reconfigure(const SupervisorConfig& config);
   const NavigationMonitor& navigation() const { return navigation_; }
   /// True while turning in place on the goal towards its heading.
   bool aligning() const { return aligning_; }
