@@ -22,7 +22,8 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       pnh_(pnh),
       limits_(loadRobotLimits(pnh)),
       builder_(limits_, loadDovsConfig(pnh)),
-      tf_listener_(tf_buffer_) {
+      tf_listener_(tf_buffer_),
+      image_transport_(nh) {
   fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
   base_frame_ = param<std::string>(pnh_, "base_frame", "base_footprint");
   if (fixed_frame_.empty() || base_frame_.empty()) throw ParameterError("fixed_frame and base_frame must not be empty");
@@ -34,7 +35,7 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   shield_ = loadActionShieldConfig(pnh_);
 
   dovs_pub_ = nh_.advertise<Dovs>("dovs", 5);
-  image_pub_ = nh_.advertise<sensor_msgs::Image>("dovs/image", 2);
+  image_pub_ = image_transport_.advertise("dovs/image", 2);
   obstacles_sub_ = nh_.subscribe("obstacles", 5, &DovsNode::onObstacles, this, ros::TransportHints().tcpNoDelay());
   odom_sub_ = nh_.subscribe("odom", 10, &DovsNode::onOdom, this, ros::TransportHints().tcpNoDelay());
   goal_sub_ = nh_.subscribe("move_base_simple/goal", 2, &DovsNode::onGoal, this);

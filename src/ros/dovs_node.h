@@ -3,6 +3,7 @@
 #pragma once
 
 #include <geometry_msgs/PoseStamped.h>
+#include <image_transport/image_transport.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <ros/ros.h>
@@ -63,7 +64,10 @@ class DovsNode {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber obstacles_sub_, odom_sub_, goal_sub_, action_sub_, map_sub_;
-  ros::Publisher dovs_pub_, image_pub_;
+  ros::Publisher dovs_pub_;
+  // dovs/image through image_transport: compressed and theora transports when their plugins are installed.
+  image_transport::ImageTransport image_transport_;
+  image_transport::Publisher image_pub_;
 };
 
 }  // namespace dqn_dovs

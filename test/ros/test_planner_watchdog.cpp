@@ -10,6 +10,7 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <sensor_msgs/Image.h>
 
 #include <algorithm>
 #include <atomic>
@@ -116,6 +117,18 @@ class PlannerWatchdog : public ::testing::Test {
 constexpr double kNoticeLimit = kMaxInputAge + kPlannerPeriod + 0.15;
 
 TEST_F(PlannerWatchdog, DrivesWhenFed) { driveUntilMoving(); }
+
+// dovs/image (image_transport, raw) is drawn while someone watches: the velocity space at image_size pixels.
+TEST_F(PlannerWatchdog, TheVelocitySpaceImageComesWhenSubscribed) {
+  driveUntilMoving();
+  TopicLog<sensor_msgs::Image> images(h_->nh, "dovs/image", 2, 1);
+  ASSERT_TRUE(waitFor([&] { return images.any(); }, 5.0)) << "no dovs/image while subscribed";
+  const sensor_msgs::Image image = images.last();
+  EXPECT_EQ(image.width, 400u);
+  EXPECT_EQ(image.height, 400u);
+  EXPECT_EQ(image.encoding, "bgr8");
+  EXPECT_EQ(image.data.size(), static_cast<size_t>(image.step) * image.height);
+}
 
 TEST_F(PlannerWatchdog, StaleScanStopsTheRobotAndFreshScansResume) {
   driveUntilMoving();
