@@ -277,6 +277,8 @@ void PlannerNode::dropGoal() {
   route_.reset();
   route_obstacles_.clear();
   route_remaining_m_ = -1.0;
+  route_rounds_seen_ = 0;  // the supervisor counts the rounds of each goal afresh
+  route_blocked_before_ = false;
 }
 
 std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source) {

@@ -85,6 +85,7 @@ void NavigationMonitor::reset(double now_s) {
 void NavigationMonitor::restartWindows(double now_s, double remaining_m) {
   best_remaining_m_ = remaining_m;
   progress_since_s_ = now_s;
+  last_observe_s_ = now_s;
   have_progress_ = true;
   window_.clear();
   stall_since_s_ = -1.0;
@@ -93,6 +94,15 @@ void NavigationMonitor::restartWindows(double now_s, double remaining_m) {
 std::string NavigationMonitor::observe(double now_s, const Pose2& pose, double remaining_m, const Twist2& command,
                                        double odom_speed_mps) {
   if (!have_progress_) restartWindows(now_s, remaining_m);
+  const double gap = now_s - last_observe_s_;
+  if (gap < 0.0 || gap > kMaxObserveGapS) {
+    // Not driving in between (halted on stale input, recovering, on the goal) or the clock jumped: the windows
+    // measure driving time, so the progress clock resumes where it stopped and the other windows start afresh.
+    progress_since_s_ = now_s - std::max(0.0, last_observe_s_ - progress_since_s_);
+    window_.clear();
+    stall_since_s_ = -1.0;
+  }
+  last_observe_s_ = now_s;
   std::ostringstream why;
   why.precision(3);
   // Progress: the way left must shrink by progress_distance_m per progress_timeout_s.

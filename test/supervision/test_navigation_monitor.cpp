@@ -42,6 +42,24 @@ TEST(NavigationMonitor, ProgressResetsTheTimerAndItsLackTriggers) {
   EXPECT_LE(t - 0.2, stuck_from + 5.0 + 1e-9);
 }
 
+TEST(NavigationMonitor, TheProgressClockCountsDrivingTimeOnly) {
+  NavigationMonitor m(quick());  // 0.3 m per 5 s
+  m.reset(0.0);
+  for (double t = 0.0; t < 3.0; t += 0.2) EXPECT_EQ(m.observe(t, Pose2{}, 8.0, {0.2, 0.0}, 0.2), "") << t;
+  // Halted for 30 s (stale input) or a clock jump: no trigger on the first period back ...
+  EXPECT_EQ(m.observe(33.0, Pose2{}, 8.0, {0.2, 0.0}, 0.2), "");
+  // ... but after 5 s of driving without progress in all (about 2.2 s more).
+  std::string why;
+  double t = 33.2;
+  for (; t < 40.0 && why.empty(); t += 0.2) why = m.observe(t, Pose2{}, 8.0, {0.2, 0.0}, 0.2);
+  EXPECT_NE(why.find("no progress"), std::string::npos);
+  EXPECT_NEAR(t - 0.2, 35.0, 0.45);
+  // A clock that goes back is no trigger either.
+  m.reset(0.0);
+  for (double s = 0.0; s < 2.0; s += 0.2) m.observe(s, Pose2{}, 8.0, {0.2, 0.0}, 0.2);
+  EXPECT_EQ(m.observe(-5.0, Pose2{}, 8.0, {0.2, 0.0}, 0.2), "");
+}
+
 TEST(NavigationMonitor, OscillationTriggersOnlyWhenTheRobotStaysPut) {
   NavigationConfig c = quick();
   c.progress_timeout_s = 0.0;

@@ -66,7 +66,8 @@ class NavigationMonitor {
 
   /// One control period while driving (not recovering): the checks above. Returns the trigger's reason, "" when
   /// none. `remaining_m` is the way left to the goal; `command` the command last sent; `odom_speed_mps` the
-  /// measured linear speed.
+  /// measured linear speed. The windows count driving time: a gap of more than kMaxObserveGapS since the last
+  /// call (the robot halted on stale input, or the clock jumped) pauses the progress clock and restarts the others.
   std::string observe(double now_s, const Pose2& pose, double remaining_m, const Twist2& command,
                       double odom_speed_mps);
 
@@ -88,6 +89,8 @@ class NavigationMonitor {
   /// A pending contact trigger, taken by the adapter (cleared on read).
   std::string takeContact();
   const NavigationConfig& config() const { return config_; }
+  /// Longest pause between two observe() calls that still counts as driving on, s.
+  static constexpr double kMaxObserveGapS = 1.0;
   /// New settings while running (windows, rounds and any recovery in progress are kept); throws
   /// std::invalid_argument naming the field of a bad configuration, leaving the old one.
   void setConfig(const NavigationConfig& config);
@@ -103,7 +106,7 @@ class NavigationMonitor {
 
   NavigationConfig config_;
   // Progress: the best way left so far and when it was last improved by progress_distance_m.
-  double best_remaining_m_ = 0.0, progress_since_s_ = 0.0;
+  double best_remaining_m_ = 0.0, progress_since_s_ = 0.0, last_observe_s_ = 0.0;
   bool have_progress_ = false;
   std::deque<Sample> window_;  // oscillation window
   double stall_since_s_ = -1.0;
