@@ -485,7 +485,7 @@ std::vector<Vec2> PlannerNode::scanPointsInRouteFrame() {
   for (size_t k = 0; k < scan.ranges.size(); ++k) {
     const double r = scan.ranges[k];
     if (!std::isfinite(r) || r < scan.range_min || r > scan.range_max) continue;
-    const double a = scan.angle_min + static_cast<double>(k) * scan.angle_increment;
+    const double a = scan.angleOf(k);
     out.push_back(laser.toWorld(Vec2(r * std::cos(a), r * std::sin(a))));
   }
   return out;
