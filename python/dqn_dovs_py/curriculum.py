@@ -14,6 +14,8 @@ import math
 from dataclasses import dataclass, replace
 
 OBSTACLE_TYPES = ("none", "static", "dynamic", "both")
+# World families of the simulator (include/dqn_dovs/sim/worlds.h); their other options are checked by the core.
+WORLD_FAMILIES = ("room", "crowd", "corridor", "doorway", "clutter", "junction")
 
 
 class CurriculumError(ValueError):
@@ -40,6 +42,44 @@ class EpsilonDecay:
 
 
 @dataclass(frozen=True)
+class WorldSpec:
+    """One world of a stage's mixture: the options of `dqn_dovs_eval --world ... --sensor ... --people-model ...
+    [--people-see-robot] --odom-noise ...`, drawn for an episode with probability weight / sum of weights."""
+
+    # room (the paper's room of disc obstacles) or a building family holding the stage's obstacle count as people.
+    world: str = "room"
+    # LIDAR profile: sim, hokuyo, urg04lx, rplidar_a1.
+    sensor: str = "sim"
+    # How people move: social_force, orca, constant.
+    people_model: str = "social_force"
+    # People see the robot and give way (false: the robot is invisible to them, the hardest case).
+    people_see_robot: bool = False
+    # Wheel-odometry drift: none, low, high.
+    odom_noise: str = "none"
+    weight: float = 1.0
+
+    @property
+    def label(self) -> str:
+        """Short name for logs: the family, then every option that differs from the defaults."""
+        parts = [self.world]
+        default = WorldSpec()
+        for name in ("sensor", "people_model", "odom_noise"):
+            if getattr(self, name) != getattr(default, name):
+                parts.append(str(getattr(self, name)))
+        if self.people_see_robot:
+            parts.append("see_robot")
+        return "/".join(parts)
+
+    def options(self) -> dict[str, str]:
+        """The core's world_options mapping (VecEnv.set_worlds)."""
+        return {"world": self.world, "sensor": self.sensor, "people_model": self.people_model,
+                "people_see_robot": "true" if self.people_see_robot else "false", "odom_noise": self.odom_noise}
+
+
+ROOM_ONLY = (WorldSpec(),)
+
+
+@dataclass(frozen=True)
 class StageSettings:
     """What the environment is told for the episodes reset from now on (VecEnv.set_stage)."""
 
@@ -48,6 +88,9 @@ class StageSettings:
     obstacles_min: int
     obstacles_max: int
     obstacle_type: str
+    # The worlds episodes are drawn from (world families take the obstacle count as their number of people; their
+    # own generator places start and goal, so the goal distances apply to the room only).
+    worlds: tuple[WorldSpec, ...] = ROOM_ONLY
 
 
 @dataclass(frozen=True)
@@ -70,6 +113,8 @@ class Stage:
     obstacle_type: str
     # None: epsilon decays over the stage (EpsilonDecay); a number: fixed epsilon.
     epsilon: float | None
+    # The stage's mixture of worlds (default: the curriculum's `worlds`, else the paper's room only).
+    worlds: tuple[WorldSpec, ...] = ROOM_ONLY
 
     def settings(self, progress: float) -> StageSettings:
         """Environment settings after `progress` (0..1) of this stage's episodes."""
@@ -84,6 +129,7 @@ class Stage:
             obstacles_min=int(math.floor(lerp(self.obstacles_start[0], self.obstacles[0]) + 0.5)),
             obstacles_max=int(math.floor(lerp(self.obstacles_start[1], self.obstacles[1]) + 0.5)),
             obstacle_type=self.obstacle_type,
+            worlds=self.worlds,
         )
 
     def epsilon_at(self, progress: float, decay: EpsilonDecay) -> float:
@@ -137,7 +183,7 @@ class Curriculum:
         """Parses the `curriculum` section of the training configuration (see config/curriculum.yaml)."""
         if not isinstance(config, dict):
             raise CurriculumError("curriculum: expected a mapping with 'stages'")
-        unknown = set(config) - {"any_goal_distance_m", "epsilon_decay", "stages"}
+        unknown = set(config) - {"any_goal_distance_m", "epsilon_decay", "stages", "worlds"}
         if unknown:
             raise CurriculumError(f"curriculum: unknown field(s) {sorted(unknown)}")
         any_range = _pair(config.get("any_goal_distance_m", [1.0, 12.0]), float, "curriculum.any_goal_distance_m")
@@ -152,15 +198,46 @@ class Curriculum:
         raw_stages = config.get("stages")
         if not isinstance(raw_stages, list) or not raw_stages:
             raise CurriculumError("curriculum.stages: expected a non-empty list of stages")
-        stages = tuple(_parse_stage(raw, i, any_range) for i, raw in enumerate(raw_stages))
+        worlds = _parse_worlds(config["worlds"], "curriculum.worlds") if "worlds" in config else ROOM_ONLY
+        stages = tuple(_parse_stage(raw, i, any_range, worlds) for i, raw in enumerate(raw_stages))
         return Curriculum(stages=stages, epsilon_decay=decay)
 
 
 _STAGE_FIELDS = {"name", "episodes", "goal_distance_m", "goal_distance_start_m", "obstacles", "obstacles_start",
-                 "obstacle_type", "epsilon"}
+                 "obstacle_type", "epsilon", "worlds"}
 
 
-def _parse_stage(raw: dict, index: int, any_range: tuple[float, float]) -> Stage:
+def _parse_worlds(raw, where: str) -> tuple[WorldSpec, ...]:
+    """A list of world mappings (WorldSpec's fields); every field but `world` is optional."""
+    if not isinstance(raw, list) or not raw:
+        raise CurriculumError(f"{where}: expected a non-empty list of worlds, e.g. [{{world: room}}, "
+                              "{world: crowd, sensor: urg04lx}]")
+    known = {f for f in WorldSpec.__dataclass_fields__}
+    out = []
+    for k, item in enumerate(raw):
+        at = f"{where}[{k}]"
+        if not isinstance(item, dict):
+            raise CurriculumError(f"{at}: expected a mapping with at least 'world'")
+        unknown = set(item) - known
+        if unknown:
+            raise CurriculumError(f"{at}: unknown field(s) {sorted(unknown)} (known: {sorted(known)})")
+        if item.get("world") not in WORLD_FAMILIES:
+            raise CurriculumError(f"{at}.world must be one of {list(WORLD_FAMILIES)}, got {item.get('world')!r}")
+        for name in ("sensor", "people_model", "odom_noise"):
+            if name in item and not (isinstance(item[name], str) and item[name]):
+                raise CurriculumError(f"{at}.{name} must be a non-empty string, got {item[name]!r}")
+        if "people_see_robot" in item and not isinstance(item["people_see_robot"], bool):
+            raise CurriculumError(f"{at}.people_see_robot must be true or false, got {item['people_see_robot']!r}")
+        weight = item.get("weight", 1.0)
+        if isinstance(weight, bool) or not isinstance(weight, (int, float)) or not (
+                math.isfinite(weight) and weight > 0):
+            raise CurriculumError(f"{at}.weight must be a positive number, got {weight!r}")
+        out.append(WorldSpec(**{**item, "weight": float(weight)}))
+    return tuple(out)
+
+
+def _parse_stage(raw: dict, index: int, any_range: tuple[float, float],
+                 default_worlds: tuple[WorldSpec, ...] = ROOM_ONLY) -> Stage:
     where = f"curriculum.stages[{index}]"
     if not isinstance(raw, dict):
         raise CurriculumError(f"{where}: expected a mapping")
@@ -210,8 +287,10 @@ def _parse_stage(raw: dict, index: int, any_range: tuple[float, float]) -> Stage
     else:
         raise CurriculumError(f"{where}.epsilon must be 'decay' or a number in [0, 1], got {epsilon!r}")
 
+    worlds = _parse_worlds(raw["worlds"], f"{where}.worlds") if "worlds" in raw else default_worlds
     return Stage(name=name, episodes=episodes, goal_distance_m=goal, goal_distance_start_m=goal_start,
-                 obstacles=obstacles, obstacles_start=obstacles_start, obstacle_type=obstacle_type, epsilon=epsilon)
+                 obstacles=obstacles, obstacles_start=obstacles_start, obstacle_type=obstacle_type, epsilon=epsilon,
+                 worlds=worlds)
 
 
 def _pair(value, kind, where):

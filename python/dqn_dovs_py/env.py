@@ -41,6 +41,12 @@ Contract of `dqn_dovs_py._core.VecEnv` (n = num_envs, all arrays numpy):
                                           is nearest to the escape's in the window's units (dv, dw)
         'escaped'       bool    [n]       (optional) boxed in, the step ran the shield's escape
                                           velocity instead of the action (as the robot does)
+        'world'         int32   [n]       (optional) the step's world: its index in the mixture
+                                          (set_worlds) in force when its episode began
+    core.set_worlds(worlds: list[dict[str, str]], weights: list[float]) -> None
+        (optional) The mixture of worlds for the episodes reset from now on: each a
+        world_options mapping (world, sensor, people_model, people_see_robot, odom_noise),
+        drawn with probability weight / sum; a bad one raises ValueError naming it.
     core.normalization() -> dict[str, float]
         The state normaliser's named constants; the weight file stores them so that the
         planner can check that it builds states the same way.
@@ -53,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from .curriculum import OBSTACLE_TYPES, StageSettings
+from .curriculum import OBSTACLE_TYPES, ROOM_ONLY, StageSettings
 
 STATE_DIM = 408
 NUM_ACTIONS = 8
@@ -101,6 +107,8 @@ class StepResult:
     escaped: np.ndarray | None = None
     # Optional: the action standing for what ran (the escape's nearest action where escaped; None: not said).
     executed_action: np.ndarray | None = None
+    # Optional: each step's world, an index into the mixture in force when its episode began (None: not said).
+    world: np.ndarray | None = None
 
 
 _STEP_FIELDS = {
@@ -137,12 +145,26 @@ class VecEnv:
                                         action_shield=bool(action_shield),
                                         shield_parameters=dict(shield_parameters or {}))
         self._core = core
+        self._worlds = ROOM_ONLY
 
     def set_stage(self, settings: StageSettings) -> None:
         if settings.obstacle_type not in OBSTACLE_TYPES:
             raise ValueError(f"VecEnv.set_stage: obstacle_type {settings.obstacle_type!r} not in {OBSTACLE_TYPES}")
         self._core.set_stage(float(settings.goal_distance_min), float(settings.goal_distance_max),
                              int(settings.obstacles_min), int(settings.obstacles_max), settings.obstacle_type)
+        if settings.worlds != self._worlds:
+            if not hasattr(self._core, "set_worlds"):
+                raise ValueError("VecEnv.set_stage: this environment has no set_worlds; it runs the room only")
+            try:
+                self._core.set_worlds([w.options() for w in settings.worlds], [w.weight for w in settings.worlds])
+            except ValueError as error:
+                raise ValueError(f"VecEnv.set_stage: {error}") from None
+            self._worlds = settings.worlds
+
+    @property
+    def worlds(self):
+        """The mixture of worlds in force (step()'s `world` indexes it for episodes begun under it)."""
+        return self._worlds
 
     def reset(self) -> tuple[np.ndarray, np.ndarray]:
         result = self._core.reset()
@@ -181,7 +203,12 @@ class VecEnv:
             if executed.shape != (self.num_envs,) or np.any((executed < 0) | (executed >= NUM_ACTIONS)):
                 raise EnvContractError(f"VecEnv.step: executed_action must be {self.num_envs} actions in "
                                        f"[0, {NUM_ACTIONS})")
-        return StepResult(**values, escaped=escaped, executed_action=executed)
+        world = None
+        if "world" in out:
+            world = np.asarray(out["world"], dtype=np.int64)
+            if world.shape != (self.num_envs,) or np.any(world < 0):
+                raise EnvContractError(f"VecEnv.step: world must be {self.num_envs} non-negative indices")
+        return StepResult(**values, escaped=escaped, executed_action=executed, world=world)
 
     def normalization(self) -> dict[str, float]:
         norm = self._core.normalization()

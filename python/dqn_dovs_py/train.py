@@ -44,7 +44,7 @@ BEST_MODEL_FILE = "best.dqnw"
 SNAPSHOT_DIR = "snapshots"
 
 TRAIN_COLUMNS = ["episode", "stage", "stage_name", "steps", "env_steps", "return", "outcome", "epsilon", "loss",
-                 "mean_q", "lr", "beta", "updates", "wall_s"]
+                 "mean_q", "lr", "beta", "updates", "wall_s", "world"]
 EVAL_COLUMNS = ["episode", "stage", "stage_name", "episodes", "success_rate", "collision_rate", "timeout_rate",
                 "mean_return", "mean_steps", "mean_success_time_s", "wall_s"]
 
@@ -509,6 +509,8 @@ class Trainer:
         # Stages count episodes in the order they start. With one episode running per
         # environment, the next one to start has index episodes_done + e: the environment
         # resets automatically inside step(), so its settings must be in place beforehand.
+        # The world mixture each running episode began under (step()'s `world` indexes it).
+        ep_worlds = [self.curriculum.settings_at(self.episodes_done).worlds] * e
         settings = self.curriculum.settings_at(self.episodes_done + e)
         settings_stage = self.curriculum.locate(self.episodes_done + e)[0]
         env.set_stage(settings)
@@ -543,7 +545,8 @@ class Trainer:
                 ended = np.flatnonzero(out.terminated | out.truncated)
                 for i in ended:
                     self.wall_s = wall_at_start + time.perf_counter() - started
-                    self._end_episode(int(i), out, ep_return[i], int(ep_stage[i]), epsilon, train_log, bar)
+                    world = ep_worlds[i][int(out.world[i])].label if out.world is not None else ""
+                    self._end_episode(int(i), out, ep_return[i], int(ep_stage[i]), epsilon, train_log, bar, world)
                     ep_return[i] = 0.0
                     self._after_episode(eval_log, train_log)
                     if self.episodes_done >= limit:
@@ -552,6 +555,8 @@ class Trainer:
                     # The ended environments have already reset, under the settings in force
                     # during this step: their new episodes belong to that stage.
                     ep_stage[ended] = settings_stage
+                    for i in ended:
+                        ep_worlds[i] = settings.worlds
                     next_start = self.episodes_done + e
                     settings_stage = self.curriculum.locate(next_start)[0]
                     new_settings = self.curriculum.settings_at(next_start)
@@ -623,7 +628,8 @@ class Trainer:
             self._loss_count += 1
         self._timing["learn_s"] += time.perf_counter() - t0
 
-    def _end_episode(self, i: int, out, ep_return: float, stage: int, epsilon: float, log: _CsvLog, bar) -> None:
+    def _end_episode(self, i: int, out, ep_return: float, stage: int, epsilon: float, log: _CsvLog, bar,
+                     world: str = "") -> None:
         outcome = int(out.outcome[i])
         self._recent_outcomes.append(outcome)
         if self._loss_count:
@@ -638,7 +644,7 @@ class Trainer:
             "steps": int(out.episode_steps[i]), "env_steps": self.env_steps, "return": float(ep_return),
             "outcome": OUTCOME_NAMES.get(outcome, str(outcome)), "epsilon": float(epsilon), "loss": loss,
             "mean_q": mean_q, "lr": self.agent.learning_rate, "beta": self.beta(), "updates": self.agent.updates,
-            "wall_s": self.wall_s,
+            "wall_s": self.wall_s, "world": world,
         })
         self.episodes_done += 1
         bar.update(1)

@@ -43,12 +43,19 @@ std::map<std::string, std::string> shieldParameterMap(const ActionShieldConfig& 
   return out;
 }
 
+/// One world of the training mixture: its family and the Episode configuration its options give.
+struct WorldVariant {
+  sim::WorldFamily family = sim::WorldFamily::kRoom;
+  EpisodeConfig config;
+  double weight = 1.0;
+};
+
 class VecEnv {
  public:
   VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads, bool action_shield,
          const std::map<std::string, std::string>& shield_parameters,
          const std::map<std::string, std::string>& world_options)
-      : seed_(seed) {
+      : seed_(seed), perfect_info_(perfect_info) {
     // The shield as the robot runs it: the named parameters of config/dovs.yaml and config/static_safety.yaml
     // (python/dqn_dovs_py/decision_config.py reads them), then `action_shield` switches it on or off.
     for (const auto& [name, value] : shield_parameters) {
@@ -59,35 +66,12 @@ class VecEnv {
     shield_.enabled = action_shield;
     if (const std::string e = shield_.validate(); !e.empty()) throw std::invalid_argument("shield_parameters: " + e);
     if (num_envs < 1 || num_envs > 4096) throw std::invalid_argument("num_envs must be in [1, 4096]");
-    // The world as dqn_dovs_eval sets it up (applyWorldOptions): family, LIDAR profile, people, odometry.
-    EvalConfig world;
-    for (const auto& [key, value] : world_options) {
-      if (key == "world") {
-        world.world = value;
-      } else if (key == "sensor") {
-        world.sensor = value;
-      } else if (key == "people_model") {
-        world.people_model = value;
-      } else if (key == "people_see_robot") {
-        if (value != "true" && value != "false")
-          throw std::invalid_argument("world_options: people_see_robot must be true or false");
-        world.people_see_robot = value == "true";
-      } else if (key == "odom_noise") {
-        world.odom_noise = value;
-      } else {
-        throw std::invalid_argument("world_options: unknown key '" + key +
-                                    "' (world, sensor, people_model, people_see_robot, odom_noise)");
-      }
+    variants_.push_back(parseWorld(world_options, "world_options", 1.0));
+    for (int i = 0; i < num_envs; ++i) {
+      envs_.push_back(std::make_unique<Env>());
+      envs_.back()->built = {std::make_shared<Episode>(variants_.front().config)};
+      envs_.back()->active = envs_.back()->built.front();
     }
-    try {
-      family_ = sim::parseWorldFamily(world.world);
-      applyWorldOptions(world);
-    } catch (const std::exception& e) {
-      throw std::invalid_argument(std::string("world_options: ") + e.what());
-    }
-    EpisodeConfig config = world.episode;
-    config.perfect_info = perfect_info;
-    for (int i = 0; i < num_envs; ++i) envs_.push_back(std::make_unique<Env>(config));
     const int hw = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     threads_ = std::clamp(threads > 0 ? threads : hw, 1, num_envs);
     generator_.obstacle_count_min = 0;
@@ -107,6 +91,28 @@ class VecEnv {
     generator_ = g;
   }
 
+  /// The mixture of worlds that episodes reset from now on are drawn from: each entry is a world_options mapping
+  /// (world, sensor, people_model, people_see_robot, odom_noise), drawn with probability weight / sum of weights.
+  /// With one world no draw is made, so a single world replays the same scenarios as before.
+  void setWorlds(const std::vector<std::map<std::string, std::string>>& worlds, const std::vector<double>& weights) {
+    if (worlds.empty()) throw std::invalid_argument("set_worlds: at least one world is needed");
+    if (weights.size() != worlds.size()) {
+      throw std::invalid_argument("set_worlds: " + std::to_string(weights.size()) + " weights for " +
+                                  std::to_string(worlds.size()) + " worlds");
+    }
+    std::vector<WorldVariant> variants;
+    for (size_t k = 0; k < worlds.size(); ++k) {
+      const std::string where = "set_worlds: world " + std::to_string(k);
+      if (!std::isfinite(weights[k]) || weights[k] <= 0.0) {
+        throw std::invalid_argument(where + ": weight must be finite and positive, got " + std::to_string(weights[k]));
+      }
+      variants.push_back(parseWorld(worlds[k], where, weights[k]));
+    }
+    variants_ = std::move(variants);
+    // Episodes built for the previous mixture are dropped; each environment builds one per world when first drawn.
+    for (auto& e : envs_) e->built.assign(variants_.size(), nullptr);
+  }
+
   void seed(uint64_t s) {
     seed_ = s;
     for (auto& e : envs_) e->episodes = 0;
@@ -121,7 +127,7 @@ class VecEnv {
     py::array_t<float> state({n, static_cast<size_t>(kStateSize)});
     py::array_t<bool> mask({n, static_cast<size_t>(kNumActions)});
     for (size_t i = 0; i < n; ++i) {
-      copyState(envs_[i]->episode, state.mutable_data(i, 0));
+      copyState(envs_[i]->ep(), state.mutable_data(i, 0));
       copyMask(*envs_[i], mask.mutable_data(i, 0));
     }
     return py::make_tuple(state, mask);
@@ -149,6 +155,8 @@ class VecEnv {
     py::array_t<bool> escaped(shape1);
     bool* esc = escaped.mutable_data();
     py::array_t<int64_t> executed_action(shape1);
+    py::array_t<int32_t> world(shape1);
+    int32_t* wd = world.mutable_data();
     int64_t* ex = executed_action.mutable_data();
     float* ns = next_state.mutable_data();
     float* st = state.mutable_data();
@@ -164,7 +172,7 @@ class VecEnv {
       py::gil_scoped_release release;
       parallelFor([&](size_t i) {
         Env& env = *envs_[i];
-        Episode& ep = env.episode;
+        Episode& ep = env.ep();
         try {
           const int act = static_cast<int>(a[i]);
           // Boxed in, the shield's escape velocity is what runs (as the planner does on the robot), whatever
@@ -179,11 +187,12 @@ class VecEnv {
           tr[i] = r.truncated;
           oc[i] = static_cast<int8_t>(r.outcome);
           es[i] = ep.steps();
+          wd[i] = static_cast<int32_t>(env.variant);
           copyState(ep, ns + i * kStateSize);
           copyMask(env, nm + i * kNumActions);
           if (ep.done()) {
             resetEnv(i);
-            copyState(env.episode, st + i * kStateSize);
+            copyState(env.ep(), st + i * kStateSize);
             copyMask(env, mk + i * kNumActions);
           } else {
             // The episode goes on: what to act on next is the successor just copied (shielded once, not twice).
@@ -210,6 +219,7 @@ class VecEnv {
     out["episode_steps"] = episode_steps;
     out["escaped"] = escaped;
     out["executed_action"] = executed_action;
+    out["world"] = world;
     return out;
   }
 
@@ -219,7 +229,7 @@ class VecEnv {
     py::array_t<double> out({n, static_cast<size_t>(kNumActions), size_t{2}});
     double* d = out.mutable_data();
     for (size_t i = 0; i < n; ++i) {
-      const ActionSet& a = envs_[i]->episode.actions();
+      const ActionSet& a = envs_[i]->ep().actions();
       for (int k = 0; k < kNumActions; ++k) {
         d[(i * kNumActions + static_cast<size_t>(k)) * 2] = a.velocities[static_cast<size_t>(k)].v;
         d[(i * kNumActions + static_cast<size_t>(k)) * 2 + 1] = a.velocities[static_cast<size_t>(k)].w;
@@ -230,7 +240,7 @@ class VecEnv {
 
   py::dict normalization() const {
     py::dict d;
-    for (const auto& [name, value] : envs_.front()->episode.normalization().fields()) d[py::str(name)] = value;
+    for (const auto& [name, value] : envs_.front()->ep().normalization().fields()) d[py::str(name)] = value;
     return d;
   }
 
@@ -245,7 +255,7 @@ class VecEnv {
     {
       py::gil_scoped_release release;
       std::unique_ptr<Planner> planner = makePlanner(method, model_path, &shield_);
-      Episode episode(env.episode.config());
+      Episode episode(env.ep().config());
       r = runEpisode(*planner, episode, method, env.current);
     }
     py::dict d;
@@ -260,8 +270,16 @@ class VecEnv {
 
  private:
   struct Env {
-    explicit Env(const EpisodeConfig& c) : episode(c) {}
-    Episode episode;
+    /// The episode being run.
+    Episode& ep() { return *active; }
+    const Episode& ep() const { return *active; }
+    // One Episode per world of the mixture, built when the world is first drawn (worlds differ in sensor, people
+    // and odometry, which an Episode fixes at construction). `active` is the running one: a new mixture replaces
+    // `built` but lets the running episode finish in its own world.
+    std::vector<std::shared_ptr<Episode>> built;
+    std::shared_ptr<Episode> active;
+    // The running episode's world: its index in the mixture in force when it began.
+    size_t variant = 0;
     uint64_t episodes = 0;
     // The current episode's scenario and sensor-noise seed (what planner_episode replays).
     EvalScenario current;
@@ -277,19 +295,71 @@ class VecEnv {
     // episodes teach nothing, so the next scenario of the sequence is drawn instead.
     for (int attempt = 0; attempt < 100; ++attempt) {
       const uint64_t s = sim::mixSeed(seed_ ^ sim::mixSeed(i * 0x100000001B3ULL + env.episodes++));
-      env.current.scenario = generate(s);
+      env.variant = drawWorld(s);
+      if (!env.built[env.variant]) env.built[env.variant] = std::make_shared<Episode>(variants_[env.variant].config);
+      env.active = env.built[env.variant];
+      env.current.scenario = generate(variants_[env.variant].family, s);
       env.current.seed = sim::mixSeed(s);
-      env.episode.reset(env.current.scenario, env.current.seed);
-      if (!env.episode.done()) return;
+      env.ep().reset(env.current.scenario, env.current.seed);
+      if (!env.ep().done()) return;
     }
     throw std::runtime_error("100 scenarios in a row ended before their first step: check the stage settings");
   }
 
+  /// The world of the episode of seed s: the only one, or one drawn from the mixture by weight.
+  size_t drawWorld(uint64_t s) const {
+    if (variants_.size() == 1) return 0;
+    double total = 0.0;
+    for (const auto& v : variants_) total += v.weight;
+    const double u = static_cast<double>(sim::mixSeed(s ^ 0x9E3779B97F4A7C15ULL) >> 11) * 0x1.0p-53 * total;
+    double cumulative = 0.0;
+    for (size_t k = 0; k < variants_.size(); ++k) {
+      cumulative += variants_[k].weight;
+      if (u < cumulative) return k;
+    }
+    return variants_.size() - 1;
+  }
+
+  /// The world options as dqn_dovs_eval sets them up (applyWorldOptions): family, LIDAR profile, people, odometry.
+  WorldVariant parseWorld(const std::map<std::string, std::string>& options, const std::string& where,
+                          double weight) const {
+    EvalConfig world;
+    for (const auto& [key, value] : options) {
+      if (key == "world") {
+        world.world = value;
+      } else if (key == "sensor") {
+        world.sensor = value;
+      } else if (key == "people_model") {
+        world.people_model = value;
+      } else if (key == "people_see_robot") {
+        if (value != "true" && value != "false")
+          throw std::invalid_argument(where + ": people_see_robot must be true or false, got '" + value + "'");
+        world.people_see_robot = value == "true";
+      } else if (key == "odom_noise") {
+        world.odom_noise = value;
+      } else {
+        throw std::invalid_argument(where + ": unknown key '" + key +
+                                    "' (world, sensor, people_model, people_see_robot, odom_noise)");
+      }
+    }
+    WorldVariant v;
+    v.weight = weight;
+    try {
+      v.family = sim::parseWorldFamily(world.world);
+      applyWorldOptions(world);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument(where + ": " + e.what());
+    }
+    v.config = world.episode;
+    v.config.perfect_info = perfect_info_;
+    return v;
+  }
+
   /// The scenario of seed s: the stage's room, or a world of the family with the stage's count of people.
-  sim::Scenario generate(uint64_t s) const {
-    if (family_ == sim::WorldFamily::kRoom) return sim::generateScenario(generator_, s);
+  sim::Scenario generate(sim::WorldFamily family, uint64_t s) const {
+    if (family == sim::WorldFamily::kRoom) return sim::generateScenario(generator_, s);
     sim::WorldFamilyConfig w;
-    w.family = family_;
+    w.family = family;
     const int span = generator_.obstacle_count_max - generator_.obstacle_count_min + 1;
     w.people = generator_.obstacle_type == sim::ObstacleType::kNone
                    ? 0
@@ -326,7 +396,7 @@ class VecEnv {
   // The mask the agent chooses under: the validity mask, narrowed by the action shield when it is on (the same
   // function the DQN-DOVS planner applies on the robot and in evaluation), and the shield's escape if boxed in.
   void copyMask(Env& env, bool* dst) const {
-    const Episode& ep = env.episode;
+    const Episode& ep = env.ep();
     const ShieldedMask m = shieldActions(ep.actions(), ep.dovs(), ep.observation(), shield_);
     for (int k = 0; k < kNumActions; ++k) dst[k] = m.mask[static_cast<size_t>(k)];
     env.has_escape = m.has_escape;
@@ -352,8 +422,9 @@ class VecEnv {
   std::vector<std::unique_ptr<Env>> envs_;
   sim::GeneratorConfig generator_;
   ActionShieldConfig shield_;
-  sim::WorldFamily family_ = sim::WorldFamily::kRoom;
+  std::vector<WorldVariant> variants_;
   uint64_t seed_ = 0;
+  bool perfect_info_ = false;
   int threads_ = 1;
 
  public:
@@ -385,6 +456,9 @@ PYBIND11_MODULE(_core, m) {
            "The action shield's parameters as the environments run them (name -> value as text).")
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),
            py::arg("obstacles_min"), py::arg("obstacles_max"), py::arg("obstacle_type"))
+      .def("set_worlds", &VecEnv::setWorlds, py::arg("worlds"), py::arg("weights"),
+           "The mixture of worlds for the episodes reset from now on: world_options mappings and their weights "
+           "(running episodes finish in their own world). step()'s 'world' gives each step's index in it.")
       .def("seed", &VecEnv::seed, py::arg("seed"), "Restarts the scenario sequence from a new seed.")
       .def("reset", &VecEnv::reset)
       .def("step", &VecEnv::step, py::arg("actions"))

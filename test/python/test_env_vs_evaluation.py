@@ -20,6 +20,8 @@ from dqn_dovs_py.model import masked_argmax
 
 ROOT = Path(__file__).resolve().parents[2]
 MODEL = ROOT / "models" / "dqn_dovs.dqnw"
+# Two worlds that differ in everything an episode fixes at construction (sensor, people, odometry).
+MIXTURE = [{"world": "room"}, {"world": "crowd", "sensor": "rplidar_a1", "people_model": "orca", "odom_noise": "low"}]
 
 
 def _trainer_episode(env, net, state, mask):
@@ -39,15 +41,21 @@ def _trainer_episode(env, net, state, mask):
 
 @pytest.mark.parametrize("seed, world", [(10011, {}), (10012, {}), (10013, {}),
                                          (10014, {"world": "crowd", "sensor": "urg04lx"}),
-                                         (10015, {"world": "clutter", "people_model": "orca"})])
+                                         (10015, {"world": "clutter", "people_model": "orca"}),
+                                         (10016, MIXTURE)])
 def test_training_environment_and_evaluation_choose_alike(core, seed, world):
     net = model_from_weights(load_weights(MODEL)).eval()
+    mixture = world is MIXTURE
     env = core.VecEnv(1, seed, perfect_info=False, threads=1, action_shield=True,
-                      shield_parameters=load_shield_parameters(str(ROOT / "config")), world_options=world)
+                      shield_parameters=load_shield_parameters(str(ROOT / "config")),
+                      world_options={} if mixture else world)
     env.set_stage(4.0, 8.0, 6, 10, "both")
+    if mixture:
+        # Episodes drawn from a mixture: the evaluation replays each in its own world's configuration.
+        env.set_worlds(MIXTURE, [1.0] * len(MIXTURE))
     state, mask = env.reset()
     played = 0
-    for _ in range(2):
+    for _ in range(4 if mixture else 2):
         # planner_episode replays the episode environment 0 is about to play (same scenario, same sensor noise).
         evaluated = env.planner_episode(0, "dqn_dovs", str(MODEL))
         actions, outcome, steps, state, mask = _trainer_episode(env, net, state, mask)
