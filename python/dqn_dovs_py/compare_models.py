@@ -1,0 +1,219 @@
+"""Paired comparison of DQN-DOVS networks across the world families, on generated held-out episodes.
+
+    python -m dqn_dovs_py.compare_models --model shipped=models/dqn_dovs.dqnw --model worlds=runs/w/model.dqnw \\
+        --seed 14301 --episodes 40 --out runs/compare_14301
+
+Every network runs as `dqn_dovs_eval --methods dqn_dovs --model FILE` on the same generated episodes of each point
+of the suite (a world family, LIDAR profile, people model and count; POINTS), and so does the baseline (S-DOVS by
+default). The first network is the reference. Written into --out: one folder per point and network with
+dqn_dovs_eval's results.csv, and compare.md / compare.csv: success per point, pooled over the points, and each
+network's paired sign test (exact, two-sided, episodes matched by point, count and number) against the reference
+and against the baseline. Decisions are made on seeds kept for them, never on ../shared/scenarios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+
+from .benchmark_report import paired_comparison, read_results, sign_test_p
+from .report import Record
+
+
+@dataclass(frozen=True)
+class Point:
+    """One evaluation setting: a name, dqn_dovs_eval's obstacle counts, the episodes per count as a fraction of
+    --episodes, and its world flags."""
+
+    name: str
+    obstacles: str
+    episode_share: float
+    flags: tuple[str, ...]
+
+
+# The paper's room at every count 3-15 (half the episodes per count: 13 counts), and each world family at the
+# densities of docs/benchmark_worlds.md, with the robot's sensors (urg04lx on a Turtlebot 2) where it matters.
+POINTS = (
+    Point("room", "3-15", 0.5, ()),
+    Point("crowd_urg_n5", "5", 1.0, ("--world", "crowd", "--sensor", "urg04lx")),
+    Point("crowd_urg_n10", "10", 1.0, ("--world", "crowd", "--sensor", "urg04lx")),
+    Point("crowd_urg_n15", "15", 1.0, ("--world", "crowd", "--sensor", "urg04lx")),
+    Point("crowd_n10", "10", 1.0, ("--world", "crowd")),
+    Point("corridor_urg_n5", "5", 1.0, ("--world", "corridor", "--sensor", "urg04lx")),
+    Point("corridor_n10", "10", 1.0, ("--world", "corridor")),
+    Point("clutter_n5", "5", 1.0, ("--world", "clutter")),
+    Point("clutter_urg_n10", "10", 1.0, ("--world", "clutter", "--sensor", "urg04lx")),
+    Point("doorway_n5", "5", 1.0, ("--world", "doorway")),
+    Point("junction_n5", "5", 1.0, ("--world", "junction")),
+)
+
+
+class CompareError(ValueError):
+    """Bad arguments or a failed evaluation; the message names the thing."""
+
+
+def parse_models(specs: list[str]) -> list[tuple[str, str]]:
+    """["NAME=PATH", ...] -> [(NAME, PATH)], checked: unique names, files that exist."""
+    out: list[tuple[str, str]] = []
+    for spec in specs:
+        name, sep, path = spec.partition("=")
+        if not sep or not name or not path:
+            raise CompareError(f"--model {spec!r}: expected NAME=PATH")
+        if not name.replace("_", "").isalnum():
+            raise CompareError(f"--model {spec!r}: the name may hold letters, digits and '_' only")
+        if any(name == n for n, _ in out):
+            raise CompareError(f"--model {spec!r}: the name {name!r} is given twice")
+        if not os.path.isfile(path):
+            raise CompareError(f"--model {spec!r}: {path} is not a file")
+        out.append((name, path))
+    if not out:
+        raise CompareError("give at least one --model NAME=PATH")
+    return out
+
+
+def find_eval(explicit: str | None) -> str:
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    candidates = [explicit] if explicit else [
+        os.path.join(os.environ.get("DQN_DOVS_BIN_DIR", ""), "dqn_dovs_eval"),
+        os.path.join(root, "install", "lib", "dqn_dovs", "dqn_dovs_eval")]
+    for c in candidates:
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            return c
+    raise CompareError(f"dqn_dovs_eval not found (tried {', '.join(c for c in candidates if c)}); run 'make build' "
+                       "or pass --eval")
+
+
+def run_point(exe: str, point: Point, method: str, model: str | None, args, folder: str) -> list[Record]:
+    """One dqn_dovs_eval run of `method` at `point` into `folder`; its records with the method renamed to the
+    folder's last part (the network's name)."""
+    episodes = max(1, round(args.episodes * point.episode_share))
+    cmd = [exe, "--methods", method, "--generate", str(args.seed), "--obstacles", point.obstacles,
+           "--episodes", str(episodes), "--threads", str(args.threads), "--out", folder, *point.flags]
+    if model:
+        cmd += ["--model", model]
+    os.makedirs(folder, exist_ok=True)
+    with open(os.path.join(folder, "command.txt"), "w") as f:
+        f.write(" ".join(cmd) + "\n")
+    with open(os.path.join(folder, "eval.log"), "w") as log:
+        rc = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+    if rc != 0:
+        with open(os.path.join(folder, "eval.log")) as f:
+            last = (f.read().strip().splitlines() or ["(no output)"])[-1]
+        raise CompareError(f"{point.name}, {os.path.basename(folder)}: dqn_dovs_eval exited with {rc}: {last}")
+    name = os.path.basename(folder)
+    return [Record(**{**r.__dict__, "method": name}) for r in read_results(os.path.join(folder, "results.csv"))]
+
+
+Records = dict[str, list[Record]]  # point name -> the episodes of every method there
+
+
+def pooled(records: Records, method: str, rival: str, points: list[str]) -> tuple[int, int, int, float]:
+    """Episodes, wins, losses and sign-test p of `method` against `rival` over the points' episodes."""
+    episodes = wins = losses = 0
+    for p in points:
+        c = paired_comparison(records.get(p, []), method, rival).get(None)
+        if c:
+            episodes, wins, losses = episodes + c.episodes, wins + c.wins, losses + c.losses
+    return episodes, wins, losses, sign_test_p(wins, losses)
+
+
+def success(records: Records, method: str, points: list[str]) -> tuple[int, int]:
+    """Successes and episodes of `method` over the points."""
+    mine = [r for p in points for r in records.get(p, []) if r.method == method]
+    return sum(r.outcome == "success" for r in mine), len(mine)
+
+
+def _paired_text(records: Records, method: str, rival: str, points: list[str]) -> str:
+    e, w, lo, p = pooled(records, method, rival, points)
+    return f"+{w} / -{lo}, p = {p:.2g}" if e else "-"
+
+
+def render(records: Records, methods: list[str], reference: str, baseline: str, points: list[str],
+           header: str) -> tuple[str, list[dict]]:
+    rows: list[dict] = []
+    lines = [header, "", "## Success per point", "",
+             "| point | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
+    for p in points + [None]:
+        cells = []
+        at = points if p is None else [p]
+        for m in methods:
+            s, n = success(records, m, at)
+            cells.append(f"{s / n:.3f}" if n else "-")
+            rows.append({"point": p or "pooled", "method": m, "episodes": n, "successes": s,
+                         "success_rate": round(s / n, 4) if n else "",
+                         **{f"vs_{rival}_{k}": v for rival in (reference, baseline) if rival != m
+                            for k, v in zip(("episodes", "wins", "losses", "p"),
+                                            pooled(records, m, rival, at))}})
+        lines.append(f"| {p or '**pooled**'} | " + " | ".join(cells) + " |")
+    for rival in (reference, baseline):
+        others = [m for m in methods if m != rival]
+        lines += ["", f"## Paired against {rival} (wins / losses, exact sign test)", "",
+                  "| point | " + " | ".join(others) + " |", "|---|" + "---|" * len(others)]
+        for p in points + [None]:
+            at = points if p is None else [p]
+            lines.append(f"| {p or '**pooled**'} | " + " | ".join(_paired_text(records, m, rival, at) for m in others)
+                         + " |")
+    return "\n".join(lines) + "\n", rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m dqn_dovs_py.compare_models", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--model", action="append", default=[], metavar="NAME=PATH",
+                    help="a network to compare (repeat; the first is the reference)")
+    ap.add_argument("--baseline", default="s_dovs", help="a method of dqn_dovs_eval that needs no model (s_dovs)")
+    ap.add_argument("--seed", type=int, required=True, help="generator seed (one kept for decisions)")
+    ap.add_argument("--episodes", type=int, default=40, help="episodes per count (the room: half per count)")
+    ap.add_argument("--points", default=",".join(p.name for p in POINTS),
+                    help="comma-separated points of the suite (default: all)")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--eval", default=None, help="dqn_dovs_eval executable (default: the installed one)")
+    ap.add_argument("--out", required=True)
+    args = ap.parse_args(argv)
+    try:
+        models = parse_models(args.model)
+        if args.episodes < 1:
+            raise CompareError(f"--episodes must be at least 1, got {args.episodes}")
+        known = {p.name: p for p in POINTS}
+        wanted = [s for s in args.points.split(",") if s]
+        bad = [s for s in wanted if s not in known]
+        if bad or not wanted:
+            raise CompareError(f"--points: unknown {bad} (known: {', '.join(known)})")
+        exe = find_eval(args.eval)
+        records: Records = {}
+        runs = [(name, "dqn_dovs", path) for name, path in models] + [(args.baseline, args.baseline, None)]
+        for i, pname in enumerate(wanted):
+            for name, method, path in runs:
+                t0 = time.perf_counter()
+                got = run_point(exe, known[pname], method, path, args, os.path.join(args.out, pname, name))
+                records.setdefault(pname, []).extend(got)
+                s, n = success({pname: got}, name, [pname])
+                print(f"[{i + 1}/{len(wanted)}] {pname:16s} {name:16s} success {s}/{n} "
+                      f"({time.perf_counter() - t0:.1f} s)", file=sys.stderr, flush=True)
+    except (CompareError, ValueError, OSError) as error:
+        print(f"compare_models: {error}", file=sys.stderr)
+        return 2
+    names = [n for n, _ in models] + [args.baseline]
+    header = (f"# Networks compared across worlds\n\nGenerated episodes, seed {args.seed}, {args.episodes} per count "
+              f"(the room: {max(1, round(args.episodes * 0.5))} per count 3-15); the tracker in the loop. Networks: "
+              + ", ".join(f"`{n}` = `{p}`" for n, p in models) + f"; baseline `{args.baseline}`.\n\n"
+              f"Command: `python -m dqn_dovs_py.compare_models {' '.join(argv if argv is not None else sys.argv[1:])}`")
+    text, rows = render(records, names, models[0][0], args.baseline, wanted, header)
+    with open(os.path.join(args.out, "compare.md"), "w") as f:
+        f.write(text)
+    with open(os.path.join(args.out, "compare.csv"), "w", newline="") as f:
+        fields = sorted({k for r in rows for k in r}, key=lambda k: (k not in ("point", "method"), k))
+        w = csv.DictWriter(f, fieldnames=fields)
+        w.writeheader()
+        w.writerows(rows)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

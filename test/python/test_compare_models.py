@@ -1,0 +1,57 @@
+"""python -m dqn_dovs_py.compare_models: networks and the baseline on the same generated episodes, per point."""
+
+from __future__ import annotations
+
+import csv
+import re
+from pathlib import Path
+
+import pytest
+
+from built_tools import built_tool
+from dqn_dovs_py import compare_models
+from dqn_dovs_py.benchmark_report import read_results, sign_test_p
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_two_networks_and_the_baseline_are_compared_episode_by_episode(tmp_path):
+    exe = built_tool("dqn_dovs_eval")
+    out = tmp_path / "cmp"
+    rc = compare_models.main(["--model", f"shipped={ROOT / 'models' / 'dqn_dovs.dqnw'}",
+                              "--model", f"curriculum={ROOT / 'models' / 'curriculum.dqnw'}",
+                              "--seed", "14901", "--episodes", "6", "--points", "room,crowd_urg_n10",
+                              "--threads", "2", "--eval", str(exe), "--out", str(out)])
+    assert rc == 0
+    outcome = {}
+    for point, episodes in (("room", 13 * 3), ("crowd_urg_n10", 6)):
+        for name in ("shipped", "curriculum", "s_dovs"):
+            records = read_results(str(out / point / name / "results.csv"))
+            assert len(records) == episodes, f"{point}/{name}"
+            outcome.update({(point, name, r.obstacles, r.episode): r.outcome == "success" for r in records})
+    rows = {(r["point"], r["method"]): r for r in csv.DictReader(open(out / "compare.csv"))}
+    for name in ("shipped", "curriculum", "s_dovs"):
+        mine = [v for k, v in outcome.items() if k[1] == name]
+        assert int(rows[("pooled", name)]["successes"]) == sum(mine)
+        assert int(rows[("pooled", name)]["episodes"]) == len(mine) == 45
+    # curriculum against the reference, recounted from the results files.
+    wins = sum(v and not outcome[(k[0], "shipped", k[2], k[3])] for k, v in outcome.items() if k[1] == "curriculum")
+    losses = sum(outcome[(k[0], "shipped", k[2], k[3])] and not v for k, v in outcome.items() if k[1] == "curriculum")
+    row = rows[("pooled", "curriculum")]
+    assert (int(row["vs_shipped_wins"]), int(row["vs_shipped_losses"])) == (wins, losses)
+    assert float(row["vs_shipped_p"]) == pytest.approx(sign_test_p(wins, losses))
+    text = (out / "compare.md").read_text()
+    assert "## Paired against shipped" in text and "## Paired against s_dovs" in text
+    assert "--seed 14901" in text
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--model", "a"], "expected NAME=PATH"),
+    (["--model", "a=/nonexistent.dqnw"], "is not a file"),
+    (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}"],
+     "given twice"),
+    (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--points", "moon"], "unknown \\['moon'\\]"),
+])
+def test_bad_arguments_are_named(tmp_path, capsys, args, message):
+    assert compare_models.main([*args, "--seed", "1", "--out", str(tmp_path)]) == 2
+    assert re.search(message, capsys.readouterr().err)
