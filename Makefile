@@ -16,7 +16,7 @@ help:
 	@echo "make build   colcon build of the dqn_dovs package (+ the Python module)"
 	@echo "make test    every test: gtest, rostest, Python, fuzz regressions + 40 s per fuzz target"
 	@echo "make format-check  every C++ file formatted as .clang-format says (part of make test)"
-	@echo "make check   the edit loop: build, the gtests that need no ROS master and the Python tests but the training smoke run"
+	@echo "make check   the edit loop: build, the gtests that need no ROS master and the Python tests but the training smoke run and the sweep"
 	@echo "make fuzz    libFuzzer targets (fuzz/), FUZZ_SECONDS=600 each (make fuzz FUZZ_TARGETS=scenario for one)"
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"

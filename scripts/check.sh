@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The edit loop's check (make check, after make build): every gtest that needs no ROS master (test/<component>/,
-# test/ros_unit/) and the Python tests except the training smoke run. A few minutes on 2 cores; make test stays
-# the full suite (rostests, the training smoke run, fuzzing, ASan).
+# test/ros_unit/) and the Python tests except the training smoke run and the sweep. A few minutes on 2 cores; make
+# test stays the full suite (rostests, the training smoke run, the sweep, fuzzing, ASan).
 # Ends with one line "N passed, N failed" (gtest executables and Python tests); exits non-zero on any failure.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -32,10 +32,11 @@ for src in $(core_test_sources) test/ros_unit/test_*.cpp; do
 done
 echo "[check] gtests: $passed executables passed, $failed failed"
 
-echo "[check] Python tests (pytest, without the training smoke run)"
+echo "[check] Python tests (pytest, without the training smoke run and the sweep)"
 PYTHONPATH="$root/python${PYTHONPATH:+:$PYTHONPATH}" DQN_DOVS_BIN_DIR="$root/install/lib/dqn_dovs" \
   DQN_DOVS_REQUIRE_CORE=1 MPLBACKEND=Agg \
-  .venv/bin/python -m pytest -q -p no:cacheprovider --deselect test/python/test_train_smoke.py test/python \
+  .venv/bin/python -m pytest -q -p no:cacheprovider --deselect test/python/test_train_smoke.py \
+  --deselect test/python/test_sweep.py test/python \
   >log/check.pytest.txt 2>&1
 py_status=$?
 tail -n 3 log/check.pytest.txt
