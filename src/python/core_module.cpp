@@ -21,6 +21,7 @@
 #include "dqn_dovs/evaluation/episode.h"
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/sim/errors.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/sim/worlds.h"
 
@@ -292,18 +293,28 @@ class VecEnv {
     Env& env = *envs_[i];
     // Scenario seeds depend on (seed, environment, episode count) only: deterministic whatever the threads.
     // A drawn scenario can end during the sensor warm-up (an obstacle runs into the still robot): such
-    // episodes teach nothing, so the next scenario of the sequence is drawn instead.
+    // episodes teach nothing, so the next scenario of the sequence is drawn instead. So is one the world
+    // generator cannot lay out (a crowded clutter room where a person has no reachable destination).
+    std::string unplaceable;
     for (int attempt = 0; attempt < 100; ++attempt) {
       const uint64_t s = sim::mixSeed(seed_ ^ sim::mixSeed(i * 0x100000001B3ULL + env.episodes++));
-      env.variant = drawWorld(s);
+      const size_t variant = drawWorld(s);
+      try {
+        env.current.scenario = generate(variants_[variant].family, s);
+      } catch (const sim::ScenarioError& e) {
+        unplaceable = e.what();
+        continue;
+      }
+      env.variant = variant;
       if (!env.built[env.variant]) env.built[env.variant] = std::make_shared<Episode>(variants_[env.variant].config);
       env.active = env.built[env.variant];
-      env.current.scenario = generate(variants_[env.variant].family, s);
       env.current.seed = sim::mixSeed(s);
       env.ep().reset(env.current.scenario, env.current.seed);
       if (!env.ep().done()) return;
     }
-    throw std::runtime_error("100 scenarios in a row ended before their first step: check the stage settings");
+    throw std::runtime_error("100 scenarios in a row ended before their first step or could not be laid out (last: " +
+                             (unplaceable.empty() ? std::string("none") : unplaceable) +
+                             "): check the stage settings");
   }
 
   /// The world of the episode of seed s: the only one, or one drawn from the mixture by weight.

@@ -152,3 +152,13 @@ def test_the_python_environment_refuses_worlds_without_set_worlds():
     settings = Curriculum.from_dict(_curriculum(worlds=[{"world": "crowd"}])).settings_at(0)
     with pytest.raises(ValueError, match="no set_worlds"):
         env.set_stage(settings)
+
+
+def test_a_world_that_cannot_be_laid_out_is_redrawn_and_then_named(core):
+    """Scenarios the generator cannot lay out are skipped like those that end before their first step; when every
+    draw fails the error names the world and the reason."""
+    env = core.VecEnv(1, 1, threads=1)
+    env.set_worlds([{"world": "clutter"}], [1.0])
+    env.set_stage(4.0, 12.0, 150, 150, "both")
+    with pytest.raises(RuntimeError, match=r"could not be laid out \(last: world generator 'clutter'.*no free place"):
+        env.reset()
