@@ -268,20 +268,43 @@ Route RoutePlanner::plan(const Vec2& start, const Vec2& goal, const std::vector<
   std::vector<float> cost = cost_;
   const double r = config_.robot_radius_m;
   const int reach = static_cast<int>(std::ceil((r + config_.inflation_m) / resolution_m_)) + 1;
+  // Points in one cell mark the same cells: each occupied cell once (a scan has hundreds of points, many on the
+  // same few cells), with the clearances and costs of its neighbourhood computed once for all.
+  std::vector<size_t> occupied;
+  occupied.reserve(extra_obstacles.size());
   for (const Vec2& p : extra_obstacles) {
     int pi = 0, pj = 0;
-    if (!toCell(p, pi, pj)) continue;
+    if (toCell(p, pi, pj)) occupied.push_back(size_t(pj) * width_ + pi);
+  }
+  std::sort(occupied.begin(), occupied.end());
+  occupied.erase(std::unique(occupied.begin(), occupied.end()), occupied.end());
+  const int side = 2 * reach + 1;
+  std::vector<uint8_t> stencil_lethal(size_t(side) * side);
+  std::vector<float> stencil_known(stencil_lethal.size()), stencil_unknown(stencil_lethal.size());
+  for (int dj = -reach; dj <= reach; ++dj) {
+    for (int di = -reach; di <= reach; ++di) {
+      const size_t k = size_t(dj + reach) * side + size_t(di + reach);
+      const double clear = std::hypot(double(di), double(dj)) * resolution_m_ - 0.5 * resolution_m_;
+      stencil_lethal[k] = clear < r;
+      if (clear >= r) {
+        stencil_known[k] = stepCost(clear, false);
+        stencil_unknown[k] = stepCost(clear, true);
+      }
+    }
+  }
+  for (const size_t cell : occupied) {
+    const int pi = int(cell % width_), pj = int(cell / width_);
     // The point's cell becomes occupied: the cells around it get the clearance an occupied cell of the map gives.
     for (int j = std::max(0, pj - reach); j <= std::min(height_ - 1, pj + reach); ++j) {
       for (int i = std::max(0, pi - reach); i <= std::min(width_ - 1, pi + reach); ++i) {
         const size_t c = size_t(j) * width_ + i;
         if (!passable[c]) continue;
-        const double clear = std::hypot(double(i - pi), double(j - pj)) * resolution_m_ - 0.5 * resolution_m_;
-        if (clear < r) {
+        const size_t k = size_t(j - pj + reach) * side + size_t(i - pi + reach);
+        if (stencil_lethal[k]) {
           passable[c] = 0;
           cost[c] = kInfF;
         } else {
-          cost[c] = std::max(cost[c], stepCost(clear, cls_[c] == CellClass::kUnknown));
+          cost[c] = std::max(cost[c], cls_[c] == CellClass::kUnknown ? stencil_unknown[k] : stencil_known[k]);
         }
       }
     }
@@ -564,6 +587,169 @@ bool routeBlocked(const Route& route, const RouteFollower& from, const std::vect
     }
   }
   return false;
+}
+
+RouteGrid routeGridFromGeometry(const std::vector<Segment>& segments, const std::vector<Circle>& discs, const Vec2& lo,
+                                const Vec2& hi, double resolution_m) {
+  const std::string what = "route grid from geometry: ";
+  if (!(std::isfinite(resolution_m) && resolution_m > 0.0)) {
+    throw RouteError(what + "resolution " + std::to_string(resolution_m) + " m must be > 0");
+  }
+  if (!lo.allFinite() || !hi.allFinite() || !(hi.x() > lo.x() && hi.y() > lo.y())) {
+    throw RouteError(what + "the extent " + point(lo) + " to " + point(hi) + " is not finite or empty");
+  }
+  const int cap = RouteConfig().max_cells_per_side;
+  const double cols = std::ceil((hi.x() - lo.x()) / resolution_m), rows = std::ceil((hi.y() - lo.y()) / resolution_m);
+  if (cols > cap || rows > cap) {
+    throw RouteError(what + "the extent " + point(lo) + " to " + point(hi) + " needs more than " + std::to_string(cap) +
+                     " cells of " + metres(resolution_m) + " on a side");
+  }
+  RouteGrid grid;
+  grid.resolution_m = resolution_m;
+  grid.origin = Pose2{lo.x(), lo.y(), 0.0};
+  grid.width = std::max(1, static_cast<int>(cols));
+  grid.height = std::max(1, static_cast<int>(rows));
+  grid.cells.assign(size_t(grid.width) * grid.height, 0);
+  const double reach = 0.5 * kSqrt2 * resolution_m;
+  // Marks the cells of the box [a, b] (grown by `reach`) whose centre `near` accepts.
+  auto mark = [&](const Vec2& a, const Vec2& b, const auto& near) {
+    const int i0 = std::max(0, static_cast<int>(std::floor((a.x() - reach - lo.x()) / resolution_m)));
+    const int j0 = std::max(0, static_cast<int>(std::floor((a.y() - reach - lo.y()) / resolution_m)));
+    const int i1 = std::min(grid.width - 1, static_cast<int>(std::floor((b.x() + reach - lo.x()) / resolution_m)));
+    const int j1 = std::min(grid.height - 1, static_cast<int>(std::floor((b.y() + reach - lo.y()) / resolution_m)));
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        const Vec2 c = lo + Vec2((i + 0.5) * resolution_m, (j + 0.5) * resolution_m);
+        if (near(c)) grid.cells[size_t(j) * grid.width + i] = 100;
+      }
+    }
+  };
+  for (const Segment& s : segments) {
+    if (!s.a.allFinite() || !s.b.allFinite()) throw RouteError(what + "a segment is not finite");
+    mark(s.a.cwiseMin(s.b), s.a.cwiseMax(s.b), [&](const Vec2& c) { return pointSegmentDistance(c, s) <= reach; });
+  }
+  for (const Circle& d : discs) {
+    if (!d.center.allFinite() || !std::isfinite(d.radius)) throw RouteError(what + "a disc is not finite");
+    const Vec2 r = Vec2::Constant(std::max(0.0, d.radius));
+    mark(d.center - r, d.center + r, [&](const Vec2& c) { return (c - d.center).norm() <= d.radius + reach; });
+  }
+  return grid;
+}
+
+std::string RouteGuideConfig::validate() const {
+  if (!(std::isfinite(lookahead_m) && lookahead_m > 0.0)) return bad("lookahead_m", lookahead_m, "must be > 0 m");
+  if (!(std::isfinite(replan_off_route_m) && replan_off_route_m > 0.0))
+    return bad("replan_off_route_m", replan_off_route_m, "must be > 0 m");
+  if (!(std::isfinite(obstacle_memory_s) && obstacle_memory_s >= 0.0))
+    return bad("obstacle_memory_s", obstacle_memory_s, "must be >= 0 s");
+  if (!(std::isfinite(blocked_check_period_s) && blocked_check_period_s > 0.0))
+    return bad("blocked_check_period_s", blocked_check_period_s, "must be > 0 s");
+  if (!(blocked_clearance_fraction > 0.0 && blocked_clearance_fraction <= 1.0))
+    return bad("blocked_clearance_fraction", blocked_clearance_fraction, "must be in (0, 1]");
+  return "";
+}
+
+const char* routeReplanName(RouteReplan why) {
+  switch (why) {
+    case RouteReplan::kNone:
+      return "";
+    case RouteReplan::kOffRoute:
+      return "off route";
+    case RouteReplan::kAfterRound:
+      return "after a recovery round";
+    case RouteReplan::kBlocked:
+      return "blocked";
+  }
+  return "";
+}
+
+RouteGuide::RouteGuide(const RouteGuideConfig& config) { setConfig(config); }
+
+void RouteGuide::setConfig(const RouteGuideConfig& config) {
+  if (const std::string e = config.validate(); !e.empty()) throw RouteError(e);
+  config_ = config;
+}
+
+void RouteGuide::clear() {
+  route_.reset();
+  planned_ = false;
+  follower_ = RouteFollower();
+  memory_.clear();
+  rounds_seen_ = 0;  // the navigation monitor counts the rounds of each goal afresh
+  blocked_checked_ = false;
+  blocked_check_s_ = 0.0;
+  blocked_before_ = false;
+}
+
+std::string RouteGuide::plan(const RoutePlanner& planner, const Vec2& start, const Vec2& goal, double now_s,
+                             const std::vector<Vec2>& seen) {
+  // What was seen on earlier routes to this goal stays an obstacle for obstacle_memory_s: a route planned again
+  // (off the route, say) must not lead back through it.
+  while (!memory_.empty() && now_s - memory_.front().first > config_.obstacle_memory_s) memory_.pop_front();
+  for (const Vec2& p : seen) memory_.emplace_back(now_s, p);
+  std::vector<Vec2> extra;
+  extra.reserve(memory_.size());
+  for (const auto& [t, p] : memory_) extra.push_back(p);
+  Route route = planner.plan(start, goal, extra);
+  if (!route.found) return "no route: " + route.why;
+  route_ = std::move(route);
+  planned_ = true;
+  follower_ = RouteFollower();
+  return {};
+}
+
+void RouteGuide::follow(Route route) {
+  route_ = std::move(route);
+  planned_ = false;
+  follower_ = RouteFollower();
+}
+
+RouteGuidance RouteGuide::update(const RoutePlanner* planner, const Vec2& robot, const Vec2& goal, double now_s,
+                                 int recovery_rounds, const std::function<std::vector<Vec2>()>& scan_points) {
+  RouteGuidance out;
+  out.local_goal = goal;
+  out.remaining_m = (goal - robot).norm();
+  if (!route_) return out;
+  const bool after_round = recovery_rounds > rounds_seen_;
+  rounds_seen_ = recovery_rounds;
+  const bool on_grid = planned_ && planner != nullptr;
+  const RouteProgress p = on_grid ? planner->subgoal(*route_, robot, config_.lookahead_m, follower_)
+                                  : followRoute(*route_, robot, config_.lookahead_m, follower_);
+  out.on_route = true;
+  out.final_goal = p.final_goal;
+  out.local_goal = p.final_goal ? goal : p.subgoal;
+  out.remaining_m = p.remaining_m;
+  out.off_route_m = p.off_route_m;
+  if (!on_grid) return out;
+  // Blocked: something on the next lookahead_m of route at two checks in a row.
+  bool blocked = false, have_seen = false;
+  std::vector<Vec2> seen;
+  if (scan_points && (!blocked_checked_ || now_s - blocked_check_s_ >= config_.blocked_check_period_s)) {
+    blocked_checked_ = true;
+    blocked_check_s_ = now_s;
+    seen = scan_points();
+    have_seen = true;
+    const double clearance = config_.blocked_clearance_fraction * planner->config().robot_radius_m;
+    const bool on_route = routeBlocked(*route_, follower_, seen, clearance, config_.lookahead_m);
+    blocked = on_route && blocked_before_;
+    blocked_before_ = on_route && !blocked;
+  }
+  // Off the route (pushed aside, a detour around people), after a recovery round or blocked: plan again from
+  // here, after a round or a blockage around the obstacle points seen now.
+  if (p.off_route_m > config_.replan_off_route_m || after_round || blocked) {
+    out.replan = blocked ? RouteReplan::kBlocked : (after_round ? RouteReplan::kAfterRound : RouteReplan::kOffRoute);
+    if ((after_round || blocked) && !have_seen && scan_points) seen = scan_points();
+    out.replan_error = plan(*planner, robot, goal, now_s, after_round || blocked ? seen : std::vector<Vec2>());
+    out.replanned = out.replan_error.empty();
+  }
+  return out;
+}
+
+double RouteGuide::distanceToGo(const Vec2& p, const Vec2& goal) const {
+  if (!route_) return (p - goal).norm();
+  RouteFollower from = follower_;
+  const RouteProgress q = followRoute(*route_, p, 0.0, from);
+  return q.off_route_m + q.remaining_m;
 }
 
 }  // namespace dqn_dovs

@@ -100,7 +100,8 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   };
   hooks_.choose = [this](const Pose2& pose) { return choose(pose); };
   hooks_.remaining = [this](const Pose2& pose) {
-    return route_ && route_remaining_m_ >= 0.0 ? route_remaining_m_ : (pose.position() - *supervisor_.goal()).norm();
+    return route_guide_.hasRoute() && route_remaining_m_ >= 0.0 ? route_remaining_m_
+                                                                : (pose.position() - *supervisor_.goal()).norm();
   };
   checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
   const std::string model_path = param<std::string>(pnh_, "model_path", "");
@@ -148,9 +149,11 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   action_server_->start();
   // Routes: on the occupancy grid of the map topic or of a map file (route/map_file), or a nav_msgs/Path from any
   // global planner on `route` (it replaces ours for the goal it ends at).
-  route_lookahead_m_ = paramInRange(pnh_, "route/lookahead", 3.0, 1.0, 8.0);
-  route_off_m_ = paramInRange(pnh_, "route/replan_off_route", 1.0, 0.2, 10.0);
-  route_memory_s_ = paramInRange(pnh_, "route/obstacle_memory", 60.0, 0.0, 3600.0);
+  RouteGuideConfig guide;
+  guide.lookahead_m = paramInRange(pnh_, "route/lookahead", guide.lookahead_m, 1.0, 8.0);
+  guide.replan_off_route_m = paramInRange(pnh_, "route/replan_off_route", guide.replan_off_route_m, 0.2, 10.0);
+  guide.obstacle_memory_s = paramInRange(pnh_, "route/obstacle_memory", guide.obstacle_memory_s, 0.0, 3600.0);
+  route_guide_.setConfig(guide);
   route_pub_ = nh_.advertise<nav_msgs::Path>("planner/route", 1, true);
   if (param<bool>(pnh_, "route/enabled", true)) {
     const std::string map_file = param<std::string>(pnh_, "route/map_file", "");
@@ -274,11 +277,8 @@ void PlannerNode::onActionPreempt() {
 void PlannerNode::dropGoal() {
   goal_.reset();
   local_goals_.clear();
-  route_.reset();
-  route_obstacles_.clear();
+  route_guide_.clear();  // the supervisor counts the rounds of each goal afresh
   route_remaining_m_ = -1.0;
-  route_rounds_seen_ = 0;  // the supervisor counts the rounds of each goal afresh
-  route_blocked_before_ = false;
 }
 
 std::string PlannerNode::acceptGoal(const geometry_msgs::PoseStamped& goal, const std::string& source) {
@@ -423,7 +423,7 @@ void PlannerNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
   map_frame_ = msg->header.frame_id;
   ROS_INFO("planner: routes on the map (%d x %d cells of %.3f m) in '%s'", map.width, map.height, map.resolution_m,
            map_frame_.c_str());
-  if (goal_ && supervisor_.state() != GoalState::kReached && route_source_ != "route") {
+  if (goal_ && supervisor_.state() != GoalState::kReached && (!route_guide_.hasRoute() || route_guide_.planned())) {
     if (const std::string why = planRoute(); !why.empty()) ROS_WARN("planner: %s", why.c_str());
   }
 }
@@ -460,13 +460,11 @@ void PlannerNode::onPath(const nav_msgs::Path::ConstPtr& msg) {
               e.what());
     return;
   }
-  route_ = std::move(route);
+  route_guide_.follow(std::move(route));
   route_frame_ = msg->header.frame_id;
-  route_source_ = "route";
-  follower_ = RouteFollower();
   route_pub_.publish(*msg);
-  ROS_INFO("planner: following a route of %zu points, %.1f m, from the route topic", route_->points.size(),
-           route_->length_m);
+  ROS_INFO("planner: following a route of %zu points, %.1f m, from the route topic", route_guide_.route().points.size(),
+           route_guide_.route().length_m);
 }
 
 std::vector<Vec2> PlannerNode::scanPointsInRouteFrame() {
@@ -491,40 +489,34 @@ std::vector<Vec2> PlannerNode::scanPointsInRouteFrame() {
   return out;
 }
 
-std::string PlannerNode::planRoute(const std::vector<Vec2>& seen) {
+std::string PlannerNode::planRoute() {
   if (!route_planner_ || !goal_) return {};
-  // What the laser found on earlier routes to this goal stays an obstacle for route_memory_s_: a route planned
-  // again (off the route, say) must not lead back through it.
-  const double now = ros::Time::now().toSec();
-  while (!route_obstacles_.empty() && now - route_obstacles_.front().first > route_memory_s_) {
-    route_obstacles_.pop_front();
-  }
-  for (const Vec2& p : seen) route_obstacles_.emplace_back(now, p);
-  std::vector<Vec2> extra;
-  extra.reserve(route_obstacles_.size());
-  for (const auto& [t, p] : route_obstacles_) extra.push_back(p);
-  route_frame_ = map_frame_;
   Vec2 start, goal;
   try {
     geometry_msgs::PoseStamped latest = *goal_;
     latest.header.stamp = ros::Time(0);
-    const geometry_msgs::PoseStamped g = tf_buffer_.transform(latest, route_frame_, ros::Duration(0.2));
+    const geometry_msgs::PoseStamped g = tf_buffer_.transform(latest, map_frame_, ros::Duration(0.2));
     goal = Vec2(g.pose.position.x, g.pose.position.y);
     const geometry_msgs::TransformStamped robot =
-        tf_buffer_.lookupTransform(route_frame_, base_frame_, ros::Time(0), ros::Duration(0.2));
+        tf_buffer_.lookupTransform(map_frame_, base_frame_, ros::Time(0), ros::Duration(0.2));
     start = Vec2(robot.transform.translation.x, robot.transform.translation.y);
   } catch (const tf2::TransformException& e) {
-    return "no route: the map's frame '" + route_frame_ + "' cannot be related to the goal and the robot: " + e.what();
+    return "no route: the map's frame '" + map_frame_ + "' cannot be related to the goal and the robot: " + e.what();
   }
-  Route route = route_planner_->plan(start, goal, extra);
-  if (!route.found) return "no route: " + route.why;
-  route_ = std::move(route);
-  route_source_ = "map";
-  follower_ = RouteFollower();
+  if (std::string why = route_guide_.plan(*route_planner_, start, goal, ros::Time::now().toSec()); !why.empty()) {
+    return why;
+  }
+  route_frame_ = map_frame_;
+  publishRoute();
+  return {};
+}
+
+void PlannerNode::publishRoute() {
+  const Route& route = route_guide_.route();
   nav_msgs::Path path;
   path.header.stamp = ros::Time::now();
   path.header.frame_id = route_frame_;
-  for (const Vec2& p : route_->points) {
+  for (const Vec2& p : route.points) {
     geometry_msgs::PoseStamped ps;
     ps.header = path.header;
     ps.pose.position.x = p.x();
@@ -533,14 +525,12 @@ std::string PlannerNode::planRoute(const std::vector<Vec2>& seen) {
     path.poses.push_back(ps);
   }
   route_pub_.publish(path);
-  ROS_INFO("planner: route of %.1f m (%zu points) in '%s'", route_->length_m, route_->points.size(),
-           route_frame_.c_str());
-  return {};
+  ROS_INFO("planner: route of %.1f m (%zu points) in '%s'", route.length_m, route.points.size(), route_frame_.c_str());
 }
 
 Vec2 PlannerNode::localGoal(const Vec2& goal_fixed) {
   route_remaining_m_ = -1.0;
-  if (!route_) return goal_fixed;
+  if (!route_guide_.hasRoute()) return goal_fixed;
   geometry_msgs::TransformStamped to_route, to_fixed;
   Pose2 robot_in_route, route_in_fixed;
   try {
@@ -553,37 +543,25 @@ Vec2 PlannerNode::localGoal(const Vec2& goal_fixed) {
       !poseFromTransform(to_fixed.transform, route_in_fixed)) {
     return goal_fixed;
   }
-  const RouteProgress p =
-      route_planner_ && route_source_ == "map"
-          ? route_planner_->subgoal(*route_, robot_in_route.position(), route_lookahead_m_, follower_)
-          : followRoute(*route_, robot_in_route.position(), route_lookahead_m_, follower_);
-  route_remaining_m_ = p.remaining_m;
-  // Off the route (pushed aside, a detour around people), or a recovery round just ended: plan again from here,
-  // the obstacles the laser sees now included.
-  const int rounds = supervisor_.navigation().rounds();
-  const bool after_round = rounds > route_rounds_seen_;
-  route_rounds_seen_ = rounds;
-  // Blocked: the laser sees something on the next route_lookahead_m of route, twice a second apart (a person
-  // walking across is gone by then; a door that closed, a cart left in the corridor is not).
-  bool blocked = false;
-  std::vector<Vec2> seen;
-  const double now = ros::Time::now().toSec();
-  if (route_source_ == "map" && now - route_blocked_check_s_ >= 1.0) {
-    route_blocked_check_s_ = now;
-    seen = scanPointsInRouteFrame();
-    // Within 3/4 of the radius: mapped walls beside the route (kept a radius away by the plan) never count.
-    const bool on_route = routeBlocked(*route_, follower_, seen, 0.75 * limits_.radius, route_lookahead_m_);
-    blocked = on_route && route_blocked_before_;
-    route_blocked_before_ = on_route && !blocked;
-  }
-  if (route_source_ == "map" && (p.off_route_m > route_off_m_ || after_round || blocked)) {
+  // The subgoal and the replanning (off the route, after a recovery round, blocked ahead by what the laser sees),
+  // as the evaluation decides them. Only a route planned on the map in force is planned again.
+  const RoutePlanner* planner = route_frame_ == map_frame_ ? route_planner_.get() : nullptr;
+  const RouteGuidance g = route_guide_.update(
+      planner, robot_in_route.position(), route_in_fixed.inverse().toWorld(goal_fixed), ros::Time::now().toSec(),
+      supervisor_.navigation().rounds(), [this]() { return scanPointsInRouteFrame(); });
+  route_remaining_m_ = g.remaining_m;
+  if (g.replan != RouteReplan::kNone) {
     ++route_replans_;
-    if ((after_round || blocked) && seen.empty()) seen = scanPointsInRouteFrame();
-    if (blocked) ROS_INFO("planner: the route is blocked ahead; planning again around what the laser sees");
-    const std::string why = planRoute(after_round || blocked ? seen : std::vector<Vec2>());
-    if (!why.empty()) ROS_WARN_THROTTLE(2.0, "planner: replanning failed, keeping the route: %s", why.c_str());
+    if (g.replan == RouteReplan::kBlocked) {
+      ROS_INFO("planner: the route is blocked ahead; planning again around what the laser sees");
+    }
+    if (g.replanned) {
+      publishRoute();
+    } else {
+      ROS_WARN_THROTTLE(2.0, "planner: replanning failed, keeping the route: %s", g.replan_error.c_str());
+    }
   }
-  return p.final_goal ? goal_fixed : route_in_fixed.toWorld(p.subgoal);
+  return g.final_goal ? goal_fixed : route_in_fixed.toWorld(g.local_goal);
 }
 
 void PlannerNode::updateAction(const ros::Time& now) {
@@ -729,7 +707,7 @@ void PlannerNode::publishStatus(const ros::Time& now, double goal_distance) {
   s.reason = supervisor_.reason().empty() ? goalStateName(supervisor_.state()) : supervisor_.reason();
   s.action = static_cast<int8_t>(supervisor_.action());
   s.goal_distance = goal_distance;
-  s.route_remaining = route_ ? route_remaining_m_ : goal_distance;
+  s.route_remaining = route_guide_.hasRoute() ? route_remaining_m_ : goal_distance;
   s.goal_frame = goal_ ? goal_->header.frame_id : std::string();
   const NavigationMonitor& nav = supervisor_.navigation();
   s.recovery = nav.recovering() ? recoveryStepName(nav.step()) : "";
@@ -771,8 +749,8 @@ PlannerConfig PlannerNode::reconfigurable() const {
   c.recovery_rotate_angle = n.recovery_rotate_rad;
   c.recovery_rotate_speed = n.recovery_rotate_speed;
   c.max_recovery_rounds = n.max_recovery_rounds;
-  c.route_lookahead = route_lookahead_m_;
-  c.route_replan_off_route = route_off_m_;
+  c.route_lookahead = route_guide_.config().lookahead_m;
+  c.route_replan_off_route = route_guide_.config().replan_off_route_m;
   return c;
 }
 
@@ -795,14 +773,18 @@ void PlannerNode::onReconfigure(PlannerConfig& c, uint32_t) {
   n.recovery_rotate_rad = c.recovery_rotate_angle;
   n.recovery_rotate_speed = c.recovery_rotate_speed;
   n.max_recovery_rounds = c.max_recovery_rounds;
-  if (const std::string refused = supervisor_.reconfigure(s); !refused.empty()) {
+  RouteGuideConfig guide = route_guide_.config();
+  guide.lookahead_m = c.route_lookahead;
+  guide.replan_off_route_m = c.route_replan_off_route;
+  std::string refused = guide.validate();
+  if (refused.empty()) refused = supervisor_.reconfigure(s);
+  if (!refused.empty()) {
     ROS_ERROR("planner: reconfiguration refused, the settings stay as they were: %s", refused.c_str());
     c = reconfigurable();
     return;
   }
   use_goal_yaw_ = c.use_goal_yaw;
-  route_lookahead_m_ = c.route_lookahead;
-  route_off_m_ = c.route_replan_off_route;
+  route_guide_.setConfig(guide);
   ROS_INFO("planner: reconfigured");
 }
 

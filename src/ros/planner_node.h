@@ -54,11 +54,13 @@ class PlannerNode {
   void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg);
   void onPath(const nav_msgs::Path::ConstPtr& msg);
   /// Plans the route to the goal on the map (route_planner_), from the robot, around the obstacle points the laser
-  /// found on routes to this goal (`seen` now, in the route frame, and those of the last route/obstacle_memory s);
-  /// "" when planned (or there is no map: the goal is driven at straight), else why there is no route.
-  std::string planRoute(const std::vector<Vec2>& seen = {});
-  /// The point the velocity space is built for now: the subgoal on the route (its frame converted to the fixed
-  /// frame), or the goal itself; sets route_remaining_m_.
+  /// found on routes to this goal within route/obstacle_memory s (route_guide_); "" when planned (or there is no
+  /// map: the goal is driven at straight), else why there is no route.
+  std::string planRoute();
+  /// Publishes route_guide_'s route on planner/route and logs it.
+  void publishRoute();
+  /// The point the velocity space is built for now: route_guide_'s subgoal on the route (its frame converted to
+  /// the fixed frame), or the goal itself; replans as route_guide_ decides; sets route_remaining_m_.
   Vec2 localGoal(const Vec2& goal_fixed);
   /// The route planner's settings: robot/radius and route/* parameters.
   RouteConfig routeConfig() const;
@@ -119,15 +121,12 @@ class PlannerNode {
   std::string goal_fault_;
   bool use_goal_yaw_ = true;
   // The route to the goal (route_frame_): planned on the map, or taken from a nav_msgs/Path; none: straight at it.
+  // route_guide_ holds it and decides the subgoal and the replanning, as the evaluation's Episode does.
   std::unique_ptr<RoutePlanner> route_planner_;
-  std::string map_frame_, route_frame_, route_source_;
-  std::optional<Route> route_;
-  RouteFollower follower_;
-  double route_lookahead_m_ = 3.0, route_off_m_ = 1.0, route_remaining_m_ = -1.0, route_memory_s_ = 60.0;
-  std::deque<std::pair<double, Vec2>> route_obstacles_;  // (ROS time seen, route frame)
-  int route_replans_ = 0, route_rounds_seen_ = 0;
-  double route_blocked_check_s_ = 0.0;
-  bool route_blocked_before_ = false;
+  std::string map_frame_, route_frame_;
+  RouteGuide route_guide_;
+  double route_remaining_m_ = -1.0;
+  int route_replans_ = 0;
   sensor_msgs::LaserScan::ConstPtr last_scan_;
   // The local goals published for the current goal over the last second (ROS time, position in the fixed frame):
   // a Dovs built for none of them is not used.

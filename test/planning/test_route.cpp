@@ -1,6 +1,7 @@
 // Route planning on occupancy grids: the distance transform, routes through doors and around corners with the
 // robot's clearance, the reasons when there is none, unknown cells, the subgoal and progress along a route, the
-// blocked-route check and planning with extra obstacle points, and a map loaded from test/data.
+// blocked-route check and planning with extra obstacle points, a map loaded from test/data, the grid of known walls
+// and furniture, and RouteGuide (the route following planner_node and the evaluation share).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -394,6 +395,185 @@ TEST(Route, SubgoalOfARouteNotFoundIsTheRobot) {
   EXPECT_EQ(p.subgoal, Vec2(2.0, 1.0));
   EXPECT_TRUE(p.final_goal);
   EXPECT_FALSE(routeBlocked(r, follower, {Vec2(2.0, 1.0)}, kRadius, 2.0));
+}
+
+TEST(RouteGridFromGeometryTest, WallsAndDiscsBecomeOccupiedCellsARouteGoesAround) {
+  // Two 5 x 5 m rooms as segments, the wall between them at x = 5 with a 1 m door at y in [3.5, 4.5], a chair.
+  const std::vector<Segment> walls = {{Vec2(0, 0), Vec2(10, 0)},  {Vec2(10, 0), Vec2(10, 5)},
+                                      {Vec2(10, 5), Vec2(0, 5)},  {Vec2(0, 5), Vec2(0, 0)},
+                                      {Vec2(5, 0), Vec2(5, 3.5)}, {Vec2(5, 4.5), Vec2(5, 5)}};
+  const std::vector<Circle> chairs = {{Vec2(7.0, 2.0), 0.25}};
+  const RouteGrid g = routeGridFromGeometry(walls, chairs, Vec2(-0.1, -0.1), Vec2(10.1, 5.1), 0.05);
+  EXPECT_EQ(g.width, 204);
+  EXPECT_EQ(g.height, 104);
+  EXPECT_DOUBLE_EQ(g.origin.x, -0.1);
+  auto at = [&](const Vec2& p) {
+    const int i = static_cast<int>(std::floor((p.x() - g.origin.x) / g.resolution_m));
+    const int j = static_cast<int>(std::floor((p.y() - g.origin.y) / g.resolution_m));
+    return g.cells[size_t(j) * g.width + i];
+  };
+  EXPECT_EQ(at(Vec2(5.01, 2.0)), kOccupied) << "a wall";
+  EXPECT_EQ(at(Vec2(4.99, 2.0)), kOccupied) << "a wall between two cell centres marks both";
+  EXPECT_EQ(at(Vec2(5.0, 4.0)), 0) << "the door";
+  EXPECT_EQ(at(Vec2(7.0, 2.0)), kOccupied) << "the chair";
+  EXPECT_EQ(at(Vec2(7.0, 2.4)), 0);
+  // A diagonal wall leaves no gap a route could slip through.
+  const RouteGrid d = routeGridFromGeometry({{Vec2(0, 0), Vec2(3, 2.9)}}, {}, Vec2(-0.5, -0.5), Vec2(3.5, 3.5), 0.05);
+  const RoutePlanner across(d, config());
+  const Route blocked = across.plan(Vec2(0.5, 2.5), Vec2(2.5, 0.5));
+  ASSERT_TRUE(blocked.found) << blocked.why;
+  EXPECT_GT(blocked.length_m, 4.0) << "round the diagonal wall's ends, not through it";
+  // Through the door, around the chair.
+  const RoutePlanner planner(g, config());
+  const Route r = planner.plan(Vec2(2.0, 1.0), Vec2(8.0, 1.0));
+  ASSERT_TRUE(r.found) << r.why;
+  double highest = 0.0;
+  for (const Vec2& p : r.points) highest = std::max(highest, p.y());
+  EXPECT_GT(highest, 3.5);
+  for (size_t k = 1; k < r.points.size(); ++k) {
+    EXPECT_GT(pointSegmentDistance(Vec2(7.0, 2.0), {r.points[k - 1], r.points[k]}), 0.25 + kRadius - 0.05);
+  }
+}
+
+TEST(RouteGridFromGeometryTest, BadInputIsNamed) {
+  const auto message = [](const std::vector<Segment>& s, const Vec2& lo, const Vec2& hi, double res) {
+    try {
+      routeGridFromGeometry(s, {}, lo, hi, res);
+    } catch (const RouteError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(message({}, Vec2(0, 0), Vec2(1, 1), 0.0).find("resolution"), std::string::npos);
+  EXPECT_NE(message({}, Vec2(1, 0), Vec2(0, 1), 0.05).find("is not finite or empty"), std::string::npos);
+  EXPECT_NE(message({}, Vec2(0, 0), Vec2(1e4, 1), 0.05).find("more than 4096 cells"), std::string::npos);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(message({{Vec2(nan, 0), Vec2(1, 1)}}, Vec2(0, 0), Vec2(1, 1), 0.05).find("a segment is not finite"),
+            std::string::npos);
+}
+
+TEST(RouteGuideTest, GivesTheSubgoalOfThePrimitivesAndTheGoalItselfAtTheEnd) {
+  const RoutePlanner planner(twoRooms(1.0), config());
+  const Vec2 start(2.0, 1.0), goal(8.0, 1.0);
+  RouteGuide guide;
+  EXPECT_EQ(guide.config().lookahead_m, 3.0) << "planner_node's route/lookahead";
+  // Without a route: the goal itself.
+  RouteGuidance g = guide.update(&planner, start, goal, 0.0);
+  EXPECT_FALSE(g.on_route);
+  EXPECT_EQ(g.local_goal, goal);
+  EXPECT_TRUE(g.final_goal);
+  EXPECT_DOUBLE_EQ(g.remaining_m, (goal - start).norm());
+  ASSERT_EQ(guide.plan(planner, start, goal, 0.0), "");
+  ASSERT_TRUE(guide.hasRoute());
+  ASSERT_TRUE(guide.planned());
+  const Route route = guide.route();
+  EXPECT_EQ(route.points.back(), goal);
+  // Step by step along the route, beside it as a real robot: what RoutePlanner::subgoal gives with its own follower.
+  RouteFollower follower;
+  bool finals = false;
+  for (double arc = 0.0; arc < route.length_m; arc += 0.2) {
+    const Vec2 robot = routePointAt(route, arc) + Vec2(0.03, -0.02);
+    g = guide.update(&planner, robot, goal, arc);
+    const RouteProgress p = planner.subgoal(route, robot, 3.0, follower);
+    ASSERT_TRUE(g.on_route);
+    EXPECT_EQ(g.final_goal, p.final_goal) << "at arc " << arc;
+    EXPECT_EQ(g.local_goal, p.final_goal ? goal : p.subgoal) << "at arc " << arc;
+    EXPECT_EQ(g.remaining_m, p.remaining_m);
+    EXPECT_EQ(g.off_route_m, p.off_route_m);
+    EXPECT_EQ(g.replan, RouteReplan::kNone);
+    EXPECT_NEAR(guide.distanceToGo(robot, goal), p.off_route_m + p.remaining_m, 1e-9);
+    finals = finals || g.final_goal;
+  }
+  EXPECT_TRUE(finals);
+  // A route given as is (another global planner's): followRoute, never planned again even far off it.
+  const Route given = routeFromPoints({start, Vec2(5.0, 4.0), goal});
+  guide.follow(given);
+  EXPECT_FALSE(guide.planned());
+  RouteFollower given_follower;
+  for (const Vec2& robot : {Vec2(2.5, 1.5), Vec2(4.0, 3.0), Vec2(3.0, 0.5)}) {
+    g = guide.update(&planner, robot, goal, 0.0);
+    const RouteProgress p = followRoute(given, robot, 3.0, given_follower);
+    EXPECT_EQ(g.local_goal, p.final_goal ? goal : p.subgoal);
+    EXPECT_EQ(g.replan, RouteReplan::kNone);
+  }
+  guide.clear();
+  EXPECT_FALSE(guide.hasRoute());
+}
+
+TEST(RouteGuideTest, PlansAgainOffTheRouteAfterARoundAndWhenBlockedTwice) {
+  const RoutePlanner planner(room(10.0, 5.0), config());
+  const Vec2 start(1.0, 2.5), goal(9.0, 2.5);
+  RouteGuideConfig c;
+  c.replan_off_route_m = 1.0;
+  RouteGuide guide(c);
+  ASSERT_EQ(guide.plan(planner, start, goal, 0.0), "");
+  std::vector<Vec2> seen;
+  int scans = 0;
+  const auto scan = [&]() {
+    ++scans;
+    return seen;
+  };
+  // On the route, nothing seen: no replan; the scan is read once per blocked_check_period_s.
+  RouteGuidance g = guide.update(&planner, Vec2(2.0, 2.5), goal, 10.0, 0, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kNone);
+  g = guide.update(&planner, Vec2(2.1, 2.5), goal, 10.5, 0, scan);
+  EXPECT_EQ(scans, 1);
+  // A panel across the way: blocked at the second check a period later, then planned round it.
+  for (double y = 1.5; y <= 3.5; y += 0.05) seen.emplace_back(4.0, y);
+  g = guide.update(&planner, Vec2(2.2, 2.5), goal, 11.0, 0, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kNone) << "seen once: a person walking across is gone by the next check";
+  g = guide.update(&planner, Vec2(2.3, 2.5), goal, 12.0, 0, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kBlocked);
+  EXPECT_TRUE(g.replanned) << g.replan_error;
+  EXPECT_EQ(routeReplanName(g.replan), std::string("blocked"));
+  EXPECT_GT(guide.route().length_m, 7.0);
+  for (size_t k = 1; k < guide.route().points.size(); ++k) {
+    EXPECT_GT(pointSegmentDistance(Vec2(4.0, 2.5), {guide.route().points[k - 1], guide.route().points[k]}), 0.9);
+  }
+  // The panel gone from sight, it is remembered: off the route, the new plan still goes round it.
+  seen.clear();
+  g = guide.update(&planner, Vec2(2.3, 0.8), goal, 13.0, 0, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kOffRoute);
+  ASSERT_TRUE(g.replanned) << g.replan_error;
+  for (size_t k = 1; k < guide.route().points.size(); ++k) {
+    EXPECT_GT(pointSegmentDistance(Vec2(4.0, 2.5), {guide.route().points[k - 1], guide.route().points[k]}), 0.9);
+  }
+  // A recovery round ends: planned again.
+  g = guide.update(&planner, guide.route().points.front(), goal, 13.2, 1, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kAfterRound);
+  g = guide.update(&planner, guide.route().points.front(), goal, 13.4, 1, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kNone) << "the same round counts once";
+  // Past obstacle_memory_s the panel is forgotten: the straight route again.
+  g = guide.update(&planner, Vec2(2.0, 2.5), goal, 200.0, 1, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kOffRoute);
+  EXPECT_NEAR(guide.route().length_m, 7.0, 1e-9);
+  // A plan that fails keeps the route and says why.
+  const Route kept = guide.route();
+  g = guide.update(&planner, Vec2(2.0, 1.0), Vec2(20.0, 2.5), 201.0, 1, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kOffRoute);
+  EXPECT_FALSE(g.replanned);
+  EXPECT_EQ(g.replan_error.rfind("no route: goal (20.00, 2.50) is outside the map", 0), 0u) << g.replan_error;
+  EXPECT_EQ(guide.route().points, kept.points);
+  // Without the planner (a map of another frame) it only follows.
+  g = guide.update(nullptr, Vec2(2.0, 4.5), goal, 202.0, 2, scan);
+  EXPECT_EQ(g.replan, RouteReplan::kNone);
+  EXPECT_TRUE(g.on_route);
+}
+
+TEST(RouteGuideTest, BadSettingsAreNamed) {
+  RouteGuideConfig c;
+  EXPECT_EQ(c.validate(), "");
+  c.lookahead_m = 0.0;
+  EXPECT_EQ(c.validate(), "route parameter 'lookahead_m' = 0: must be > 0 m");
+  c = RouteGuideConfig();
+  c.blocked_clearance_fraction = 1.5;
+  EXPECT_NE(c.validate().find("blocked_clearance_fraction"), std::string::npos);
+  c = RouteGuideConfig();
+  c.obstacle_memory_s = -1.0;
+  EXPECT_THROW(RouteGuide{c}, RouteError);
+  RouteGuide guide;
+  EXPECT_THROW(guide.setConfig(c), RouteError);
+  EXPECT_EQ(guide.config().obstacle_memory_s, RouteGuideConfig().obstacle_memory_s) << "the settings in force stay";
 }
 
 }  // namespace

@@ -5,14 +5,20 @@
 // as a sequence of subgoals a lookahead ahead on the route, then as the goal itself. ROS-free.
 //
 // The grid has its own small type (the encoding of nav_msgs/OccupancyGrid) so that planning links nothing of the
-// simulator; planning/route_map.h converts a sim::OccupancyMap.
+// simulator; planning/route_map.h converts a sim::OccupancyMap, routeGridFromGeometry rasterises known walls and
+// furniture. RouteGuide is the route-following state every user shares (planner_node, the evaluation's Episode and
+// with it the training environment): the subgoal of each control period, when the goal itself replaces it, and
+// when to plan again.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dqn_dovs/common/geometry.h"
@@ -193,5 +199,122 @@ Vec2 routePointAt(const Route& route, double arc_m);
 /// beyond ahead_m or farther to the side are ignored.
 bool routeBlocked(const Route& route, const RouteFollower& from, const std::vector<Vec2>& obstacle_points,
                   double clearance_m, double ahead_m);
+
+/// An occupancy grid of known static geometry (a simulated world's walls and furniture): cells of
+/// `resolution_m` covering [lo, hi] (grown to whole cells), occupied (100) where a segment or a disc comes within
+/// half a cell diagonal of the cell's centre (so a wall never slips between two cells), free (0) elsewhere.
+/// Throws RouteError when resolution_m is not positive, lo or hi is not finite, hi is not above lo, or a
+/// segment or disc is not finite.
+RouteGrid routeGridFromGeometry(const std::vector<Segment>& segments, const std::vector<Circle>& discs, const Vec2& lo,
+                                const Vec2& hi, double resolution_m);
+
+/// Settings of RouteGuide: planner_node's route/* parameters. Defaults live here only.
+struct RouteGuideConfig {
+  /// The subgoal is this much route ahead of the robot's projection, m (route/lookahead).
+  double lookahead_m = 3.0;
+  /// The robot plans again once it is farther than this from its route, m (route/replan_off_route).
+  double replan_off_route_m = 1.0;
+  /// Obstacle points that made the robot plan again (a blocked route, a recovery round) stay obstacles of the
+  /// later plans to the same goal this long, s (route/obstacle_memory).
+  double obstacle_memory_s = 60.0;
+  /// The next lookahead_m of route is checked against the obstacle points seen this often, s; the route is
+  /// blocked when two checks in a row find a point on it (a person walking across is gone by then; a door that
+  /// closed, a cart left in the corridor is not).
+  double blocked_check_period_s = 1.0;
+  /// A point blocks the route within this fraction of the robot radius of it (walls beside the route, kept a
+  /// radius away by the plan, never do).
+  double blocked_clearance_fraction = 0.75;
+
+  /// Empty when consistent, otherwise a message naming the offending field and why.
+  std::string validate() const;
+};
+
+/// Why RouteGuide::update planned the route again.
+enum class RouteReplan {
+  kNone,        ///< it did not
+  kOffRoute,    ///< the robot was farther than replan_off_route_m from its route
+  kAfterRound,  ///< a recovery round of the navigation monitor ended
+  kBlocked,     ///< the route ahead was blocked twice in a row
+};
+/// "", "off route", "after a recovery round", "blocked".
+const char* routeReplanName(RouteReplan why);
+
+/// What RouteGuide::update gives the local planner for one control period.
+struct RouteGuidance {
+  /// The point to drive at: the route's subgoal, or the goal itself once the subgoal is the route's end (or
+  /// without a route).
+  Vec2 local_goal = Vec2::Zero();
+  bool final_goal = true;  ///< local_goal is the goal
+  bool on_route = false;   ///< a route was followed (false: there is none, local_goal is the goal)
+  /// Route length from the robot's projection to the goal, m; without a route the straight distance.
+  double remaining_m = 0.0;
+  double off_route_m = 0.0;  ///< the robot's distance from its projection on the route, m (0 without a route)
+  RouteReplan replan = RouteReplan::kNone;  ///< why the route was planned again in this update
+  bool replanned = false;                   ///< that plan succeeded: route() is the new route
+  std::string replan_error;                 ///< that plan failed (the route is kept): why
+};
+
+/// The route-following state of one goal, shared by planner_node and the evaluation's Episode (and through it the
+/// training environment), so that the robot, the evaluation and the training give the local planner the same
+/// point: the route (planned on a RoutePlanner, or given as is), the robot's place along it, the obstacle points
+/// remembered for later plans and the blocked-route bookkeeping. One frame throughout (the route's: the map's);
+/// the caller converts. ROS-free; one instance per robot (not thread-safe).
+class RouteGuide {
+ public:
+  /// Throws RouteError naming the field when config.validate() fails.
+  explicit RouteGuide(const RouteGuideConfig& config = RouteGuideConfig());
+  /// New settings from the next update on (planner_node's dynamic reconfiguration). Throws RouteError naming the
+  /// field when config.validate() fails (the settings in force stay).
+  void setConfig(const RouteGuideConfig& config);
+  const RouteGuideConfig& config() const { return config_; }
+
+  /// Forgets the route, the robot's place on it, the remembered obstacle points and the recovery-round and
+  /// blocked-route bookkeeping (a new goal, or none).
+  void clear();
+
+  /// Plans the route from `start` to `goal` on `planner`, around the obstacle points remembered from the last
+  /// obstacle_memory_s before now_s and `seen` (remembered from now on). "" when planned: the route replaces the
+  /// current one and is followed from its start; otherwise the current route (if any) is kept and the reason is
+  /// returned ("no route: ...").
+  std::string plan(const RoutePlanner& planner, const Vec2& start, const Vec2& goal, double now_s,
+                   const std::vector<Vec2>& seen = {});
+
+  /// Follows `route` as given (another global planner's, found): it is never planned again.
+  void follow(Route route);
+
+  bool hasRoute() const { return route_.has_value(); }
+  /// The route followed; only with hasRoute().
+  const Route& route() const { return *route_; }
+  /// Whether the route was planned here (plan) rather than given (follow).
+  bool planned() const { return planned_; }
+
+  /// One control period of a robot at `robot` heading for `goal`. With a route: the subgoal lookahead_m ahead
+  /// (RoutePlanner::subgoal on `planner` for a planned route, in line of sight on its grid; followRoute for a
+  /// given one or without `planner`); the goal itself replaces it once the subgoal is the route's end. Then a
+  /// planned route is planned again from the robot (on `planner`, when given) when the robot is farther than
+  /// replan_off_route_m from it, when `recovery_rounds` (the navigation monitor's count for this goal) rose since
+  /// the last update, or when it is blocked: every blocked_check_period_s `scan_points` (obstacle points seen now)
+  /// is read and checked against the next lookahead_m of route (routeBlocked within blocked_clearance_fraction of
+  /// the robot radius); after a round or a blockage the new plan also avoids the points seen now. Without a route:
+  /// the goal itself and the straight distance.
+  RouteGuidance update(const RoutePlanner* planner, const Vec2& robot, const Vec2& goal, double now_s,
+                       int recovery_rounds = 0, const std::function<std::vector<Vec2>()>& scan_points = {});
+
+  /// How far `p` is from `goal` along the route: its distance from its projection on the route (searched ahead
+  /// of the robot's place, which does not move) plus the route length from there to the end; the straight
+  /// distance without a route. The training reward's distance term (docs/simulator.md, "Routes in episodes").
+  double distanceToGo(const Vec2& p, const Vec2& goal) const;
+
+ private:
+  RouteGuideConfig config_;
+  std::optional<Route> route_;
+  bool planned_ = false;
+  RouteFollower follower_;
+  std::deque<std::pair<double, Vec2>> memory_;  ///< (time seen, point) of the obstacle points of earlier plans
+  int rounds_seen_ = 0;
+  double blocked_check_s_ = 0.0;
+  bool blocked_checked_ = false;  ///< a blocked check ran since clear() (blocked_check_s_ holds its time)
+  bool blocked_before_ = false;
+};
 
 }  // namespace dqn_dovs
