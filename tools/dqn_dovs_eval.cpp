@@ -36,7 +36,7 @@ const char* kUsage =
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
-    "                     [--odom-noise LEVEL]\n"
+    "                     [--odom-noise LEVEL] [--route on|off]\n"
     "                     [--no-report]\n"
     "  --methods           planners to evaluate, comma-separated (default s_dovs); oracle: the physical limit,\n"
     "                      a search that reads the simulator's future (not deployable)\n"
@@ -61,6 +61,8 @@ const char* kUsage =
     "  --people-model M    how people move: social_force (default), orca or constant\n"
     "  --people-see-robot  people see the robot and give way (default: it is invisible to them)\n"
     "  --odom-noise LEVEL  wheel-odometry drift: none (default), low, high; the robot plans in its odom frame\n"
+    "  --route on|off      on (default): in worlds with walls (not the room) the robot follows a route on the\n"
+    "                      known walls and furniture, as planner_node does; off: it drives at the goal itself\n"
     "  --no-report         write the records only (results.csv, run.json, paths.json), not the summaries\n"
     "The summaries and plots come from the Python reporter, python -m dqn_dovs_py.report OUT (interpreter\n"
     "$DQN_DOVS_PYTHON, package folder $DQN_DOVS_PYTHON_DIR; defaults: the build's venv and source tree).\n";
@@ -215,6 +217,9 @@ Options parse(int argc, char** argv) {
     } else if (flag == "--odom-noise") {
       o.eval.odom_noise = value();
       checkName(flag, o.eval.odom_noise, dqn_dovs::sim::OdometryConfig::levelNames());
+    } else if (flag == "--route") {
+      o.eval.route = value();
+      checkName(flag, o.eval.route, {"on", "off"});
     } else if (flag == "--people-see-robot") {
       o.eval.people_see_robot = true;
     } else if (flag == "--no-report") {

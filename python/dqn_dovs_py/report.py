@@ -344,6 +344,7 @@ class RunInfo:
     people_model: str = "social_force"
     people_see_robot: bool = False
     odom_noise: str = "none"
+    route: str = "off"  # runs made before routes existed drove at the goal itself
 
 
 def _type_ok(value: object, kind: type) -> bool:
@@ -361,7 +362,7 @@ _RUN_TYPES: dict[str, type] = {"command": str, "scenarios": str, "seed": int, "o
                                "step_s": float, "max_steps": int, "wall_s": float, "threads": int, "methods": list,
                                "reference": str, "goal_tolerance_m": float}
 _OPTIONAL_RUN_TYPES: dict[str, type] = {"world": str, "sensor": str, "people_model": str, "people_see_robot": bool,
-                                        "odom_noise": str}
+                                        "odom_noise": str, "route": str}
 _TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
                list: "a non-empty list of strings"}
 
@@ -405,7 +406,8 @@ def run_header(run: RunInfo) -> str:
     if run.world != "room" or run.sensor != "sim" or run.odom_noise != "none":
         sees = "people give way to the robot" if run.people_see_robot else "the robot invisible to people"
         odom = "" if run.odom_noise == "none" else f"; odometry drift {run.odom_noise}"
-        world = (f"World: {run.world} ({run.people_model} people, {sees}); LIDAR profile {run.sensor}{odom}  \n"
+        route = f"; route {run.route}"
+        world = (f"World: {run.world} ({run.people_model} people, {sees}); LIDAR profile {run.sensor}{odom}{route}  \n"
                  if run.world != "room" else f"World: room; LIDAR profile {run.sensor}{odom}  \n")
     return (f"Command: `{run.command}`  \n"
             f"Scenarios: {scenarios}; obstacles {run.obstacles_min}-{run.obstacles_max}, {run.episodes} episodes "

@@ -28,11 +28,23 @@ std::string RewardConfig::validate() const {
   return os.str();
 }
 
+std::string EpisodeRouteConfig::validate() const {
+  if (!(std::isfinite(resolution_m) && resolution_m >= 0.01 && resolution_m <= 0.5)) {
+    std::ostringstream os;
+    os << "route.resolution_m = " << resolution_m << " must be in [0.01, 0.5] m";
+    return os.str();
+  }
+  if (const std::string e = planner.validate(); !e.empty()) return "route: " + e;
+  if (const std::string e = guide.validate(); !e.empty()) return "route: " + e;
+  return {};
+}
+
 std::string EpisodeConfig::validate() const {
   if (auto e = world.validate(); !e.empty()) return "world: " + e;
   if (auto e = tracker.validate(); !e.empty()) return "tracker: " + e;
   if (auto e = dovs.validate(); !e.empty()) return "dovs: " + e;
   if (auto e = reward.validate(); !e.empty()) return e;
+  if (auto e = route.validate(); !e.empty()) return e;
   const double ratio = world.robot.dt / scan_period_s;
   if (!(scan_period_s > 0.0) || std::abs(ratio - std::round(ratio)) > 1e-6 || std::round(ratio) < 1.0) {
     std::ostringstream os;
@@ -85,6 +97,7 @@ Episode::Episode(const EpisodeConfig& config)
       tracker_(config_.tracker),
       dovs_builder_(config_.world.robot, config_.dovs),
       normalization_(stateNormalization(config_.world.robot, config_.dovs)),
+      route_guide_(config_.route.guide),
       state_(Eigen::VectorXf::Zero(kStateSize)) {}
 
 void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
@@ -95,6 +108,10 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   path_length_m_ = 0.0;
   danger_steps_ = 0;
   trajectory_.clear();
+  route_planner_.reset();
+  route_guide_.clear();
+  guidance_ = RouteGuidance();
+  route_error_.clear();
   // The robot senses, standing still, before it is given the goal: the tracker needs a few scans to
   // confirm tracks and estimate their velocities. Obstacles move meanwhile, the same for every planner.
   const int warmup_scans = static_cast<int>(std::round(config_.sensor_warmup_s / config_.scan_period_s));
@@ -104,6 +121,8 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
     sense();
   }
   start_time_s_ = world_.time_s();
+  // The goal is given now: a world with walls gets its route (the room of the paper none, as before).
+  if (config_.route.enabled && !scenario.static_segments.empty()) planRoute();
   min_clearance_m_ = world_.minClearance_m();
   trajectory_.push_back(world_.robotPose());
   if (world_.collided()) {
@@ -119,6 +138,7 @@ void Episode::sense() {
   // The robot knows where its laser is from its odometry: with drift, tracks live in the drifting odom frame.
   const Pose2 laser =
       config_.world.odometry.enabled() ? world_.odomPose().compose(config_.world.lidar.mount) : world_.laserPose();
+  scan_laser_ = laser;
   const TrackerResult result = tracker_.update(scan_, laser);
   if (result.status == TrackerStatus::kRejected) {
     throw std::runtime_error("episode: the tracker rejected a simulated scan: " + result.message);
@@ -150,10 +170,62 @@ void Episode::buildContext() {
     for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
     observation_.segments = tracker_.scene().segments;
   }
+  if (route_planner_) {
+    // The robot's decision step: the route's subgoal, once per control period, as planner_node gives it.
+    guidance_ = route_guide_.update(route_planner_.get(), observation_.robot_pose.position(), world_.goal(),
+                                    world_.time_s(), 0, [this]() { return routeScanPoints(); });
+    observation_.goal = guidance_.local_goal;
+  }
   dovs_builder_.build(observation_, dovs_);
   const Vec2 goal_local = observation_.robot_pose.toLocal(observation_.goal);
   actions_ = computeActions(observation_.robot_twist, goal_local, config_.world.robot);
   state_ = buildState(dovs_, observation_, normalization_);
+}
+
+void Episode::planRoute() {
+  // The map the robot would have: the walls and the furniture (static discs included), not the people.
+  const sim::Scenario& s = world_.scenario();
+  std::vector<Circle> furniture;
+  for (const MovingObstacle& o : s.obstacles) {
+    if (o.is_static) furniture.push_back({o.center, o.radius});
+  }
+  const Vec2 start = world_.odomPose().position();
+  Vec2 lo = start.cwiseMin(world_.goal()), hi = start.cwiseMax(world_.goal());
+  for (const Segment& w : world_.walls()) {
+    lo = lo.cwiseMin(w.a).cwiseMin(w.b);
+    hi = hi.cwiseMax(w.a).cwiseMax(w.b);
+  }
+  const double margin = 2.0 * config_.route.resolution_m;
+  RouteConfig planner = config_.route.planner;
+  planner.robot_radius_m = config_.world.robot.radius;
+  route_planner_ =
+      std::make_unique<RoutePlanner>(routeGridFromGeometry(world_.walls(), furniture, lo - Vec2::Constant(margin),
+                                                           hi + Vec2::Constant(margin), config_.route.resolution_m),
+                                     planner);
+  // Without a route (start and goal not connected on the grid) the robot drives at the goal itself.
+  route_error_ = route_guide_.plan(*route_planner_, start, world_.goal(), world_.time_s());
+}
+
+std::vector<Vec2> Episode::routeScanPoints() const {
+  std::vector<Vec2> out;
+  if (config_.perfect_info) {
+    // No scan: the outlines of the true bodies the robot is told about, every 10 cm or so.
+    for (const MovingObstacle& o : observation_.obstacles) {
+      const int n = std::max(8, static_cast<int>(std::ceil(2.0 * kPi * o.radius / 0.1)));
+      for (int k = 0; k < n; ++k) {
+        const double a = 2.0 * kPi * k / n;
+        out.push_back(o.center + o.radius * Vec2(std::cos(a), std::sin(a)));
+      }
+    }
+    return out;
+  }
+  for (size_t k = 0; k < scan_.ranges.size(); ++k) {
+    const double r = scan_.ranges[k];
+    if (!std::isfinite(r) || r < scan_.range_min || r > scan_.range_max) continue;
+    const double a = scan_.angleOf(k);
+    out.push_back(scan_laser_.toWorld(Vec2(r * std::cos(a), r * std::sin(a))));
+  }
+  return out;
 }
 
 PlannerInput Episode::plannerInput() const {
@@ -195,7 +267,8 @@ StepResult Episode::stepDecision(const PlannerDecision& d) {
 
 StepResult Episode::advance(const std::function<void(double)>& move_robot) {
   const RobotLimits& limits = config_.world.robot;
-  const double d_before = (world_.robotPose().position() - world_.goal()).norm();
+  // The reward's distance: along the route when there is one (the route in force at the start of the period).
+  const double d_before = route_guide_.distanceToGo(world_.robotPose().position(), world_.goal());
 
   const int scans = static_cast<int>(std::round(limits.dt / config_.scan_period_s));
   for (int i = 0; i < scans; ++i) {
@@ -211,14 +284,15 @@ StepResult Episode::advance(const std::function<void(double)>& move_robot) {
 
   const RewardConfig& rc = config_.reward;
   StepResult r;
-  const double d_after = (world_.robotPose().position() - world_.goal()).norm();
+  const double d_after = route_guide_.distanceToGo(world_.robotPose().position(), world_.goal());
+  const double goal_distance = (world_.robotPose().position() - world_.goal()).norm();
   const double clearance = world_.minClearance_m();
   if (clearance < rc.safe_distance_m) ++danger_steps_;
   if (world_.collided()) {
     r.reward = rc.collision_reward;
     r.terminated = true;
     outcome_ = Outcome::kCollision;
-  } else if (d_after < rc.goal_tolerance_m && world_.robotTwist().v < rc.goal_speed_mps) {
+  } else if (goal_distance < rc.goal_tolerance_m && world_.robotTwist().v < rc.goal_speed_mps) {
     r.reward = rc.goal_reward;
     r.terminated = true;
     outcome_ = Outcome::kSuccess;

@@ -40,6 +40,8 @@ std::string EvalConfig::validate() const {
     os << "dynamic_fraction = " << dynamic_fraction << ": must be in [0, 1]";
   } else if (!(std::isfinite(generated_goal_distance_min_m) && generated_goal_distance_min_m >= 0.0)) {
     os << "generated_goal_distance_min_m = " << generated_goal_distance_min_m << ": must be finite and >= 0";
+  } else if (route != "on" && route != "off") {
+    os << "route = '" << route << "': must be on or off";
   } else if (threads < 1 || threads > 256) {
     os << "threads = " << threads << ": must be in [1, 256]";
   } else if (const std::string e = episode.validate(); !e.empty()) {
@@ -66,6 +68,10 @@ void applyWorldOptions(EvalConfig& config) {
   } catch (const sim::SimError& e) {
     throw EvalError(e.what());
   }
+  if (config.route != "on" && config.route != "off") {
+    throw EvalError("route '" + config.route + "' is not one of on, off");
+  }
+  config.episode.route.enabled = config.route == "on";
   config.episode.world.people.see_robot = config.people_see_robot;
   // People are seen by their legs: the tracker pairs them (the paper's room has none).
   config.episode.tracker.pair_legs = config.world != "room";
@@ -380,7 +386,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"world\": " << jsonString(config.world) << ",\n  \"sensor\": " << jsonString(config.sensor)
       << ",\n  \"people_model\": " << jsonString(config.people_model)
       << ",\n  \"people_see_robot\": " << (config.people_see_robot ? "true" : "false")
-      << ",\n  \"odom_noise\": " << jsonString(config.odom_noise)
+      << ",\n  \"odom_noise\": " << jsonString(config.odom_noise) << ",\n  \"route\": " << jsonString(config.route)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"step_s\": " << jsonNumber(config.episode.world.robot.dt)
       << ",\n  \"max_steps\": " << config.episode.reward.max_steps << ",\n  \"wall_s\": " << jsonNumber(info.wall_s)

@@ -93,8 +93,8 @@ class VecEnv {
   }
 
   /// The mixture of worlds that episodes reset from now on are drawn from: each entry is a world_options mapping
-  /// (world, sensor, people_model, people_see_robot, odom_noise), drawn with probability weight / sum of weights.
-  /// With one world no draw is made, so a single world replays the same scenarios as before.
+  /// (world, sensor, people_model, people_see_robot, odom_noise, route), drawn with probability weight / sum of
+  /// weights. With one world no draw is made, so a single world replays the same scenarios as before.
   void setWorlds(const std::vector<std::map<std::string, std::string>>& worlds, const std::vector<double>& weights) {
     if (worlds.empty()) throw std::invalid_argument("set_worlds: at least one world is needed");
     if (weights.size() != worlds.size()) {
@@ -348,9 +348,11 @@ class VecEnv {
         world.people_see_robot = value == "true";
       } else if (key == "odom_noise") {
         world.odom_noise = value;
+      } else if (key == "route") {
+        world.route = value;  // applyWorldOptions names a value other than on or off
       } else {
         throw std::invalid_argument(where + ": unknown key '" + key +
-                                    "' (world, sensor, people_model, people_see_robot, odom_noise)");
+                                    "' (world, sensor, people_model, people_see_robot, odom_noise, route)");
       }
     }
     WorldVariant v;
@@ -462,7 +464,7 @@ PYBIND11_MODULE(_core, m) {
            py::arg("world_options") = std::map<std::string, std::string>{},
            "world_options: the evaluation's world flags by name (world: room, crowd, corridor, doorway, clutter, "
            "junction, with the stage's obstacle counts as people; sensor; people_model; people_see_robot: true or "
-           "false; odom_noise).")
+           "false; odom_noise; route: on (default: routes in worlds with walls, as the robot follows them) or off).")
       .def("shield_parameters", &VecEnv::shieldParameters,
            "The action shield's parameters as the environments run them (name -> value as text).")
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),

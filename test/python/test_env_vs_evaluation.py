@@ -42,7 +42,8 @@ def _trainer_episode(env, net, state, mask):
 @pytest.mark.parametrize("seed, world", [(10011, {}), (10012, {}), (10013, {}),
                                          (10014, {"world": "crowd", "sensor": "urg04lx"}),
                                          (10015, {"world": "clutter", "people_model": "orca"}),
-                                         (10016, MIXTURE)])
+                                         (10016, MIXTURE),
+                                         (10017, {"world": "doorway", "route": "on"})])
 def test_training_environment_and_evaluation_choose_alike(core, seed, world):
     net = model_from_weights(load_weights(MODEL)).eval()
     mixture = world is MIXTURE
@@ -70,6 +71,7 @@ def test_world_options_are_checked(core):
     for options, message in (({"planet": "mars"}, "unknown key 'planet'"),
                              ({"world": "maze"}, "world family 'maze' is not one of"),
                              ({"sensor": "sonar"}, "lidar profile 'sonar'"),
-                             ({"people_see_robot": "yes"}, "people_see_robot must be true or false")):
+                             ({"people_see_robot": "yes"}, "people_see_robot must be true or false"),
+                             ({"route": "maybe"}, "world_options: route 'maybe' is not one of on, off")):
         with pytest.raises(ValueError, match=message):
             core.VecEnv(1, 1, world_options=options)

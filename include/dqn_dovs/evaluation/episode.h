@@ -1,6 +1,7 @@
 // One navigation episode run without ROS: simulator -> LIDAR -> tracker -> DOVS -> state, with the
 // paper's reward and termination. The trainer (through the Python module) and the evaluation CLI both
-// drive this class, so training and evaluation run exactly the code the robot runs.
+// drive this class, so training and evaluation run exactly the code the robot runs. In worlds with walls the
+// robot follows a route as planner_node does (RouteGuide): the DOVS, the state and the planners see its subgoal.
 #pragma once
 
 #include <Eigen/Core>
@@ -16,6 +17,7 @@
 #include "dqn_dovs/dovs/state.h"
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/planning/planner.h"
+#include "dqn_dovs/planning/route.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/sim/world.h"
 
@@ -25,7 +27,7 @@ namespace dqn_dovs {
 struct RewardConfig {
   double goal_reward = 15.0;        ///< terminal reward for reaching and stopping at the goal
   double collision_reward = -15.0;  ///< terminal reward for a collision
-  double distance_weight = 2.5;     ///< r = -distance_weight * (d_goal(t) - d_goal(t-1))
+  double distance_weight = 2.5;     ///< r = -distance_weight * (d(t) - d(t-1)), d along the route if any
   double safe_distance_m = 0.2;     ///< clearance below which r_safe applies
   double safe_weight = 0.1;         ///< r_safe = -safe_weight * |safe_distance_m - clearance|
   double goal_tolerance_m = 0.15;   ///< success: distance to goal below this ...
@@ -34,11 +36,27 @@ struct RewardConfig {
   std::string validate() const;
 };
 
+/// The route of an episode (docs/simulator.md, "Routes in episodes"): in a scenario with static segments
+/// (walls, furniture; not the paper's room, whose only walls are its own four) the robot plans a route on the grid
+/// of the known static geometry (the walls, the furniture and the static discs, not the people) and follows it with
+/// RouteGuide as planner_node does: the DOVS, the state and the planners see the route's subgoal until the goal
+/// itself replaces it. Success, collisions and timeouts stay those of the final goal.
+struct EpisodeRouteConfig {
+  /// Whether scenarios with static segments get a route (dqn_dovs_eval --route, the training world option
+  /// `route`; EvalConfig::route sets it).
+  bool enabled = true;
+  double resolution_m = 0.05;  ///< cell side of the grid of the known static geometry, m
+  RouteConfig planner;         ///< the route planner (its robot_radius_m is replaced by world.robot.radius)
+  RouteGuideConfig guide;      ///< following it: planner_node's route/* defaults
+  std::string validate() const;
+};
+
 struct EpisodeConfig {
   sim::WorldConfig world;  ///< simulator (robot limits live in world.robot)
   TrackerConfig tracker;   ///< obstacle tracker used when perfect_info is false
   DovsConfig dovs;         ///< velocity-space model
   RewardConfig reward;
+  EpisodeRouteConfig route;      ///< the route in worlds with walls
   double scan_period_s = 0.1;    ///< LIDAR period; must divide the control period world.robot.dt
   bool perfect_info = false;     ///< true: the planner sees the simulator's ground truth (comparison only)
   double sensor_warmup_s = 0.3;  ///< the robot senses this long, standing still, before the episode starts
@@ -99,9 +117,22 @@ class Episode {
   /// The current decision context as the planners read it (pointers into this episode).
   PlannerInput plannerInput() const;
 
+  // The route (docs/simulator.md, "Routes in episodes"), in the odom frame (the room's at the start).
+  /// Whether this episode follows a route (route.enabled, static segments, and a route was found).
+  bool hasRoute() const { return route_guide_.hasRoute(); }
+  const RouteGuide& routeGuide() const { return route_guide_; }
+  /// The last control period's guidance: the subgoal the context was built for, the route remaining.
+  const RouteGuidance& routeGuidance() const { return guidance_; }
+  /// Why a scenario with static segments has no route (the planner's reason); empty otherwise.
+  const std::string& routeError() const { return route_error_; }
+
  private:
   void sense();         // scan + tracker update at the current world time
   void buildContext();  // observation -> DOVS, actions, state
+  void planRoute();     // the grid of the known static geometry and the route from the robot to the goal
+  /// The obstacle points the robot sees now (odom frame), for the route's blocked check: the last scan's returns,
+  /// or with perfect information points around the true bodies.
+  std::vector<Vec2> routeScanPoints() const;
   // Runs one control period, moving the robot with `move_robot(dt_s)` at each scan, then scores it.
   StepResult advance(const std::function<void(double)>& move_robot);
 
@@ -111,6 +142,11 @@ class Episode {
   DovsBuilder dovs_builder_;
   StateNormalization normalization_;
   LaserScan2 scan_;
+  Pose2 scan_laser_;                             // where the robot believed its laser was at scan_
+  std::unique_ptr<RoutePlanner> route_planner_;  // null: no route this episode
+  RouteGuide route_guide_;
+  RouteGuidance guidance_;
+  std::string route_error_;
   Observation observation_;
   VelocitySpace dovs_;
   ActionSet actions_;

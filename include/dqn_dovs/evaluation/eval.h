@@ -51,6 +51,9 @@ struct EvalConfig {
   bool people_see_robot = false;
   /// Wheel-odometry drift (sim::OdometryConfig::level): "none", "low" or "high".
   std::string odom_noise = "none";
+  /// "on": in worlds with walls (static segments; not the paper's room) the robot follows a route on the known
+  /// static geometry, as planner_node does (episode.route); "off": it drives at the goal itself.
+  std::string route = "on";
   /// Goal distance of generated scenarios: at least this far from the robot, as in the evaluation files, m.
   double generated_goal_distance_min_m = 4.0;
   /// Worker threads (each with its own planners and episode); results do not depend on it.
@@ -70,9 +73,10 @@ struct EvalConfig {
   std::string validate() const;
 };
 
-/// Puts config.sensor, people_model and people_see_robot into config.episode (the LIDAR profile, the scan period:
-/// the scanner's, or the next slower one that divides the control period, the people model, and the tracker's
-/// leg pairing in worlds with people). Throws EvalError naming the unknown name.
+/// Puts config.sensor, people_model, people_see_robot, odom_noise and route into config.episode (the LIDAR profile,
+/// the scan period: the scanner's, or the next slower one that divides the control period, the people model, and
+/// the tracker's leg pairing in worlds with people; the odometry; whether there are routes). Throws EvalError
+/// naming the unknown name.
 void applyWorldOptions(EvalConfig& config);
 
 /// Collisions split by who could have avoided them (passive safety): hitting static geometry (walls, furniture,
@@ -165,8 +169,8 @@ struct EvalRunInfo {
 };
 
 /// run.json: the configuration and how the run went (command, scenarios ("generated" or the folder), seed, obstacle
-/// range, episodes, dynamic fraction, perception, step and step limit, wall time, threads, methods in table order,
-/// the reference method, the goal tolerance). Throws EvalError naming the file.
+/// range, episodes, dynamic fraction, world options and route, perception, step and step limit, wall time, threads,
+/// methods in table order, the reference method, the goal tolerance). Throws EvalError naming the file.
 void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::string& path);
 
 /// paths.json: every record that kept its paths (EvalConfig::keep_paths), with its figures and its scenario's goal,
