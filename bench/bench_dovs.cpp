@@ -242,10 +242,11 @@ int main(int argc, char** argv) {
   std::printf("action shield escape search (median of 5 per scene): median %.3f ms, p99 %.3f ms, max %.3f ms\n",
               figures["escape_ms_median"], figures["escape_ms_p99"], figures["escape_ms_max"]);
 
-  std::printf("whole decision (DOVS build + actions + state + shield + network; median of 5 per scene): median %.3f ms, "
-              "p99 %.3f ms, max %.3f ms; the %zu scenes where the escape ran: median %.3f ms, p99 %.3f ms\n",
-              figures["decision_ms_median"], figures["decision_ms_p99"], figures["decision_ms_max"],
-              decision_escape_ms.size(), figures["decision_escape_ms_median"], figures["decision_escape_ms_p99"]);
+  std::printf(
+      "whole decision (DOVS build + actions + state + shield + network; median of 5 per scene): median %.3f ms, "
+      "p99 %.3f ms, max %.3f ms; the %zu scenes where the escape ran: median %.3f ms, p99 %.3f ms\n",
+      figures["decision_ms_median"], figures["decision_ms_p99"], figures["decision_ms_max"], decision_escape_ms.size(),
+      figures["decision_escape_ms_median"], figures["decision_escape_ms_p99"]);
 
   const std::filesystem::path out(args.out);
   if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());

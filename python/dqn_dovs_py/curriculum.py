@@ -56,6 +56,9 @@ class WorldSpec:
     people_see_robot: bool = False
     # Wheel-odometry drift: none, low, high.
     odom_noise: str = "none"
+    # Worlds with walls: follow a route planned on the known walls and furniture (on, as the robot), or drive at the
+    # goal (off).
+    route: str = "on"
     weight: float = 1.0
 
     @property
@@ -68,12 +71,15 @@ class WorldSpec:
                 parts.append(str(getattr(self, name)))
         if self.people_see_robot:
             parts.append("see_robot")
+        if self.route != default.route:
+            parts.append(f"route_{self.route}")
         return "/".join(parts)
 
     def options(self) -> dict[str, str]:
         """The core's world_options mapping (VecEnv.set_worlds)."""
         return {"world": self.world, "sensor": self.sensor, "people_model": self.people_model,
-                "people_see_robot": "true" if self.people_see_robot else "false", "odom_noise": self.odom_noise}
+                "people_see_robot": "true" if self.people_see_robot else "false", "odom_noise": self.odom_noise,
+                "route": self.route}
 
 
 ROOM_ONLY = (WorldSpec(),)
@@ -223,6 +229,8 @@ def _parse_worlds(raw, where: str) -> tuple[WorldSpec, ...]:
             raise CurriculumError(f"{at}: unknown field(s) {sorted(unknown)} (known: {sorted(known)})")
         if item.get("world") not in WORLD_FAMILIES:
             raise CurriculumError(f"{at}.world must be one of {list(WORLD_FAMILIES)}, got {item.get('world')!r}")
+        if "route" in item and item["route"] not in ("on", "off"):
+            raise CurriculumError(f"{at}.route must be 'on' or 'off', got {item['route']!r}")
         for name in ("sensor", "people_model", "odom_noise"):
             if name in item and not (isinstance(item[name], str) and item[name]):
                 raise CurriculumError(f"{at}.{name} must be a non-empty string, got {item[name]!r}")

@@ -313,8 +313,7 @@ class VecEnv {
       if (!env.ep().done()) return;
     }
     throw std::runtime_error("100 scenarios in a row ended before their first step or could not be laid out (last: " +
-                             (unplaceable.empty() ? std::string("none") : unplaceable) +
-                             "): check the stage settings");
+                             (unplaceable.empty() ? std::string("none") : unplaceable) + "): check the stage settings");
   }
 
   /// The world of the episode of seed s: the only one, or one drawn from the mixture by weight.

@@ -101,6 +101,9 @@ def test_curriculum_worlds_default_to_the_room_and_stages_may_override():
     c = Curriculum.from_dict(_curriculum(worlds=[{"world": "crowd", "sensor": "urg04lx", "weight": 2}]))
     assert c.settings_at(0).worlds == (WorldSpec(world="crowd", sensor="urg04lx", weight=2.0),)
     assert c.settings_at(0).worlds[0].label == "crowd/urg04lx"
+    c = Curriculum.from_dict(_curriculum(worlds=[{"world": "doorway", "route": "off"}]))
+    assert c.settings_at(0).worlds[0].label == "doorway/route_off"
+    assert c.settings_at(0).worlds[0].options()["route"] == "off"
     c = Curriculum.from_dict({"worlds": [{"world": "clutter"}],
                               "stages": [_curriculum()["stages"][0],
                                          dict(_curriculum()["stages"][0], worlds=[{"world": "corridor"}])]})
@@ -116,6 +119,7 @@ def test_curriculum_worlds_default_to_the_room_and_stages_may_override():
     ([{"world": "room", "weight": 0}], r"worlds\[0\].weight must be a positive number"),
     ([{"world": "room", "people_see_robot": "yes"}], "people_see_robot must be true or false"),
     ([{"world": "room", "sensor": ""}], "sensor must be a non-empty string"),
+    ([{"world": "corridor", "route": "maybe"}], r"worlds\[0\].route must be 'on' or 'off'"),
 ])
 def test_bad_curriculum_worlds_are_named(worlds, message):
     with pytest.raises(CurriculumError, match=message):
