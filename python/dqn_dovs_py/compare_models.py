@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 from .benchmark_report import paired_comparison, read_results, sign_test_p
 from .report import Record
+from .sweep import find_eval_tool
 
 
 @dataclass(frozen=True)
@@ -77,15 +78,12 @@ def parse_models(specs: list[str]) -> list[tuple[str, str]]:
 
 
 def find_eval(explicit: str | None) -> str:
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    candidates = [explicit] if explicit else [
-        os.path.join(os.environ.get("DQN_DOVS_BIN_DIR", ""), "dqn_dovs_eval"),
-        os.path.join(root, "install", "lib", "dqn_dovs", "dqn_dovs_eval")]
-    for c in candidates:
-        if c and os.path.isfile(c) and os.access(c, os.X_OK):
-            return c
-    raise CompareError(f"dqn_dovs_eval not found (tried {', '.join(c for c in candidates if c)}); run 'make build' "
-                       "or pass --eval")
+    """--eval when given, else the sweep's search ($DQN_DOVS_BIN_DIR, then the repository's install tree)."""
+    if not explicit:
+        return find_eval_tool()
+    if not (os.path.isfile(explicit) and os.access(explicit, os.X_OK)):
+        raise CompareError(f"--eval {explicit}: not an executable file")
+    return explicit
 
 
 def run_point(exe: str, point: Point, method: str, model: str | None, args, folder: str) -> list[Record]:
