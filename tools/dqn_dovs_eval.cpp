@@ -34,7 +34,7 @@ const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
-    "                     [--oracle NAME=VALUE,...]\n"
+    "                     [--dovs NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
     "                     [--odom-noise LEVEL] [--route on|off]\n"
     "                     [--no-report]\n"
@@ -50,9 +50,11 @@ const char* kUsage =
     "  --out DIR           output folder (default eval_results)\n"
     "  --model PATH        weight file of dqn_dovs (default models/dqn_dovs.dqnw)\n"
     "  --shield N=V,...    action shield parameters of the dqn_dovs methods, named as in config/dovs.yaml\n"
+    "                      action_shield/* and config/static_safety.yaml (static_safety/margin=0.1, ...)\n"
+    "  --dovs N=V,...      the DOVS model of every planner, named as in config/dovs.yaml dovs/* (time_horizon=3,\n"
+    "                      prediction_growth=0.2, ...)\n"
     "  --oracle N=V,...    the oracle's search: horizon_periods (20), beam_width (160), window_samples (2),\n"
     "                      grid_cell_m (0.1), clearance_margin_m (0.02)\n"
-    "                      action_shield/* and config/static_safety.yaml (static_safety/margin=0.1, ...)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
     "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n"
     "  --world FAMILY      generated worlds: room (the paper's discs, default), crowd, corridor, doorway,\n"
@@ -198,6 +200,11 @@ Options parse(int argc, char** argv) {
         return dqn_dovs::setShieldParameter(o.eval.shield, n, v);
       });
       if (const std::string e = o.eval.shield.validate(); !e.empty()) throw UsageError("--shield: " + e);
+    } else if (flag == "--dovs") {
+      setNamedValues(flag, value(), [&](const std::string& n, const std::string& v) {
+        return dqn_dovs::setDovsParameter(o.eval.episode.dovs, n, v);
+      });
+      if (const std::string e = o.eval.episode.dovs.validate(); !e.empty()) throw UsageError("--dovs: " + e);
     } else if (flag == "--oracle") {
       setNamedValues(flag, value(), [&](const std::string& n, const std::string& v) {
         return dqn_dovs::setOracleParameter(o.eval.oracle, n, v);

@@ -5,6 +5,8 @@
 #include <limits>
 #include <sstream>
 
+#include "dqn_dovs/common/parse.h"
+
 namespace dqn_dovs {
 
 namespace {
@@ -20,6 +22,10 @@ constexpr double kContactShrink_m = 1e-3;
 constexpr double kStraightSlack_m = 0.005;
 // Sub-pieces per leaf when locating the first contact with a static obstacle.
 constexpr int kStaticRefine = 8;
+// Growing prediction on an arc: the horizon is cut into time slices over which the radius grows at most this
+// much (each slice uses its largest radius), at most kMaxGrowthSlices of them, m.
+constexpr double kGrowthPerSlice_m = 0.05;
+constexpr int kMaxGrowthSlices = 8;
 
 std::string fieldError(const char* name, double value, const char* why) {
   std::ostringstream os;
@@ -57,7 +63,57 @@ std::string DovsConfig::validate() const {
   if (!(std::isfinite(static_margin_m) && static_margin_m >= 0.0 && static_margin_m <= 2.0))
     return fieldError("static_margin_m", static_margin_m, "must be in [0, 2] m");
   if (grid_size < 2 || grid_size > 256) return fieldError("grid_size", grid_size, "must be in [2, 256] cells");
+  if (!(std::isfinite(prediction_growth_mps) && prediction_growth_mps >= 0.0 && prediction_growth_mps <= 2.0))
+    return fieldError("prediction_growth_mps", prediction_growth_mps, "must be in [0, 2] m/s");
   return {};
+}
+
+namespace {
+
+struct DovsField {
+  const char* name;
+  double DovsConfig::*real;
+  int DovsConfig::*integer;
+};
+
+const DovsField kDovsFields[] = {
+    {"obstacle_range", &DovsConfig::obstacle_range_m, nullptr},
+    {"safety_factor", &DovsConfig::safety_factor, nullptr},
+    {"num_trajectories", nullptr, &DovsConfig::num_trajectories},
+    {"time_horizon", &DovsConfig::time_horizon_s, nullptr},
+    {"static_reaction_time", &DovsConfig::static_reaction_time_s, nullptr},
+    {"static_margin", &DovsConfig::static_margin_m, nullptr},
+    {"prediction_growth", &DovsConfig::prediction_growth_mps, nullptr},
+};
+
+}  // namespace
+
+std::string setDovsParameter(DovsConfig& config, const std::string& name, const std::string& value) {
+  for (const DovsField& f : kDovsFields) {
+    if (name != f.name) continue;
+    const std::optional<double> x = parseNumber(value);
+    if (!x || !std::isfinite(*x)) return "DOVS parameter '" + name + "' = '" + value + "' is not a number";
+    if (f.integer != nullptr) {
+      if (*x != std::floor(*x) || std::abs(*x) > 1e6)
+        return "DOVS parameter '" + name + "' = '" + value + "' is not an integer";
+      config.*f.integer = static_cast<int>(*x);
+    } else {
+      config.*f.real = *x;
+    }
+    return {};
+  }
+  std::string known;
+  for (const DovsField& f : kDovsFields) known += (known.empty() ? "" : ", ") + std::string(f.name);
+  return "unknown DOVS parameter '" + name + "' (known: " + known + ")";
+}
+
+const std::vector<std::string>& dovsParameterNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const DovsField& f : kDovsFields) n.emplace_back(f.name);
+    return n;
+  }();
+  return names;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -261,6 +317,7 @@ void DovsBuilder::validateObservation(const Observation& obs) const {
 
 int DovsBuilder::windows(const Motion& mo, const Vec2& m, double q, Window* out, int max_out) const {
   const double horizon = config_.time_horizon_s;
+  const double growth = config_.prediction_growth_mps;
   switch (mo.kind) {
     case Motion::Kind::kStatic: {
       if ((m - mo.p0).squaredNorm() >= q * q) return 0;
@@ -268,6 +325,7 @@ int DovsBuilder::windows(const Motion& mo, const Vec2& m, double q, Window* out,
       return 1;
     }
     case Motion::Kind::kLine: {
+      if (growth > 0.0) return growingLineWindow(mo, m, q, out);
       // |p0 + vel t - m|^2 < q^2, a quadratic in t.
       const Vec2 d = m - mo.p0;
       const double b = mo.vel.dot(d);
@@ -282,46 +340,116 @@ int DovsBuilder::windows(const Motion& mo, const Vec2& m, double q, Window* out,
       return 1;
     }
     case Motion::Kind::kArc: {
-      if ((m - mo.bound_center).squaredNorm() >= (mo.bound_radius + q) * (mo.bound_radius + q)) return 0;
-      const Vec2 d = m - mo.arc_center;
-      const double dist = d.norm();
-      const double rho = mo.arc_radius;
-      if (std::abs(dist - rho) >= q) return 0;  // m is outside the annulus the centre can come within q of
-      double alpha = kPi;
-      double delta0 = 0.0;
-      if (dist > 1e-12) {
-        const double cstar = (rho * rho + dist * dist - q * q) / (2.0 * rho * dist);
-        alpha = cstar <= -1.0 ? kPi : std::acos(std::min(cstar, 1.0));
-        delta0 = normalizeAngle(mo.beta0 - std::atan2(d.y(), d.x()));
-      }
-      if (alpha >= kPi) {
-        out[0] = {0.0, horizon};
-        return 1;
-      }
-      double w = mo.turn_rate;
-      if (w < 0.0) {
-        w = -w;
-        delta0 = -delta0;
-      }
-      // The centre's angle offset delta0 + w t lies in (2 pi n - alpha, 2 pi n + alpha) during window n.
+      if (growth <= 0.0) return arcWindows(mo, m, q, 0.0, horizon, out, 0, max_out);
+      // The radius grows with t: slices of the horizon, each with the radius at its end (a cover, never less).
+      const double q_end = q + growth * horizon;
+      if ((m - mo.bound_center).squaredNorm() >= (mo.bound_radius + q_end) * (mo.bound_radius + q_end)) return 0;
+      const int slices =
+          std::clamp(static_cast<int>(std::ceil(growth * horizon / kGrowthPerSlice_m)), 1, kMaxGrowthSlices);
       int count = 0;
-      for (double n = std::ceil((delta0 - alpha) / kTwoPi);; n += 1.0) {
-        const double start = (kTwoPi * n - alpha - delta0) / w;
-        if (start > horizon) break;
-        const double t1 = std::max(start, 0.0);
-        const double t2 = std::min((kTwoPi * n + alpha - delta0) / w, horizon);
-        if (t1 <= t2) {
-          if (count == max_out) {
-            out[count - 1].t2 = horizon;  // fold the remaining revolutions into the last window
-            break;
-          }
-          out[count++] = {t1, t2};
-        }
+      for (int k = 0; k < slices; ++k) {
+        const double t_from = horizon * k / slices;
+        const double t_to = horizon * (k + 1) / slices;
+        count = arcWindows(mo, m, q + growth * t_to, t_from, t_to, out, count, max_out);
       }
       return count;
     }
   }
   return 0;
+}
+
+int DovsBuilder::growingLineWindow(const Motion& mo, const Vec2& m, double q, Window* out) const {
+  // |p0 + vel t - m| < q + g t. For t >= 0 both sides are non-negative, so it is the quadratic
+  // f(t) = (|vel|^2 - g^2) t^2 - 2 (vel.d + q g) t + (|d|^2 - q^2) < 0, and since |p0 + vel t - m| - g t is
+  // convex in t its solutions in [0, horizon] form one interval: the hull of f's pieces there.
+  const double horizon = config_.time_horizon_s;
+  const double g = config_.prediction_growth_mps;
+  const Vec2 d = m - mo.p0;
+  const double a = mo.vel_sq - g * g;
+  const double bh = mo.vel.dot(d) + q * g;
+  const double c = d.squaredNorm() - q * q;
+  double t1 = 0.0, t2 = 0.0;
+  if (std::abs(a) < 1e-12) {
+    // -2 bh t + c < 0
+    if (bh > 0.0) {
+      t1 = std::max(0.5 * c / bh, 0.0);
+      t2 = horizon;
+    } else if (c < 0.0) {
+      t1 = 0.0;
+      t2 = horizon;
+    } else {
+      return 0;
+    }
+  } else {
+    const double disc = bh * bh - a * c;
+    if (a > 0.0) {
+      if (disc <= 0.0) return 0;
+      const double sq = std::sqrt(disc);
+      t1 = std::max((bh - sq) / a, 0.0);
+      t2 = std::min((bh + sq) / a, horizon);
+    } else if (disc <= 0.0) {
+      t1 = 0.0;  // a < 0 and no real root: f < 0 everywhere
+      t2 = horizon;
+    } else {
+      // a < 0: f < 0 outside [r_small, r_big].
+      const double sq = std::sqrt(disc);
+      const double r_small = (bh + sq) / a;
+      const double r_big = (bh - sq) / a;
+      t1 = r_small > 0.0 ? 0.0 : std::max(r_big, 0.0);
+      t2 = r_big < horizon ? horizon : std::min(r_small, horizon);
+    }
+  }
+  if (t1 > t2) return 0;
+  out[0] = {t1, t2};
+  return 1;
+}
+
+int DovsBuilder::arcWindows(const Motion& mo, const Vec2& m, double q, double t_from, double t_to, Window* out,
+                            int count, int max_out) const {
+  const double horizon = config_.time_horizon_s;
+  auto add = [&](double t1, double t2) {
+    t1 = std::max(t1, t_from);
+    t2 = std::min(t2, t_to);
+    if (t1 > t2) return true;
+    if (count > 0 && t1 <= out[count - 1].t2 + 1e-12) {  // continues the previous window (the previous slice)
+      out[count - 1].t2 = std::max(out[count - 1].t2, t2);
+      return true;
+    }
+    if (count == max_out) {
+      out[count - 1].t2 = t_to >= horizon ? horizon : std::max(out[count - 1].t2, t_to);  // fold the rest in
+      return false;
+    }
+    out[count++] = {t1, t2};
+    return true;
+  };
+  if ((m - mo.bound_center).squaredNorm() >= (mo.bound_radius + q) * (mo.bound_radius + q)) return count;
+  const Vec2 d = m - mo.arc_center;
+  const double dist = d.norm();
+  const double rho = mo.arc_radius;
+  if (std::abs(dist - rho) >= q) return count;  // m is outside the annulus the centre can come within q of
+  double alpha = kPi;
+  double delta0 = 0.0;
+  if (dist > 1e-12) {
+    const double cstar = (rho * rho + dist * dist - q * q) / (2.0 * rho * dist);
+    alpha = cstar <= -1.0 ? kPi : std::acos(std::min(cstar, 1.0));
+    delta0 = normalizeAngle(mo.beta0 - std::atan2(d.y(), d.x()));
+  }
+  if (alpha >= kPi) {
+    add(0.0, horizon);
+    return count;
+  }
+  double w = mo.turn_rate;
+  if (w < 0.0) {
+    w = -w;
+    delta0 = -delta0;
+  }
+  // The centre's angle offset delta0 + w t lies in (2 pi n - alpha, 2 pi n + alpha) during window n.
+  for (double n = std::ceil((delta0 - alpha) / kTwoPi);; n += 1.0) {
+    const double start = (kTwoPi * n - alpha - delta0) / w;
+    if (start > t_to) break;
+    if (!add(start, (kTwoPi * n + alpha - delta0) / w)) break;
+  }
+  return count;
 }
 
 void DovsBuilder::addDynamicIntervals(size_t ray, const Motion& mo) {

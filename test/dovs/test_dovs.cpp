@@ -52,6 +52,61 @@ TEST(DovsConfig, DefaultsAreValidAndBadFieldsAreNamed) {
   }
 }
 
+TEST(DovsConfig, ParametersAreSetByTheirConfigFileNames) {
+  DovsConfig c;
+  EXPECT_EQ(setDovsParameter(c, "prediction_growth", "0.25"), "");
+  EXPECT_DOUBLE_EQ(c.prediction_growth_mps, 0.25);
+  EXPECT_EQ(setDovsParameter(c, "time_horizon", "4"), "");
+  EXPECT_DOUBLE_EQ(c.time_horizon_s, 4.0);
+  EXPECT_EQ(setDovsParameter(c, "num_trajectories", "33"), "");
+  EXPECT_EQ(c.num_trajectories, 33);
+  EXPECT_NE(setDovsParameter(c, "num_trajectories", "33.5").find("not an integer"), std::string::npos);
+  EXPECT_NE(setDovsParameter(c, "safety_factor", "big").find("'safety_factor'"), std::string::npos);
+  EXPECT_NE(setDovsParameter(c, "time_horizon", "inf").find("not a number"), std::string::npos);
+  const std::string unknown = setDovsParameter(c, "horizon", "3");
+  EXPECT_NE(unknown.find("unknown DOVS parameter 'horizon'"), std::string::npos);
+  EXPECT_NE(unknown.find("prediction_growth"), std::string::npos);  // the known names are listed
+  EXPECT_EQ(dovsParameterNames().size(), 7u);
+  for (const std::string& name : dovsParameterNames()) EXPECT_EQ(setDovsParameter(c, name, "1"), "") << name;
+  c = DovsConfig{};
+  c.prediction_growth_mps = -0.1;
+  EXPECT_NE(c.validate().find("prediction_growth_mps"), std::string::npos);
+  c.prediction_growth_mps = 2.5;
+  EXPECT_NE(c.validate().find("prediction_growth_mps"), std::string::npos);
+}
+
+// Enlarged radius of a 0.2 m disc: (0.2 + 0.2) * 1.1 = 0.44 m; t seconds ahead it is 0.44 + g t.
+TEST(VelocitySpace, GrowingPredictionReachesTheRobotWhenItOutgrowsTheObstacleSpeed) {
+  DovsConfig grown;
+  grown.prediction_growth_mps = 0.3;
+  // Walking away at 0.1 m/s from 1 m: the disc's near edge comes back at (1 - 0.44) / (0.3 - 0.1) = 2.8 s.
+  const Observation away = sceneWith({disc(1.0, 0.0, 0.2, 0.0, 0.1)});
+  EXPECT_FALSE(buildDovs(away, RobotLimits{}, DovsConfig{}).stationaryUnsafe());
+  EXPECT_TRUE(buildDovs(away, RobotLimits{}, grown).stationaryUnsafe());
+  DovsConfig slower = grown;
+  slower.prediction_growth_mps = 0.2;  // (1 - 0.44) / 0.1 = 5.6 s, beyond the 3 s horizon
+  EXPECT_FALSE(buildDovs(away, RobotLimits{}, slower).stationaryUnsafe());
+  // Growth equal to the speed: walking away never comes back; walking in from 2 m arrives at 2.6 s instead of 5.2 s.
+  EXPECT_FALSE(buildDovs(sceneWith({disc(1.0, 0.0, 0.2, 0.0, 0.3)}), RobotLimits{}, grown).stationaryUnsafe());
+  const Observation toward = sceneWith({disc(2.0, 0.0, 0.2, kPi, 0.3)});
+  EXPECT_FALSE(buildDovs(toward, RobotLimits{}, DovsConfig{}).stationaryUnsafe());
+  EXPECT_TRUE(buildDovs(toward, RobotLimits{}, grown).stationaryUnsafe());
+  // A crossing obstacle blocks a wider band of speeds, and static obstacles do not grow.
+  const Observation crossing = sceneWith({disc(1.0, -2.0, 0.2, kPi / 2, 1.0)});
+  const VelocitySpace plain = buildDovs(crossing, RobotLimits{}, DovsConfig{});
+  const VelocitySpace wide = buildDovs(crossing, RobotLimits{}, grown);
+  const IntervalRange a = plain.unsafeIntervals(straightRay(plain));
+  const IntervalRange b = wide.unsafeIntervals(straightRay(wide));
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_LT(b[0].lo_mps, a[0].lo_mps);
+  EXPECT_GE(b[0].hi_mps, a[0].hi_mps);
+  const Observation still = sceneWith({disc(1.5, 0.0, 0.2)});
+  const VelocitySpace s0 = buildDovs(still, RobotLimits{}, DovsConfig{});
+  const VelocitySpace s1 = buildDovs(still, RobotLimits{}, grown);
+  EXPECT_EQ(s0.grid(), s1.grid());
+}
+
 TEST(VelocitySpace, TrajectoriesSpanTheTriangle) {
   const VelocitySpace d = buildDovs(Observation{}, RobotLimits{}, DovsConfig{});
   ASSERT_EQ(d.numTrajectories(), 65);

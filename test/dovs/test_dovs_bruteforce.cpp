@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <utility>
 
 #include "dovs_bruteforce.h"
 
@@ -12,9 +13,10 @@ namespace {
 constexpr int kLatticeV = 40;
 constexpr int kLatticeW = 80;
 
-TEST(DovsBruteForce, RandomScenesNoMissesAndBoundedExcess) {
-  DovsBuilder builder(RobotLimits{}, DovsConfig{});
-  std::mt19937_64 rng(20240611);
+// Runs the comparison on kScenes random scenes; returns the totals (all obstacles, moving only).
+std::pair<bruteforce::Tally, bruteforce::Tally> compareRandomScenes(const DovsConfig& config, uint64_t seed) {
+  DovsBuilder builder(RobotLimits{}, config);
+  std::mt19937_64 rng(seed);
   bruteforce::SceneOptions opt;
   bruteforce::Tally all, dyn;
   VelocitySpace dovs;
@@ -34,6 +36,11 @@ TEST(DovsBruteForce, RandomScenesNoMissesAndBoundedExcess) {
     dyn.add(bruteforce::compareOnLattice(
         dovs, [&](const Twist2& tw) { return ref_moving.dynamicUnsafe(tw); }, kLatticeV, kLatticeW));
   }
+  return {all, dyn};
+}
+
+TEST(DovsBruteForce, RandomScenesNoMissesAndBoundedExcess) {
+  const auto [all, dyn] = compareRandomScenes(DovsConfig{}, 20240611);
   std::printf("all: feasible %ld ref unsafe %ld dovs unsafe %ld missed %ld near border %ld excess %.3f\n", all.feasible,
               all.reference_unsafe, all.dovs_unsafe, all.missed, all.missed_near_border, all.excessRatio());
   std::printf("moving only: ref unsafe %ld dovs unsafe %ld missed %ld near border %ld excess %.3f\n",
@@ -44,6 +51,24 @@ TEST(DovsBruteForce, RandomScenesNoMissesAndBoundedExcess) {
   EXPECT_LE(all.excessRatio(), 0.25);
   EXPECT_LE(dyn.excessRatio(), 0.25);
   EXPECT_GE(all.excessRatio(), 0.0);  // never smaller than the true unsafe set in total
+}
+
+// A growing prediction (people who may change course): the same guarantees against a brute force whose moving
+// obstacles grow at the same rate, and a DOV that really grows (larger than without growth on the same scenes).
+TEST(DovsBruteForce, GrowingPredictionNoMissesAndBoundedExcess) {
+  DovsConfig grown;
+  grown.prediction_growth_mps = 0.3;
+  const auto [all, dyn] = compareRandomScenes(grown, 20261203);
+  const auto [all0, dyn0] = compareRandomScenes(DovsConfig{}, 20261203);
+  std::printf("growth 0.3: ref unsafe %ld dovs unsafe %ld missed %ld near border %ld excess %.3f (moving %.3f)\n",
+              all.reference_unsafe, all.dovs_unsafe, all.missed, all.missed_near_border, all.excessRatio(),
+              dyn.excessRatio());
+  EXPECT_EQ(all.missed, 0);
+  EXPECT_EQ(dyn.missed, 0);
+  EXPECT_LE(all.excessRatio(), 0.25);
+  EXPECT_LE(dyn.excessRatio(), 0.25);
+  EXPECT_GT(dyn.reference_unsafe, dyn0.reference_unsafe * 1.1);  // the growth matters in these scenes
+  EXPECT_GT(dyn.dovs_unsafe, dyn0.dovs_unsafe);
 }
 
 }  // namespace

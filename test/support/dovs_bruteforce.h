@@ -89,13 +89,14 @@ inline Observation dynamicOnly(const Observation& obs, const DovsBuilder& builde
   return out;
 }
 
-/// Brute-force unsafe test of one scene: robot and obstacles rolled forward with time step dt_s; static
+/// Brute-force unsafe test of one scene: robot and obstacles rolled forward with time step dt_s (a moving
+/// obstacle's radius growing at DovsConfig::prediction_growth_mps); static
 /// obstacles and walls judged by the same braking rule as the DOVS, with the contact found by stepping ds_m
 /// along the path.
 class Reference {
  public:
   Reference(const DovsBuilder& builder, const Observation& obs, double dt_s = 0.01, double ds_m = 0.002)
-      : b_(builder), dt_(dt_s), ds_(ds_m) {
+      : b_(builder), dt_(dt_s), ds_(ds_m), growth_(builder.config().prediction_growth_mps) {
     const DovsConfig& cfg = builder.config();
     steps_ = static_cast<int>(std::ceil(cfg.time_horizon_s / dt_s - 1e-9));
     dt_ = cfg.time_horizon_s / steps_;
@@ -116,7 +117,8 @@ class Reference {
       tracks_.push_back(std::move(track));
       radii_.push_back(r);
       // Longest relative displacement within one step: lets most steps be skipped with one squared norm.
-      const double reach = r + (std::abs(o.speed) + builder.limits().v_max) * dt_ + 1e-9;
+      const double reach =
+          r + growth_ * cfg.time_horizon_s + (std::abs(o.speed) + builder.limits().v_max) * dt_ + 1e-9;
       reach_sq_.push_back(reach * reach);
     }
     for (const Segment& s : obs.segments) {
@@ -136,7 +138,9 @@ class Reference {
         const Vec2 r1 = tracks_[k][static_cast<size_t>(j)] - robot;
         if (r1.squaredNorm() > reach_sq_[k]) continue;
         const Vec2 r0 = tracks_[k][static_cast<size_t>(j - 1)] - prev_robot;
-        if (pointSegmentDistance(Vec2::Zero(), Segment{r0, r1}) < radii_[k]) return true;
+        // A growing prediction counts with its radius at the start of the step: never more than the model's.
+        const double radius = radii_[k] + growth_ * (j - 1) * dt_;
+        if (pointSegmentDistance(Vec2::Zero(), Segment{r0, r1}) < radius) return true;
       }
       prev_robot = robot;
     }
@@ -172,6 +176,7 @@ class Reference {
  private:
   const DovsBuilder& b_;
   double dt_, ds_;
+  double growth_;  // DovsConfig::prediction_growth_mps
   int steps_ = 0;
   std::vector<std::vector<Vec2>> tracks_;
   std::vector<double> radii_;

@@ -47,10 +47,24 @@ struct DovsConfig {
   double static_margin_m = 0.05;
   /// Cells per side of the free/unsafe velocity grid (the network state uses 20).
   int grid_size = 20;
+  /// Growth of a moving obstacle's enlarged radius with the prediction time, m/s: t seconds ahead it counts as a
+  /// disc of radius (enlarged radius + prediction_growth_mps * t) around its constant-(v, w) position. People
+  /// change speed and direction, so the prediction is less sure the farther it looks; 0 is the paper's model.
+  /// Static obstacles and walls are not affected.
+  double prediction_growth_mps = 0.0;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
 };
+
+/// Sets the DovsConfig field named as in config/dovs.yaml's `dovs/` block (obstacle_range, safety_factor,
+/// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth) from text. Returns
+/// an empty string, or a message naming the parameter and the reason (unknown name, not a number, not an
+/// integer). The value is not range-checked here: validate() does that for the whole configuration.
+std::string setDovsParameter(DovsConfig& config, const std::string& name, const std::string& value);
+
+/// Every name setDovsParameter accepts, in config-file order.
+const std::vector<std::string>& dovsParameterNames();
 
 /// A closed interval of linear speeds [lo_mps, hi_mps] along one trajectory.
 struct SpeedInterval {
@@ -216,8 +230,14 @@ class DovsBuilder {
 
   void precomputeRays();
   void validateObservation(const Observation& obs) const;
-  // Windows in [0, horizon] during which the obstacle centre is within q of point m; returns their number.
+  // Windows in [0, horizon] during which the obstacle centre is within q of point m (q + prediction growth * t
+  // for a moving obstacle); returns their number.
   int windows(const Motion& mo, const Vec2& m, double q, Window* out, int max_out) const;
+  // The arc motion's windows within [t_from, t_to] for a fixed q; appended to out[count..max_out).
+  int arcWindows(const Motion& mo, const Vec2& m, double q, double t_from, double t_to, Window* out, int count,
+                 int max_out) const;
+  // The line motion's window with q growing at prediction_growth_mps.
+  int growingLineWindow(const Motion& mo, const Vec2& m, double q, Window* out) const;
   void addDynamicIntervals(size_t ray, const Motion& mo);
   void addStaticInterval(size_t ray, const Motion* disc, const Wall* wall);
   Vec2 pathPoint(double curvature, double s) const;
