@@ -126,3 +126,31 @@ def test_the_oracle_runs_beside_the_planners_and_its_share_is_reported(tmp_path)
                       (["--oracle", "beam_width"], "NAME=VALUE")):
         proc = subprocess.run(cmd[:-2] + bad, capture_output=True, text=True, timeout=60, cwd=ROOT)
         assert proc.returncode == 2 and said in proc.stderr, proc.stderr
+
+
+def test_dovs_overrides_reach_every_planner_and_bad_ones_are_named(tmp_path):
+    def run(*extra):
+        out = tmp_path / ("out" + str(len(extra)))
+        cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs,dqn_dovs", "--generate", "77", "--world",
+               "crowd", "--obstacles", "10", "--episodes", "6", "--trajectories", "0", "--no-report", "--out",
+               str(out), "--model", str(ROOT / "models" / "dqn_dovs.dqnw"), *extra]
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+        rows = list(csv.DictReader(open(out / "results.csv"))) if proc.returncode == 0 else []
+        return proc, {(r["method"], r["episode"]): (r["outcome"], r["steps"], r["path_length_m"]) for r in rows}
+
+    proc, plain = run()
+    assert proc.returncode == 0, proc.stderr
+    proc, grown = run("--dovs", "prediction_growth=0.5,time_horizon=4")
+    assert proc.returncode == 0, proc.stderr
+    assert plain.keys() == grown.keys()
+    for method in ("s_dovs", "dqn_dovs"):  # a larger, longer prediction changes where each planner drives
+        assert any(plain[k] != grown[k] for k in plain if k[0] == method), method
+    proc, again = run("--dovs", "prediction_growth=0")
+    assert proc.returncode == 0 and again == plain  # 0 is the default model, episode for episode
+
+    for bad, said in ((["--dovs", "prediction_growth=-1"], "prediction_growth_mps"),
+                      (["--dovs", "horizon=3"], "unknown DOVS parameter 'horizon'"),
+                      (["--dovs", "num_trajectories=10.5"], "not an integer"),
+                      (["--dovs", "time_horizon"], "NAME=VALUE")):
+        proc, _ = run(*bad)
+        assert proc.returncode != 0 and said in proc.stderr, (bad, proc.stderr)
