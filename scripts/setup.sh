@@ -23,6 +23,7 @@ APT_PACKAGES=(
   libdiagnostic-msgs-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libeigen3-dev liburdfdom-dev liburdfdom-headers-dev ros-robot-state-publisher
   librviz-dev rviz pluginlib-dev libclass-loader-dev
+  libnodeletlib-dev libnodelet-dev libnodeletlib-tools  # the pipeline as nodelets (nodelets:=true)
   googletest libgtest-dev libgmock-dev
   pybind11-dev python3-pybind11 python3-dev python3-venv python3-numpy python3-yaml
   clang libclang-rt-14-dev libfuzzer-14-dev  # fuzz targets (fuzz/, make fuzz)

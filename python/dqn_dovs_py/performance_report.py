@@ -43,6 +43,9 @@ LATENCY = [
     ("end to end: scan stamp -> action (ROS nodes)", "e2e", "latency_ms_median", "median", "ms"),
     ("end to end: scan stamp -> action (ROS nodes)", "e2e", "latency_ms_p99", "p99", "ms"),
     ("end to end: scan stamp -> action (ROS nodes)", "e2e", "latency_ms_max", "max", "ms"),
+    ("end to end: scan stamp -> action (nodelets)", "e2e", "nodelets_latency_ms_median", "median", "ms"),
+    ("end to end: scan stamp -> action (nodelets)", "e2e", "nodelets_latency_ms_p99", "p99", "ms"),
+    ("end to end: scan stamp -> action (nodelets)", "e2e", "nodelets_latency_ms_max", "max", "ms"),
 ]
 SIM = [
     ("sim", "steps_per_s", "world steps per second (one 720-beam scan per step, 15 obstacles)", "1/s"),
@@ -198,10 +201,11 @@ def render(figures: dict, rss: dict, when: dict, benches: list[str], machine: di
         rows.append([stage, label, _fmt(v) + ("" if v is None else f" {unit}"), _cmd(b)])
     out += _table(["stage", "figure", "value", "command"], rows) + [""]
     if "e2e" in figures:
-        out += ["The end-to-end figure runs simulator_node -> obstacle_tracker_node -> dovs_node -> planner_node as "
-                "separate processes (wall clock, 10 Hz scans) and measures from each scan's stamp to the action "
-                "chosen for it; the action reaches `cmd_vel` at the planner's next 0.2 s control tick, which it "
-                "leaves out.", ""]
+        out += ["The end-to-end figures run simulator_node -> obstacle_tracker_node -> dovs_node -> planner_node "
+                "(launch/pipeline.launch; wall clock, 10 Hz scans) and measure from each scan's stamp to the action "
+                "chosen for it: first with each node its own process, then with the three as nodelets in one "
+                "manager (`nodelets:=true`). The action reaches `cmd_vel` at the planner's next 0.2 s control tick, "
+                "which they leave out.", ""]
 
     out += ["## Simulator throughput", ""]
     out += _table(["figure", "value", "command"],

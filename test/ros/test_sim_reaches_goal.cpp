@@ -1,16 +1,34 @@
 // Node-level test: the shipped pipeline in simulation reaches the scenario's goal and holds there,
-// and every cmd_vel respects the acceleration limits.
+// and every cmd_vel respects the acceleration limits (with ~expect_publisher: the pipeline's topics are published
+// by that node, e.g. the nodelet manager).
 #include <geometry_msgs/Twist.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
 #include <cmath>
 #include <mutex>
+#include <set>
+#include <string>
+#include <vector>
 
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/SimStatus.h"
 
 namespace {
+
+// The nodes that publish `topic`, from the master's system state.
+std::set<std::string> publishersOf(const std::string& topic) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  std::set<std::string> out;
+  if (!ros::master::execute("getSystemState", args, result, payload, true)) return out;
+  XmlRpc::XmlRpcValue& publishers = payload[0];
+  for (int i = 0; i < publishers.size(); ++i) {
+    if (static_cast<std::string>(publishers[i][0]) != topic) continue;
+    for (int j = 0; j < publishers[i][1].size(); ++j) out.insert(static_cast<std::string>(publishers[i][1][j]));
+  }
+  return out;
+}
 
 struct Watch {
   std::mutex mutex;
@@ -71,6 +89,15 @@ TEST(SimLaunch, ReachesTheGoalAndStops) {
     ros::WallDuration(0.05).sleep();
   }
   spinner.stop();
+  // With expect_publisher (e.g. the nodelet manager), the pipeline's topics come from that node: the nodes
+  // really run where the launch file says.
+  const std::string expected = pnh.param<std::string>("expect_publisher", "");
+  if (!expected.empty()) {
+    for (const char* topic : {"/obstacles", "/dovs", "/cmd_vel"}) {
+      const std::set<std::string> pubs = publishersOf(topic);
+      EXPECT_EQ(pubs, std::set<std::string>{expected}) << topic;
+    }
+  }
   std::lock_guard<std::mutex> l(w.mutex);
   ASSERT_TRUE(w.have_sim && w.have_planner) << "no status from simulator_node / planner_node";
   EXPECT_FALSE(w.sim.collided) << "collision at t = " << w.sim.episode_time;

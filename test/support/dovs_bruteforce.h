@@ -117,8 +117,7 @@ class Reference {
       tracks_.push_back(std::move(track));
       radii_.push_back(r);
       // Longest relative displacement within one step: lets most steps be skipped with one squared norm.
-      const double reach =
-          r + growth_ * cfg.time_horizon_s + (std::abs(o.speed) + builder.limits().v_max) * dt_ + 1e-9;
+      const double reach = r + growth_ * cfg.time_horizon_s + (std::abs(o.speed) + builder.limits().v_max) * dt_ + 1e-9;
       reach_sq_.push_back(reach * reach);
     }
     for (const Segment& s : obs.segments) {
