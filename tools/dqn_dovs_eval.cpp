@@ -34,7 +34,7 @@ const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
-    "                     [--dovs NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
+    "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
     "                     [--odom-noise LEVEL] [--route on|off]\n"
     "                     [--no-report]\n"
@@ -53,6 +53,8 @@ const char* kUsage =
     "                      action_shield/* and config/static_safety.yaml (static_safety/margin=0.1, ...)\n"
     "  --dovs N=V,...      the DOVS model of every planner, named as in config/dovs.yaml dovs/* (time_horizon=3,\n"
     "                      prediction_growth=0.2, ...)\n"
+    "  --tracker N=V,...   the obstacle tracker, named as in config/tracker.yaml tracker/* (person_radius=0.3,\n"
+    "                      ...); applied after --sensor and --world, which set range_noise and pair_legs\n"
     "  --oracle N=V,...    the oracle's search: horizon_periods (20), beam_width (160), window_samples (2),\n"
     "                      grid_cell_m (0.1), clearance_margin_m (0.02)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
@@ -148,6 +150,7 @@ Options parse(int argc, char** argv) {
   Options o;
   o.eval.scenarios_dir = "../shared/scenarios/rumor";
   bool have_scenarios = false, have_generate = false;
+  std::vector<std::string> tracker_overrides;
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
     auto value = [&]() -> std::string {
@@ -205,6 +208,8 @@ Options parse(int argc, char** argv) {
         return dqn_dovs::setDovsParameter(o.eval.episode.dovs, n, v);
       });
       if (const std::string e = o.eval.episode.dovs.validate(); !e.empty()) throw UsageError("--dovs: " + e);
+    } else if (flag == "--tracker") {
+      tracker_overrides.push_back(value());  // applied after the world options, which set some tracker fields
     } else if (flag == "--oracle") {
       setNamedValues(flag, value(), [&](const std::string& n, const std::string& v) {
         return dqn_dovs::setOracleParameter(o.eval.oracle, n, v);
@@ -241,6 +246,12 @@ Options parse(int argc, char** argv) {
   if (have_generate) o.eval.scenarios_dir.clear();
   if (o.eval.world != "room" && !have_generate) throw UsageError("--world " + o.eval.world + " needs --generate SEED");
   dqn_dovs::applyWorldOptions(o.eval);
+  for (const std::string& text : tracker_overrides) {
+    setNamedValues("--tracker", text, [&](const std::string& n, const std::string& v) {
+      return dqn_dovs::setTrackerParameter(o.eval.episode.tracker, n, v);
+    });
+  }
+  if (const std::string e = o.eval.episode.tracker.validate(); !e.empty()) throw UsageError("--tracker: " + e);
   if (o.reference.empty()) {
     const auto& m = o.eval.methods;
     o.reference = std::find(m.begin(), m.end(), "dqn_dovs") != m.end() ? "dqn_dovs" : m.front();

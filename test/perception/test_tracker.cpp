@@ -2,10 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <random>
 #include <set>
+#include <string>
+#include <type_traits>
+#include <vector>
 
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/perception/tracker_metrics.h"
@@ -121,6 +125,47 @@ LaserScan2 simpleScan(double stamp, size_t beams = 360, float range = 3.0f) {
 // ---------------------------------------------------------------------------------------------------------
 // Detection
 // ---------------------------------------------------------------------------------------------------------
+
+TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
+  TrackerConfig c;
+  EXPECT_EQ(setTrackerParameter(c, "person_radius", "0.3"), "");
+  EXPECT_DOUBLE_EQ(c.person_radius_m, 0.3);
+  EXPECT_EQ(setTrackerParameter(c, "accel_noise", "2"), "");
+  EXPECT_DOUBLE_EQ(c.accel_noise_mps2, 2.0);
+  EXPECT_EQ(setTrackerParameter(c, "confirm_hits", "4"), "");
+  EXPECT_EQ(c.confirm_hits, 4);
+  EXPECT_EQ(setTrackerParameter(c, "pair_legs", "true"), "");
+  EXPECT_TRUE(c.pair_legs);
+  EXPECT_NE(setTrackerParameter(c, "pair_legs", "yes").find("not true or false"), std::string::npos);
+  EXPECT_NE(setTrackerParameter(c, "confirm_hits", "2.5").find("not an integer"), std::string::npos);
+  EXPECT_NE(setTrackerParameter(c, "deletion_timeout", "nan").find("not a number"), std::string::npos);
+  EXPECT_NE(setTrackerParameter(c, "person_radius_m", "0.3").find("unknown tracker parameter 'person_radius_m'"),
+            std::string::npos);
+  // Each name reaches a field of its own: the bytes it changes in a zero-padded configuration are changed by no
+  // other name.
+  static_assert(std::is_trivially_destructible_v<TrackerConfig>);
+  auto fresh = [](unsigned char* raw) {
+    std::memset(raw, 0, sizeof(TrackerConfig));
+    return new (raw) TrackerConfig();
+  };
+  alignas(TrackerConfig) unsigned char base_raw[sizeof(TrackerConfig)], raw[sizeof(TrackerConfig)];
+  fresh(base_raw);
+  std::vector<int> owner(sizeof(TrackerConfig), -1);
+  const std::vector<std::string>& names = trackerParameterNames();
+  EXPECT_EQ(names.size(), 46u);  // every field of TrackerConfig
+  for (size_t k = 0; k < names.size(); ++k) {
+    TrackerConfig* c = fresh(raw);
+    ASSERT_EQ(setTrackerParameter(*c, names[k], names[k] == "pair_legs" ? "true" : "7"), "") << names[k];
+    int changed = 0;
+    for (size_t b = 0; b < sizeof(TrackerConfig); ++b) {
+      if (raw[b] == base_raw[b]) continue;
+      ++changed;
+      EXPECT_EQ(owner[b], -1) << names[k] << " and " << (owner[b] >= 0 ? names[owner[b]] : "") << " share a field";
+      owner[b] = static_cast<int>(k);
+    }
+    EXPECT_GT(changed, 0) << names[k] << " changes nothing";
+  }
+}
 
 TEST(TrackerDetection, DiscBecomesCircleWithCentreBehindArc) {
   std::mt19937 rng(2);

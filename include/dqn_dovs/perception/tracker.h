@@ -165,6 +165,15 @@ struct TrackerConfig {
   double rangeNoise_m(double range_m) const;
 };
 
+/// Sets the TrackerConfig field named as in config/tracker.yaml's `tracker/` block (the field name without its
+/// unit: person_radius, accel_noise, pair_legs, ...) from text. Returns an empty string, or a message naming the
+/// parameter and the reason (unknown name, not a number, not an integer, not true or false). Ranges are left to
+/// validate().
+std::string setTrackerParameter(TrackerConfig& config, const std::string& name, const std::string& value);
+
+/// Every name setTrackerParameter accepts, in TrackerConfig's order.
+const std::vector<std::string>& trackerParameterNames();
+
 /// Bad configuration; the message names the field.
 class TrackerConfigError : public std::runtime_error {
  public:
