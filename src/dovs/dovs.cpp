@@ -5,7 +5,7 @@
 #include <limits>
 #include <sstream>
 
-#include "dqn_dovs/common/parse.h"
+#include "dqn_dovs/common/named_fields.h"
 
 namespace dqn_dovs {
 
@@ -70,49 +70,31 @@ std::string DovsConfig::validate() const {
 
 namespace {
 
-struct DovsField {
-  const char* name;
-  double DovsConfig::*real;
-  int DovsConfig::*integer;
-};
+using DovsField = NamedField<DovsConfig>;
 
-const DovsField kDovsFields[] = {
-    {"obstacle_range", &DovsConfig::obstacle_range_m, nullptr},
-    {"safety_factor", &DovsConfig::safety_factor, nullptr},
-    {"num_trajectories", nullptr, &DovsConfig::num_trajectories},
-    {"time_horizon", &DovsConfig::time_horizon_s, nullptr},
-    {"static_reaction_time", &DovsConfig::static_reaction_time_s, nullptr},
-    {"static_margin", &DovsConfig::static_margin_m, nullptr},
-    {"prediction_growth", &DovsConfig::prediction_growth_mps, nullptr},
-};
+const std::vector<DovsField>& dovsFields() {
+  static const std::vector<DovsField> fields = {
+      {"obstacle_range", &DovsConfig::obstacle_range_m},
+      {"safety_factor", &DovsConfig::safety_factor},
+      {"num_trajectories", nullptr, &DovsConfig::num_trajectories},
+      {"time_horizon", &DovsConfig::time_horizon_s},
+      {"static_reaction_time", &DovsConfig::static_reaction_time_s},
+      {"static_margin", &DovsConfig::static_margin_m},
+      {"prediction_growth", &DovsConfig::prediction_growth_mps},
+  };
+  return fields;
+}
 
 }  // namespace
 
 std::string setDovsParameter(DovsConfig& config, const std::string& name, const std::string& value) {
-  for (const DovsField& f : kDovsFields) {
-    if (name != f.name) continue;
-    const std::optional<double> x = parseNumber(value);
-    if (!x || !std::isfinite(*x)) return "DOVS parameter '" + name + "' = '" + value + "' is not a number";
-    if (f.integer != nullptr) {
-      if (*x != std::floor(*x) || std::abs(*x) > 1e6)
-        return "DOVS parameter '" + name + "' = '" + value + "' is not an integer";
-      config.*f.integer = static_cast<int>(*x);
-    } else {
-      config.*f.real = *x;
-    }
-    return {};
-  }
   std::string known;
-  for (const DovsField& f : kDovsFields) known += (known.empty() ? "" : ", ") + std::string(f.name);
-  return "unknown DOVS parameter '" + name + "' (known: " + known + ")";
+  for (const std::string& n : dovsParameterNames()) known += (known.empty() ? "" : ", ") + n;
+  return setNamedField(dovsFields(), config, "DOVS parameter", name, value, "(known: " + known + ")");
 }
 
 const std::vector<std::string>& dovsParameterNames() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> n;
-    for (const DovsField& f : kDovsFields) n.emplace_back(f.name);
-    return n;
-  }();
+  static const std::vector<std::string> names = namedFieldNames(dovsFields());
   return names;
 }
 

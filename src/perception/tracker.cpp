@@ -5,10 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <sstream>
 
-#include "dqn_dovs/common/parse.h"
+#include "dqn_dovs/common/named_fields.h"
 #include "dqn_dovs/perception/circle_fit.h"
 #include "dqn_dovs/perception/hungarian.h"
 
@@ -96,98 +95,70 @@ std::string TrackerConfig::validate() const {
 
 namespace {
 
-struct TrackerField {
-  const char* name;
-  double TrackerConfig::*real;
-  int TrackerConfig::*integer;
-  bool TrackerConfig::*flag;
-};
+using TrackerField = NamedField<TrackerConfig>;
 
 // Every TrackerConfig field by its config/tracker.yaml name (the field name without its unit).
-const TrackerField kTrackerFields[] = {
-    {"cluster_distance_base", &TrackerConfig::cluster_distance_base_m, nullptr, nullptr},
-    {"cluster_distance_beam_factor", &TrackerConfig::cluster_distance_beam_factor, nullptr, nullptr},
-    {"max_skipped_beams", nullptr, &TrackerConfig::max_skipped_beams, nullptr},
-    {"min_cluster_points", nullptr, &TrackerConfig::min_cluster_points, nullptr},
-    {"range_noise", &TrackerConfig::range_noise_m, nullptr, nullptr},
-    {"range_noise_fraction", &TrackerConfig::range_noise_fraction, nullptr, nullptr},
-    {"split_distance", &TrackerConfig::split_distance_m, nullptr, nullptr},
-    {"segment_min_length", &TrackerConfig::segment_min_length_m, nullptr, nullptr},
-    {"line_max_rms", &TrackerConfig::line_max_rms_m, nullptr, nullptr},
-    {"min_arc_sagitta_ratio", &TrackerConfig::min_arc_sagitta_ratio, nullptr, nullptr},
-    {"max_circle_radius", &TrackerConfig::max_circle_radius_m, nullptr, nullptr},
-    {"min_circle_radius", &TrackerConfig::min_circle_radius_m, nullptr, nullptr},
-    {"circle_max_rms", &TrackerConfig::circle_max_rms_m, nullptr, nullptr},
-    {"fallback_radius", &TrackerConfig::fallback_radius_m, nullptr, nullptr},
-    {"radius_margin", &TrackerConfig::radius_margin_m, nullptr, nullptr},
-    {"radius_window", nullptr, &TrackerConfig::radius_window, nullptr},
-    {"radius_quantile", &TrackerConfig::radius_quantile, nullptr, nullptr},
-    {"pair_legs", nullptr, nullptr, &TrackerConfig::pair_legs},
-    {"leg_min_points", nullptr, &TrackerConfig::leg_min_points, nullptr},
-    {"leg_max_radius", &TrackerConfig::leg_max_radius_m, nullptr, nullptr},
-    {"leg_pair_max_distance", &TrackerConfig::leg_pair_max_distance_m, nullptr, nullptr},
-    {"person_radius", &TrackerConfig::person_radius_m, nullptr, nullptr},
-    {"lone_leg_std", &TrackerConfig::lone_leg_std_m, nullptr, nullptr},
-    {"structure_memory", &TrackerConfig::structure_memory_s, nullptr, nullptr},
-    {"structure_cell", &TrackerConfig::structure_cell_m, nullptr, nullptr},
-    {"structure_min_scans", nullptr, &TrackerConfig::structure_min_scans, nullptr},
-    {"structure_max_fraction", &TrackerConfig::structure_max_fraction, nullptr, nullptr},
-    {"structure_line_extension", &TrackerConfig::structure_line_extension_m, nullptr, nullptr},
-    {"measurement_noise", &TrackerConfig::measurement_noise_m, nullptr, nullptr},
-    {"accel_noise", &TrackerConfig::accel_noise_mps2, nullptr, nullptr},
-    {"turn_accel_noise", &TrackerConfig::turn_accel_noise_rps2, nullptr, nullptr},
-    {"max_turn_rate", &TrackerConfig::max_turn_rate_rps, nullptr, nullptr},
-    {"init_speed_std", &TrackerConfig::init_speed_std_mps, nullptr, nullptr},
-    {"init_turn_rate_std", &TrackerConfig::init_turn_rate_std_rps, nullptr, nullptr},
-    {"gate_mahalanobis2", &TrackerConfig::gate_mahalanobis2, nullptr, nullptr},
-    {"gate_max_distance", &TrackerConfig::gate_max_distance_m, nullptr, nullptr},
-    {"maneuver_gate", &TrackerConfig::maneuver_gate_m, nullptr, nullptr},
-    {"maneuver_max_silence", &TrackerConfig::maneuver_max_silence_s, nullptr, nullptr},
-    {"confirm_hits", nullptr, &TrackerConfig::confirm_hits, nullptr},
-    {"tentative_timeout", &TrackerConfig::tentative_timeout_s, nullptr, nullptr},
-    {"deletion_timeout", &TrackerConfig::deletion_timeout_s, nullptr, nullptr},
-    {"max_position_std", &TrackerConfig::max_position_std_m, nullptr, nullptr},
-    {"reacquire_window", &TrackerConfig::reacquire_window_s, nullptr, nullptr},
-    {"reacquire_max_distance", &TrackerConfig::reacquire_max_distance_m, nullptr, nullptr},
-    {"max_time_gap", &TrackerConfig::max_time_gap_s, nullptr, nullptr},
-    {"static_speed_threshold", &TrackerConfig::static_speed_threshold_mps, nullptr, nullptr},
-};
+const std::vector<TrackerField>& trackerFields() {
+  static const std::vector<TrackerField> fields = {
+      {"cluster_distance_base", &TrackerConfig::cluster_distance_base_m},
+      {"cluster_distance_beam_factor", &TrackerConfig::cluster_distance_beam_factor},
+      {"max_skipped_beams", nullptr, &TrackerConfig::max_skipped_beams},
+      {"min_cluster_points", nullptr, &TrackerConfig::min_cluster_points},
+      {"range_noise", &TrackerConfig::range_noise_m},
+      {"range_noise_fraction", &TrackerConfig::range_noise_fraction},
+      {"split_distance", &TrackerConfig::split_distance_m},
+      {"segment_min_length", &TrackerConfig::segment_min_length_m},
+      {"line_max_rms", &TrackerConfig::line_max_rms_m},
+      {"min_arc_sagitta_ratio", &TrackerConfig::min_arc_sagitta_ratio},
+      {"max_circle_radius", &TrackerConfig::max_circle_radius_m},
+      {"min_circle_radius", &TrackerConfig::min_circle_radius_m},
+      {"circle_max_rms", &TrackerConfig::circle_max_rms_m},
+      {"fallback_radius", &TrackerConfig::fallback_radius_m},
+      {"radius_margin", &TrackerConfig::radius_margin_m},
+      {"radius_window", nullptr, &TrackerConfig::radius_window},
+      {"radius_quantile", &TrackerConfig::radius_quantile},
+      {"pair_legs", nullptr, nullptr, &TrackerConfig::pair_legs},
+      {"leg_min_points", nullptr, &TrackerConfig::leg_min_points},
+      {"leg_max_radius", &TrackerConfig::leg_max_radius_m},
+      {"leg_pair_max_distance", &TrackerConfig::leg_pair_max_distance_m},
+      {"person_radius", &TrackerConfig::person_radius_m},
+      {"lone_leg_std", &TrackerConfig::lone_leg_std_m},
+      {"structure_memory", &TrackerConfig::structure_memory_s},
+      {"structure_cell", &TrackerConfig::structure_cell_m},
+      {"structure_min_scans", nullptr, &TrackerConfig::structure_min_scans},
+      {"structure_max_fraction", &TrackerConfig::structure_max_fraction},
+      {"structure_line_extension", &TrackerConfig::structure_line_extension_m},
+      {"measurement_noise", &TrackerConfig::measurement_noise_m},
+      {"accel_noise", &TrackerConfig::accel_noise_mps2},
+      {"turn_accel_noise", &TrackerConfig::turn_accel_noise_rps2},
+      {"max_turn_rate", &TrackerConfig::max_turn_rate_rps},
+      {"init_speed_std", &TrackerConfig::init_speed_std_mps},
+      {"init_turn_rate_std", &TrackerConfig::init_turn_rate_std_rps},
+      {"gate_mahalanobis2", &TrackerConfig::gate_mahalanobis2},
+      {"gate_max_distance", &TrackerConfig::gate_max_distance_m},
+      {"maneuver_gate", &TrackerConfig::maneuver_gate_m},
+      {"maneuver_max_silence", &TrackerConfig::maneuver_max_silence_s},
+      {"confirm_hits", nullptr, &TrackerConfig::confirm_hits},
+      {"tentative_timeout", &TrackerConfig::tentative_timeout_s},
+      {"deletion_timeout", &TrackerConfig::deletion_timeout_s},
+      {"max_position_std", &TrackerConfig::max_position_std_m},
+      {"reacquire_window", &TrackerConfig::reacquire_window_s},
+      {"reacquire_max_distance", &TrackerConfig::reacquire_max_distance_m},
+      {"max_time_gap", &TrackerConfig::max_time_gap_s},
+      {"static_speed_threshold", &TrackerConfig::static_speed_threshold_mps},
+  };
+  return fields;
+}
 
 }  // namespace
 
 std::string setTrackerParameter(TrackerConfig& config, const std::string& name, const std::string& value) {
-  for (const TrackerField& f : kTrackerFields) {
-    if (name != f.name) continue;
-    if (f.flag != nullptr) {
-      if (value == "true" || value == "1") {
-        config.*f.flag = true;
-      } else if (value == "false" || value == "0") {
-        config.*f.flag = false;
-      } else {
-        return "tracker parameter '" + name + "' = '" + value + "' is not true or false";
-      }
-      return {};
-    }
-    const std::optional<double> x = parseNumber(value);
-    if (!x || !std::isfinite(*x)) return "tracker parameter '" + name + "' = '" + value + "' is not a number";
-    if (f.integer != nullptr) {
-      if (*x != std::floor(*x) || std::abs(*x) > 1e6)
-        return "tracker parameter '" + name + "' = '" + value + "' is not an integer";
-      config.*f.integer = static_cast<int>(*x);
-    } else {
-      config.*f.real = *x;
-    }
-    return {};
-  }
-  return "unknown tracker parameter '" + name + "' (the names of config/tracker.yaml's tracker/ block)";
+  return setNamedField(trackerFields(), config, "tracker parameter", name, value,
+                       "(the names of config/tracker.yaml's tracker/ block)");
 }
 
 const std::vector<std::string>& trackerParameterNames() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> n;
-    for (const TrackerField& f : kTrackerFields) n.emplace_back(f.name);
-    return n;
-  }();
+  static const std::vector<std::string> names = namedFieldNames(trackerFields());
   return names;
 }
 

@@ -128,15 +128,28 @@ def test_the_oracle_runs_beside_the_planners_and_its_share_is_reported(tmp_path)
         assert proc.returncode == 2 and said in proc.stderr, proc.stderr
 
 
+def run_generated(tmp_path, methods, world, obstacles, *extra):
+    """dqn_dovs_eval on 6 generated episodes (seed 77) of `world`: the process and its records, keyed by
+    (method, episode), as (outcome, steps, path length); no records when it failed."""
+    out = tmp_path / f"gen{len(list(tmp_path.iterdir()))}"
+    cmd = [str(built_tool("dqn_dovs_eval")), "--methods", methods, "--generate", "77", "--world", world,
+           "--obstacles", str(obstacles), "--episodes", "6", "--trajectories", "0", "--no-report", "--out", str(out),
+           "--model", str(ROOT / "models" / "dqn_dovs.dqnw"), *extra]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    rows = list(csv.DictReader(open(out / "results.csv"))) if proc.returncode == 0 else []
+    return proc, {(r["method"], r["episode"]): (r["outcome"], r["steps"], r["path_length_m"]) for r in rows}
+
+
+def assert_refused(run, flag, cases):
+    """Each `flag VALUE` of `cases` makes the tool fail with a message containing cases[VALUE]."""
+    for value, said in cases.items():
+        proc, _ = run(flag, value)
+        assert proc.returncode != 0 and said in proc.stderr, (flag, value, proc.stderr)
+
+
 def test_dovs_overrides_reach_every_planner_and_bad_ones_are_named(tmp_path):
     def run(*extra):
-        out = tmp_path / ("out" + str(len(extra)))
-        cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs,dqn_dovs", "--generate", "77", "--world",
-               "crowd", "--obstacles", "10", "--episodes", "6", "--trajectories", "0", "--no-report", "--out",
-               str(out), "--model", str(ROOT / "models" / "dqn_dovs.dqnw"), *extra]
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
-        rows = list(csv.DictReader(open(out / "results.csv"))) if proc.returncode == 0 else []
-        return proc, {(r["method"], r["episode"]): (r["outcome"], r["steps"], r["path_length_m"]) for r in rows}
+        return run_generated(tmp_path, "s_dovs,dqn_dovs", "crowd", 10, *extra)
 
     proc, plain = run()
     assert proc.returncode == 0, proc.stderr
@@ -148,24 +161,16 @@ def test_dovs_overrides_reach_every_planner_and_bad_ones_are_named(tmp_path):
     proc, again = run("--dovs", "prediction_growth=0")
     assert proc.returncode == 0 and again == plain  # 0 is the default model, episode for episode
 
-    for bad, said in ((["--dovs", "prediction_growth=-1"], "prediction_growth_mps"),
-                      (["--dovs", "horizon=3"], "unknown DOVS parameter 'horizon'"),
-                      (["--dovs", "num_trajectories=10.5"], "not an integer"),
-                      (["--dovs", "time_horizon"], "NAME=VALUE")):
-        proc, _ = run(*bad)
-        assert proc.returncode != 0 and said in proc.stderr, (bad, proc.stderr)
+    assert_refused(run, "--dovs", {"prediction_growth=-1": "prediction_growth_mps",
+                                   "horizon=3": "unknown DOVS parameter 'horizon'",
+                                   "num_trajectories=10.5": "not an integer", "time_horizon": "NAME=VALUE"})
 
 
 def test_tracker_overrides_follow_config_tracker_yaml_and_bad_ones_are_named(tmp_path):
     import yaml
 
     def run(*extra, world="crowd"):
-        out = tmp_path / ("t" + str(abs(hash(extra))) + world)
-        cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs", "--generate", "77", "--world", world,
-               "--obstacles", "8", "--episodes", "6", "--trajectories", "0", "--no-report", "--out", str(out), *extra]
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
-        rows = list(csv.DictReader(open(out / "results.csv"))) if proc.returncode == 0 else []
-        return proc, [(r["episode"], r["outcome"], r["steps"], r["path_length_m"]) for r in rows]
+        return run_generated(tmp_path, "s_dovs", world, 8, *extra)
 
     # config/tracker.yaml as the robot loads it, given by name: every key is known and its value is the built-in
     # default, so the room (no legs, the sim LIDAR's 1 cm noise) runs episode for episode as without it.
@@ -184,9 +189,6 @@ def test_tracker_overrides_follow_config_tracker_yaml_and_bad_ones_are_named(tmp
     assert proc.returncode == 0, proc.stderr
     assert unpaired != plain
 
-    for bad, said in ((["--tracker", "person_radius=-1"], "person_radius"),
-                      (["--tracker", "radius=0.3"], "unknown tracker parameter 'radius'"),
-                      (["--tracker", "pair_legs=maybe"], "not true or false"),
-                      (["--tracker", "confirm_hits"], "NAME=VALUE")):
-        proc, _ = run(*bad)
-        assert proc.returncode != 0 and said in proc.stderr, (bad, proc.stderr)
+    assert_refused(run, "--tracker", {"person_radius=-1": "person_radius",
+                                      "radius=0.3": "unknown tracker parameter 'radius'",
+                                      "pair_legs=maybe": "not true or false", "confirm_hits": "NAME=VALUE"})
