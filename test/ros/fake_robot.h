@@ -41,6 +41,7 @@
 #include <thread>
 #include <vector>
 
+#include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/common/geometry.h"
@@ -507,11 +508,24 @@ class RobotHarness {
     return g;
   }
 
-  /// Gives a fresh goal `distance` ahead and waits until the robot drives at >= `min_v`.
+  /// Gives a fresh goal `distance` ahead and waits until the planner drives on it at >= `min_v`: a velocity space
+  /// built for this goal has come and the planner said ACTIVE after it. (A robot still moving from an earlier
+  /// goal does not count: until dovs_node has built for the new goal, the planner has nothing valid to act on.)
   void driveUntilMoving(double distance, double min_v, double timeout_s) {
-    goal_pub.publish(goalAhead(distance));
+    TopicLog<Dovs> built(nh, "dovs", 10);
+    const geometry_msgs::PoseStamped goal = goalAhead(distance);
+    goal_pub.publish(goal);
+    const bool for_goal =
+        waitFor([&] { return built.any() && built.last().goal_stamp == goal.header.stamp; }, timeout_s);
+    ASSERT_TRUE(for_goal) << "no velocity space built for the new goal: planner state " << int(lastStatus().state)
+                          << " (" << lastStatus().reason << ")";
+    const double built_at = built.lastWall();
     const bool moving = waitFor(
-        [&] { return lastStatus().state == PlannerStatus::ACTIVE && robot.lastCommand().v >= min_v; }, timeout_s);
+        [&] {
+          return status.lastWall() > built_at && lastStatus().state == PlannerStatus::ACTIVE &&
+                 robot.lastCommand().v >= min_v;
+        },
+        timeout_s);
     ASSERT_TRUE(moving) << "the pipeline does not drive: state " << int(lastStatus().state) << " ("
                         << lastStatus().reason << "), last v " << robot.lastCommand().v;
   }
