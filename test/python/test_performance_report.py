@@ -51,3 +51,21 @@ def test_figures_rss_and_throughput(tmp_path):
     assert "| eval-dqn | dqn_dovs + s_dovs | 10 | 300 | 20.0 s | 15.0 | `make bench-eval-dqn` |" in text
     assert "0.50 / 0.40 / 0.30" in text
     assert "nproc" in text and "Not measured: env, tracker, dovs, training, e2e" in text
+
+
+def test_hand_written_notes_and_the_nodelet_rows(tmp_path):
+    write(tmp_path, "e2e", {"latency_ms_median": 1.4, "latency_ms_p99": 2.9, "latency_ms_max": 4.5,
+                            "nodelets_latency_ms_median": 1.2, "nodelets_latency_ms_p99": 2.8,
+                            "nodelets_latency_ms_max": 4.4})
+    notes = tmp_path / "notes.md"
+    notes.write_text("<!-- a comment for whoever edits it -->\n**A note** on these figures.\n")
+    out = tmp_path / "performance.md"
+    assert pr.main(["--results", str(tmp_path), "--out", str(out), "--notes", str(notes)]) == 0
+    text = out.read_text()
+    assert "### Measurement notes\n\n**A note** on these figures." in text
+    assert "a comment for whoever edits it" not in text
+    assert "| end to end: scan stamp -> action (ROS nodes) | p99 | 2.9 ms | `make bench-e2e` |" in text
+    assert "| end to end: scan stamp -> action (nodelets) | p99 | 2.8 ms | `make bench-e2e` |" in text
+    # Without a notes file the section is left out.
+    assert pr.main(["--results", str(tmp_path), "--out", str(out), "--notes", str(tmp_path / "none.md")]) == 0
+    assert "Measurement notes" not in out.read_text()
