@@ -57,6 +57,17 @@ class LearnResult:
     loss: float  # importance-weighted Huber loss of the batch
     td_errors: np.ndarray  # float32 [B], target - Q(s, a), for the new priorities
     mean_q: float  # mean Q(s, a) of the batch, a divergence indicator for the logs
+    demo_loss: float = float("nan")  # large-margin loss on the teacher's batch (nan: none given)
+
+
+def large_margin_loss(q: torch.Tensor, mask: torch.Tensor, action: torch.Tensor, margin: float) -> torch.Tensor:
+    """Per-sample max over the allowed actions a of Q(s, a) + margin * [a != a_E], minus Q(s, a_E): zero once the
+    teacher's action a_E beats every other allowed action by the margin (the supervised loss of learning from
+    demonstrations, restricted to the mask the agent chooses under)."""
+    bonus = torch.full_like(q, float(margin))
+    bonus.scatter_(1, action[:, None], 0.0)
+    best = (q + bonus).masked_fill(~mask, float("-inf")).max(dim=1).values
+    return best - q.gather(1, action[:, None]).squeeze(1)
 
 
 def masked_argmax_torch(q: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -140,7 +151,10 @@ class DQNAgent:
             bootstrap = q_target_next.gather(1, best[:, None]).squeeze(1)
             return reward + torch.where(discount > 0, discount * bootstrap, torch.zeros_like(bootstrap))
 
-    def learn(self, batch: SampledBatch) -> LearnResult:
+    def learn(self, batch: SampledBatch, demo: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+              demo_weight: float = 0.0, margin: float = 0.8) -> LearnResult:
+        """One Double-DQN step on `batch`; with `demo` = (state, mask, teacher action) the large-margin loss of
+        those states, times `demo_weight`, is added to the TD loss."""
         t = batch.transitions
         state = self._tensor(t.state)
         action = torch.from_numpy(np.ascontiguousarray(t.action)).to(self.device)
@@ -154,6 +168,13 @@ class DQNAgent:
         q = self.online(state).gather(1, action[:, None]).squeeze(1)
         per_sample = F.huber_loss(q, target, reduction="none", delta=self.config.huber_delta)
         loss = (weights * per_sample).mean()
+        demo_loss = None
+        if demo is not None and demo_weight > 0:
+            d_state, d_mask, d_action = demo
+            d_action_t = torch.from_numpy(np.ascontiguousarray(d_action, dtype=np.int64)).to(self.device)
+            d_mask_t = torch.from_numpy(np.ascontiguousarray(d_mask, dtype=bool)).to(self.device)
+            demo_loss = large_margin_loss(self.online(self._tensor(d_state)), d_mask_t, d_action_t, margin).mean()
+            loss = loss + float(demo_weight) * demo_loss
         if not torch.isfinite(loss):
             raise FloatingPointError(f"DQNAgent.learn: non-finite loss at update {self.updates} "
                                      "(the Q-network has diverged; lower the learning rate)")
@@ -167,7 +188,8 @@ class DQNAgent:
             self.sync_target()
         td = (target - q).detach()
         return LearnResult(loss=float(loss.item()), td_errors=td.float().cpu().numpy(),
-                           mean_q=float(q.detach().mean().item()))
+                           mean_q=float(q.detach().mean().item()),
+                           demo_loss=float(demo_loss.item()) if demo_loss is not None else float("nan"))
 
     def sync_target(self) -> None:
         self.target.load_state_dict(self.online.state_dict())

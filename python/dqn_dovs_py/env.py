@@ -210,6 +210,31 @@ class VecEnv:
                 raise EnvContractError(f"VecEnv.step: world must be {self.num_envs} non-negative indices")
         return StepResult(**values, escaped=escaped, executed_action=executed, world=world)
 
+    def teacher_actions(self, teacher: str, which: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """A teacher's action for each environment's current state where `which` is true (docs/training.md,
+        "Learning from a teacher"): `oracle` (reads the simulator's future) or `s_dovs`. -1 where not asked and
+        where the shield's escape runs. `mask` is the current mask (what reset/step returned): every action
+        given must be allowed by it."""
+        which = np.ascontiguousarray(which, dtype=np.bool_)
+        if which.shape != (self.num_envs,):
+            raise ValueError(f"VecEnv.teacher_actions: which has shape {which.shape}, expected ({self.num_envs},)")
+        if not hasattr(self._core, "teacher_actions"):
+            raise EnvContractError("VecEnv.teacher_actions: this environment has no teacher")
+        try:
+            out = np.asarray(self._core.teacher_actions(teacher, which), dtype=np.int64)
+        except ValueError as error:
+            raise ValueError(f"VecEnv.teacher_actions: {error}") from None
+        if out.shape != (self.num_envs,) or np.any((out < -1) | (out >= NUM_ACTIONS)):
+            raise EnvContractError(f"VecEnv.teacher_actions: expected {self.num_envs} actions in [-1, {NUM_ACTIONS})")
+        if np.any((out >= 0) & ~which):
+            raise EnvContractError("VecEnv.teacher_actions: an action was given where none was asked for")
+        given = np.flatnonzero(out >= 0)
+        if given.size and not np.all(mask[given, out[given]]):
+            i = int(given[~mask[given, out[given]]][0])
+            raise EnvContractError(f"VecEnv.teacher_actions: action {int(out[i])} of environment {i} is not allowed "
+                                   "by its mask")
+        return out
+
     def normalization(self) -> dict[str, float]:
         norm = self._core.normalization()
         try:

@@ -336,6 +336,78 @@ class PrioritizedReplay:
             raise ValueError("PrioritizedReplay.add: a bootstrapped transition has no valid action in next_mask")
 
 
+class DemoBuffer:
+    """Teacher-labelled states for the large-margin loss (docs/training.md, "Learning from a teacher"): a ring
+    buffer of (state, mask, teacher action), sampled uniformly. Grid cells are stored as int8 (they are +1/-1)."""
+
+    def __init__(self, capacity: int, seed: int = 0, state_dim: int = STATE_DIM, grid_cells: int = GRID_CELLS,
+                 num_actions: int = NUM_ACTIONS):
+        if capacity < 1:
+            raise ValueError(f"DemoBuffer: capacity must be >= 1, got {capacity}")
+        self.capacity = int(capacity)
+        self.state_dim, self.grid_cells, self.num_actions = state_dim, grid_cells, num_actions
+        self._grid = np.zeros((self.capacity, grid_cells), np.int8)
+        self._features = np.zeros((self.capacity, state_dim - grid_cells), np.float32)
+        self._mask = np.zeros((self.capacity, num_actions), bool)
+        self._action = np.zeros(self.capacity, np.int64)
+        self._size = 0
+        self._next = 0
+        self._rng = np.random.default_rng(seed)
+
+    def __len__(self) -> int:
+        return self._size
+
+    def add(self, state: np.ndarray, mask: np.ndarray, action: np.ndarray) -> None:
+        state = np.asarray(state, np.float32)
+        mask = np.asarray(mask, bool)
+        action = np.asarray(action, np.int64)
+        n = action.shape[0]
+        if state.shape != (n, self.state_dim) or mask.shape != (n, self.num_actions):
+            raise ValueError(f"DemoBuffer.add: state {state.shape} / mask {mask.shape} do not match {n} actions")
+        if np.any((action < 0) | (action >= self.num_actions)) or not np.all(mask[np.arange(n), action]):
+            raise ValueError("DemoBuffer.add: a teacher action is outside [0, 8) or not allowed by its mask")
+        if not np.all(np.isfinite(state)):
+            raise ValueError("DemoBuffer.add: state contains NaN or inf")
+        grid = state[:, :self.grid_cells]
+        if not np.all(np.abs(grid) == 1.0):
+            raise ValueError("DemoBuffer.add: grid cells must be exactly +1 or -1")
+        for k in range(n):
+            i = self._next
+            self._grid[i] = grid[k]
+            self._features[i] = state[k, self.grid_cells:]
+            self._mask[i] = mask[k]
+            self._action[i] = action[k]
+            self._next = (i + 1) % self.capacity
+            self._size = min(self._size + 1, self.capacity)
+
+    def sample(self, batch_size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(state float32 [B, 408], mask bool [B, 8], action int64 [B]), drawn uniformly with replacement."""
+        if self._size == 0:
+            raise ValueError("DemoBuffer.sample: the buffer is empty")
+        idx = self._rng.integers(0, self._size, size=batch_size)
+        state = np.empty((batch_size, self.state_dim), np.float32)
+        state[:, :self.grid_cells] = self._grid[idx]
+        state[:, self.grid_cells:] = self._features[idx]
+        return state, self._mask[idx].copy(), self._action[idx].copy()
+
+    def state_dict(self) -> dict:
+        n = self._size
+        return {"capacity": self.capacity, "size": n, "next": self._next, "grid": self._grid[:n].copy(),
+                "features": self._features[:n].copy(), "mask": self._mask[:n].copy(),
+                "action": self._action[:n].copy(), "rng": self._rng.bit_generator.state}
+
+    def load_state_dict(self, state: dict) -> None:
+        if int(state["capacity"]) != self.capacity:
+            raise ValueError(f"DemoBuffer.load_state_dict: capacity {state['capacity']} != {self.capacity}")
+        n = int(state["size"])
+        self._size, self._next = n, int(state["next"])
+        self._grid[:n] = state["grid"]
+        self._features[:n] = state["features"]
+        self._mask[:n] = state["mask"]
+        self._action[:n] = state["action"]
+        self._rng.bit_generator.state = state["rng"]
+
+
 class NStepAccumulator:
     """Builds n-step transitions for `num_envs` environments, each with its own window.
 

@@ -31,7 +31,7 @@ from .decision_config import DecisionConfigError, load_shield_parameters
 from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, EnvContractError, StepResult, VecEnv
 from .escape import one_action_masks
 from .export import WeightFileError
-from .replay import NStepAccumulator, PrioritizedReplay
+from .replay import DemoBuffer, NStepAccumulator, PrioritizedReplay
 
 TRAIN_LOG = "train_log.csv"
 EVAL_LOG = "eval_log.csv"
@@ -154,6 +154,54 @@ class LogConfig:
         return ""
 
 
+TEACHERS = ("none", "oracle", "s_dovs")
+
+
+@dataclass
+class TeacherConfig:
+    """Learning from a teacher (docs/training.md, "Learning from a teacher"): a share of the states the agent
+    visits is labelled with the teacher's action (DAgger: the learner's own states), the labels train a
+    large-margin loss beside the TD loss, and some labelled steps run the teacher's action instead of the agent's.
+    The robot never runs the teacher: `oracle` reads the simulator's future."""
+
+    # none (off), oracle (privileged: knows the future) or s_dovs (the heuristic, same observation as the agent).
+    kind: str = "none"
+    # Probability that a state is labelled (each environment, each step).
+    label_fraction: float = 0.2
+    # Probability that a labelled step runs the teacher's action instead of the agent's, linear from start to end
+    # over the run.
+    behaviour_start: float = 0.0
+    behaviour_end: float = 0.0
+    # Weight of the large-margin loss beside the TD loss, and its margin.
+    loss_weight: float = 1.0
+    margin: float = 0.8
+    # Labelled states kept, labelled states per learning step, and labels needed before the loss starts.
+    buffer_capacity: int = 50000
+    batch_size: int = 64
+    min_labels: int = 1000
+
+    def validate(self) -> str:
+        if self.kind not in TEACHERS:
+            return f"teacher.kind must be one of {', '.join(TEACHERS)}, got {self.kind!r}"
+        for name in ("label_fraction", "behaviour_start", "behaviour_end"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                return f"teacher.{name} must be in [0, 1], got {value}"
+        for name in ("loss_weight", "margin"):
+            if getattr(self, name) < 0:
+                return f"teacher.{name} must be >= 0, got {getattr(self, name)}"
+        for name in ("buffer_capacity", "batch_size", "min_labels"):
+            if getattr(self, name) < 1:
+                return f"teacher.{name} must be >= 1, got {getattr(self, name)}"
+        if self.kind != "none" and self.label_fraction == 0:
+            return "teacher.label_fraction is 0, so the teacher is never asked; set teacher.kind: none"
+        return ""
+
+    @property
+    def enabled(self) -> bool:
+        return self.kind != "none"
+
+
 @dataclass
 class TrainConfig:
     """Everything a training run depends on (config/curriculum.yaml, docs/training.md)."""
@@ -180,6 +228,7 @@ class TrainConfig:
     evaluation: EvalConfig = field(default_factory=EvalConfig)
     checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
     log: LogConfig = field(default_factory=LogConfig)
+    teacher: TeacherConfig = field(default_factory=TeacherConfig)
     # The raw `curriculum` section (parsed by Curriculum.from_dict); kept raw so that it
     # can be written back verbatim into the run directory.
     curriculum: dict = field(default_factory=dict)
@@ -193,7 +242,7 @@ class TrainConfig:
             return f"gamma must be in (0, 1], got {self.gamma}"
         if self.n_step < 1:
             return f"n_step must be >= 1, got {self.n_step}"
-        for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log):
+        for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log, self.teacher):
             error = part.validate()
             if error:
                 return error
@@ -214,7 +263,7 @@ class TrainConfig:
         if not isinstance(raw, dict):
             raise ConfigError("configuration: expected a mapping at the top level")
         sections = {"agent": AgentConfig, "replay": ReplayConfig, "evaluation": EvalConfig,
-                    "checkpoint": CheckpointConfig, "log": LogConfig}
+                    "checkpoint": CheckpointConfig, "log": LogConfig, "teacher": TeacherConfig}
         known = {f.name for f in fields(TrainConfig)}
         unknown = set(raw) - known
         if unknown:
@@ -457,6 +506,13 @@ class Trainer:
         # such a state wait one step for that mask (NStepAccumulator, defer_bootstrap).
         self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma,
                                       defer_bootstrap=config.action_shield)
+        tc = config.teacher
+        self.demos = DemoBuffer(tc.buffer_capacity, seed=config.seed + 3) if tc.enabled else None
+        self._teacher_rng = np.random.default_rng(config.seed + 4)
+        # Labelled steps, those where the agent's own choice was the teacher's, and those that ran the teacher's.
+        self.teacher_counts = {"labels": 0, "agreed": 0, "executed": 0}
+        self._demo_loss_sum = 0.0
+        self._demo_loss_count = 0
 
         self.episodes_done = 0
         self.env_steps = 0
@@ -527,6 +583,8 @@ class Trainer:
                 epsilon = self.curriculum.epsilon_at(self.episodes_done)
                 t0 = perf()
                 actions = self.agent.act(state, mask, epsilon)
+                if self.demos is not None:
+                    actions = self._consult_teacher(env, state, mask, actions)
                 t1 = perf()
                 out = env.step(actions)
                 t2 = perf()
@@ -587,9 +645,44 @@ class Trainer:
             **{f"time_{k}": v for k, v in t.items()},
             "final_eval": final, "best_eval_success_rate": self.best_eval, "model": model_path,
         }
+        if self.demos is not None:
+            c = self.teacher_counts
+            summary["teacher"] = {
+                "kind": cfg.teacher.kind, **c, "agreement": c["agreed"] / max(c["labels"], 1),
+                "mean_margin_loss": self._demo_loss_sum / max(self._demo_loss_count, 1),
+            }
         with open(os.path.join(self.out_dir, SUMMARY), "w") as f:
             json.dump(summary, f, indent=2)
         return summary
+
+    def teacher_behaviour(self) -> float:
+        t = self.config.teacher
+        return t.behaviour_start + (t.behaviour_end - t.behaviour_start) * self.progress_fraction()
+
+    def _consult_teacher(self, env: VecEnv, state: np.ndarray, mask: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """Labels a random share of the current states with the teacher's action, keeps them for the margin loss
+        and runs the teacher's action on some of them (DAgger's mixed behaviour). Returns the actions to run."""
+        t = self.config.teacher
+        n = actions.shape[0]
+        # Both draws are made every step, so the random stream does not depend on the schedule's values.
+        label_draw, behave_draw = self._teacher_rng.random(n), self._teacher_rng.random(n)
+        ask = label_draw < t.label_fraction
+        behave = ask & (behave_draw < self.teacher_behaviour())
+        if not ask.any():
+            return actions
+        taught = env.teacher_actions(t.kind, ask, mask)
+        got = np.flatnonzero(taught >= 0)
+        if got.size == 0:
+            return actions
+        self.demos.add(state[got], mask[got], taught[got])
+        self.teacher_counts["labels"] += int(got.size)
+        self.teacher_counts["agreed"] += int(np.sum(actions[got] == taught[got]))
+        run = got[behave[got]]
+        if run.size:
+            actions = np.array(actions, np.int64, copy=True)
+            actions[run] = taught[run]
+            self.teacher_counts["executed"] += int(run.size)
+        return actions
 
     def _executed(self, mask: np.ndarray, actions: np.ndarray,
                   out: StepResult) -> tuple[np.ndarray, np.ndarray]:
@@ -621,7 +714,13 @@ class Trainer:
         while self.update_credit >= rc.transitions_per_update:
             self.update_credit -= rc.transitions_per_update
             batch = self.replay.sample(rc.batch_size, beta)
-            result = self.agent.learn(batch)
+            tc = self.config.teacher
+            demo = (self.demos.sample(tc.batch_size)
+                    if self.demos is not None and len(self.demos) >= tc.min_labels else None)
+            result = self.agent.learn(batch, demo=demo, demo_weight=tc.loss_weight, margin=tc.margin)
+            if demo is not None:
+                self._demo_loss_sum += result.demo_loss
+                self._demo_loss_count += 1
             self.replay.update_priorities(batch.indices, result.td_errors)
             self._loss_sum += result.loss
             self._q_sum += result.mean_q
@@ -728,7 +827,8 @@ class Trainer:
     def _save_checkpoint(self) -> None:
         replay_saved = False
         if self.config.checkpoint.save_replay:
-            _atomic_torch_save({"episodes_done": self.episodes_done, "replay": self.replay.state_dict()},
+            _atomic_torch_save({"episodes_done": self.episodes_done, "replay": self.replay.state_dict(),
+                                "demos": self.demos.state_dict() if self.demos is not None else None},
                                os.path.join(self.out_dir, REPLAY_FILE))
             replay_saved = True
         state = {
@@ -745,6 +845,8 @@ class Trainer:
             "timing": dict(self._timing),
             "recent_outcomes": list(self._recent_outcomes),
             "replay_saved": replay_saved,
+            "teacher": {"counts": dict(self.teacher_counts), "rng": self._teacher_rng.bit_generator.state,
+                        "loss_sum": self._demo_loss_sum, "loss_count": self._demo_loss_count},
             "normalization": self._normalization,
             "rng": {"python": random.getstate(), "numpy": _numpy_global_state(), "torch": torch.get_rng_state(),
                     "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None},
@@ -755,7 +857,9 @@ class Trainer:
         state = torch.load(path, map_location=self.device, weights_only=True)
         saved = state["config"]
         mine = self.config.to_dict()
-        for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay"):
+        for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay", "teacher"):
+            if key == "teacher" and key not in saved and not self.config.teacher.enabled:
+                continue  # a run from before teachers existed, resumed without one
             if saved.get(key) != mine.get(key):
                 raise ConfigError(f"--resume: {key} differs from the one the run in {self.out_dir} was started with "
                                   f"({saved.get(key)!r} != {mine.get(key)!r}); resume with the run's own "
@@ -776,6 +880,13 @@ class Trainer:
                 raise ConfigError(f"--resume: {replay_path} belongs to episode {saved_replay['episodes_done']}, "
                                   f"the checkpoint to episode {self.episodes_done}")
             self.replay.load_state_dict(saved_replay["replay"])
+            if self.demos is not None and saved_replay.get("demos") is not None:
+                self.demos.load_state_dict(saved_replay["demos"])
+        if "teacher" in state:
+            self.teacher_counts.update(state["teacher"]["counts"])
+            self._teacher_rng.bit_generator.state = state["teacher"]["rng"]
+            self._demo_loss_sum = float(state["teacher"]["loss_sum"])
+            self._demo_loss_count = int(state["teacher"]["loss_count"])
         rng = state["rng"]
         random.setstate(rng["python"])
         _set_numpy_global_state(rng["numpy"])

@@ -6,10 +6,12 @@
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <future>
+#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -20,6 +22,7 @@
 #include "dqn_dovs/common/random.h"
 #include "dqn_dovs/evaluation/episode.h"
 #include "dqn_dovs/evaluation/eval.h"
+#include "dqn_dovs/evaluation/oracle.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/errors.h"
 #include "dqn_dovs/sim/scenario.h"
@@ -116,7 +119,10 @@ class VecEnv {
 
   void seed(uint64_t s) {
     seed_ = s;
-    for (auto& e : envs_) e->episodes = 0;
+    for (auto& e : envs_) {
+      e->episodes = 0;
+      e->teacher_world = nullptr;  // the teacher starts afresh with the next episode
+    }
   }
 
   py::tuple reset() {
@@ -239,6 +245,67 @@ class VecEnv {
     return out;
   }
 
+  /// A teacher's choice for every environment's current state (the one the agent acts on next), where `which` is
+  /// true: the teacher planner decides on the episode as it stands and its command is mapped to the nearest action
+  /// the agent may choose (the shielded mask), in the window's units (dv, dw), ties to the lowest index. -1 where
+  /// `which` is false, or where the shield's escape will run whatever the agent chooses (boxed in). Teachers:
+  /// `oracle` (evaluation/oracle.h: it reads the simulator's future, so it is a privileged teacher that no robot
+  /// has) and `s_dovs` (the heuristic, on the same observation the agent sees).
+  py::array_t<int64_t> teacherActions(const std::string& teacher,
+                                      py::array_t<bool, py::array::c_style | py::array::forcecast> which) {
+    const size_t n = envs_.size();
+    if (teacher != "oracle" && teacher != "s_dovs") {
+      throw std::invalid_argument("teacher_actions: teacher '" + teacher + "' is not one of oracle, s_dovs");
+    }
+    if (which.ndim() != 1 || static_cast<size_t>(which.shape(0)) != n) {
+      throw std::invalid_argument("teacher_actions: which must have shape (" + std::to_string(n) + ",)");
+    }
+    const std::vector<bool> ask(which.data(), which.data() + n);
+    py::array_t<int64_t> out(std::vector<py::ssize_t>{static_cast<py::ssize_t>(n)});
+    int64_t* o = out.mutable_data();
+    std::vector<std::string> errors(n);
+    {
+      py::gil_scoped_release release;
+      parallelFor([&](size_t i) {
+        o[i] = -1;
+        Env& env = *envs_[i];
+        if (!ask[i] || env.has_escape) return;
+        try {
+          Episode& ep = env.ep();
+          if (!env.teacher || env.teacher_name != teacher) {
+            env.teacher_name = teacher;
+            if (teacher == "oracle") {
+              OracleConfig oc;
+              oc.goal_tolerance_m = ep.config().reward.goal_tolerance_m;
+              oc.goal_speed_mps = ep.config().reward.goal_speed_mps;
+              oc.scan_period_s = ep.config().scan_period_s;
+              env.teacher = std::make_unique<OraclePlanner>(oc);
+            } else {
+              env.teacher = makePlanner(teacher, "", &shield_);
+            }
+            env.teacher_episode = ~uint64_t{0};
+          }
+          // A fresh episode (or another Episode of the mixture) resets the teacher's per-episode state.
+          if (env.teacher_episode != env.episodes || env.teacher_world != env.active.get()) {
+            env.teacher->reset();
+            env.teacher_episode = env.episodes;
+            env.teacher_world = env.active.get();
+          }
+          if (auto* oracle = dynamic_cast<OraclePlanner*>(env.teacher.get())) oracle->setWorld(&ep.world());
+          const PlannerDecision d = env.teacher->decide(ep.plannerInput());
+          o[i] = nearestAction(ep.actions(), env.mask, d.command, ep.config().world.robot);
+        } catch (const std::exception& e) {
+          errors[i] = e.what();
+        }
+      });
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (!errors[i].empty())
+        throw std::runtime_error("teacher_actions: environment " + std::to_string(i) + ": " + errors[i]);
+    }
+    return out;
+  }
+
   py::dict normalization() const {
     py::dict d;
     for (const auto& [name, value] : envs_.front()->ep().normalization().fields()) d[py::str(name)] = value;
@@ -287,6 +354,13 @@ class VecEnv {
     // The shield's escape for the state the agent acts on next (set by copyMask).
     bool has_escape = false;
     Twist2 escape;
+    // The mask the agent chooses under for that state (set by copyMask).
+    std::array<bool, kNumActions> mask{};
+    // teacher_actions' planner, made on first use, and the episode it last decided in.
+    std::unique_ptr<Planner> teacher;
+    std::string teacher_name;
+    uint64_t teacher_episode = 0;
+    const Episode* teacher_world = nullptr;
   };
 
   void resetEnv(size_t i) {
@@ -385,14 +459,28 @@ class VecEnv {
   static int64_t executedAction(const ActionSet& actions, int chosen, const Twist2* escape, const RobotLimits& limits) {
     const bool chosen_ok = chosen >= 0 && chosen < kNumActions && actions.valid[static_cast<size_t>(chosen)];
     if (escape == nullptr) return chosen_ok ? chosen : kActionKeep;
+    std::array<bool, kNumActions> every;
+    every.fill(true);
+    return nearestAction(actions, every, *escape, limits, chosen >= 0 && chosen < kNumActions ? chosen : 0);
+  }
+
+  /// The allowed action whose velocity is nearest to `command` in the window's units (dv, dw); equal distances go
+  /// to `preferred` (when allowed), then to the lowest index. -1 when none is allowed.
+  static int64_t nearestAction(const ActionSet& actions, const std::array<bool, kNumActions>& allowed,
+                               const Twist2& command, const RobotLimits& limits, int preferred = -1) {
     const double dv = std::max(limits.dv(), 1e-9), dw = std::max(limits.dw(), 1e-9);
     auto distance = [&](int k) {
       const Twist2& u = actions.velocities[static_cast<size_t>(k)];
-      return std::hypot((u.v - escape->v) / dv, (u.w - escape->w) / dw);
+      return std::hypot((u.v - command.v) / dv, (u.w - command.w) / dw);
     };
-    int best = chosen >= 0 && chosen < kNumActions ? chosen : 0;
-    double best_d = distance(best);
+    int64_t best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    if (preferred >= 0 && preferred < kNumActions && allowed[static_cast<size_t>(preferred)]) {
+      best = preferred;
+      best_d = distance(preferred);
+    }
     for (int k = 0; k < kNumActions; ++k) {
+      if (!allowed[static_cast<size_t>(k)]) continue;
       const double d = distance(k);
       if (d < best_d - 1e-12) {
         best = k;
@@ -411,6 +499,7 @@ class VecEnv {
     const Episode& ep = env.ep();
     const ShieldedMask m = shieldActions(ep.actions(), ep.dovs(), ep.observation(), shield_);
     for (int k = 0; k < kNumActions; ++k) dst[k] = m.mask[static_cast<size_t>(k)];
+    env.mask = m.mask;
     env.has_escape = m.has_escape;
     env.escape = m.escape;
   }
@@ -477,6 +566,10 @@ PYBIND11_MODULE(_core, m) {
       .def("normalization", &VecEnv::normalization)
       .def("action_velocities", &VecEnv::actionVelocities,
            "The 8 action velocities of each environment's current state, float64 [n, 8, 2] (v, w).")
+      .def("teacher_actions", &VecEnv::teacherActions, py::arg("teacher"), py::arg("which"),
+           "A teacher's choice (oracle: reads the simulator's future; s_dovs: the heuristic) for each environment's "
+           "current state where `which` is true, as the nearest action the agent may choose; -1 elsewhere and "
+           "where the shield's escape runs.")
       .def("planner_episode", &VecEnv::plannerEpisode, py::arg("env_index"), py::arg("method"),
            py::arg("model_path") = std::string(),
            "The evaluation path (dqn_dovs_eval's Episode + planner) on an environment's current episode: "
