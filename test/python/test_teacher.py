@@ -133,10 +133,12 @@ def test_bad_teacher_settings_are_named(change, message):
         Trainer(TrainConfig.from_dict(raw), "/nonexistent/never-made", device="cpu")
 
 
-def test_the_shipped_oracle_configuration_is_the_worlds_one_with_a_teacher():
-    taught = load_config(os.path.join(REPO, "config", "finetune_worlds_oracle.yaml"))
+@pytest.mark.parametrize("name, kind", [("finetune_worlds_oracle.yaml", "oracle"),
+                                         ("finetune_worlds_sdovs.yaml", "s_dovs")])
+def test_the_shipped_teacher_configurations_are_the_worlds_one_with_a_teacher(name, kind):
+    taught = load_config(os.path.join(REPO, "config", name))
     plain = load_config(os.path.join(REPO, "config", "finetune_worlds.yaml"))
-    assert taught.teacher.kind == "oracle" and not plain.teacher.enabled
+    assert taught.teacher.kind == kind and not plain.teacher.enabled
     assert taught.to_dict() | {"teacher": None} == plain.to_dict() | {"teacher": None}
 
 
