@@ -17,6 +17,21 @@ GRID_CELLS = 400
 NUM_ACTIONS = 8
 
 
+def split_compact(states: np.ndarray, grid_cells: int, where: str, hint: str = "") -> tuple[np.ndarray, np.ndarray]:
+    """States [B, D] as (grid int8 [B, grid_cells], features [B, D - grid_cells]); the grid cells must be exactly +1
+    or -1 (ValueError naming `where` otherwise). grid_cells = 0 keeps everything as features."""
+    grid = states[:, :grid_cells]
+    if grid_cells and not np.all(np.abs(grid) == 1.0):
+        bad = grid[np.abs(grid) != 1.0][0]
+        raise ValueError(f"{where} grid cells must be exactly +1 or -1 for compact storage, found {bad}{hint}")
+    return grid.astype(np.int8), states[:, grid_cells:]
+
+
+def join_compact(grid: np.ndarray, features: np.ndarray) -> np.ndarray:
+    """Inverse of split_compact: float32 [B, grid + features]."""
+    return np.concatenate([grid.astype(np.float32), features.astype(np.float32, copy=False)], axis=1)
+
+
 @dataclass
 class Transitions:
     """A batch of n-step transitions (row i of every array belongs to transition i).
@@ -303,19 +318,11 @@ class PrioritizedReplay:
         self._rng.bit_generator.state = state["rng"]
 
     def _split(self, states: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
-        g = self.grid_cells
-        grid = states[:, :g]
-        if g and not np.all(np.abs(grid) == 1.0):
-            bad = grid[np.abs(grid) != 1.0][0]
-            raise ValueError(f"PrioritizedReplay.add: {name} grid cells must be exactly +1 or -1 for "
-                             f"compact storage, found {bad} (set replay.compact_states: false)")
-        return grid.astype(np.int8), states[:, g:]
+        return split_compact(states, self.grid_cells, f"PrioritizedReplay.add: {name}",
+                             " (set replay.compact_states: false)")
 
     def _join(self, grid: np.ndarray, features: np.ndarray) -> np.ndarray:
-        out = np.empty((grid.shape[0], self.state_dim), np.float32)
-        out[:, :self.grid_cells] = grid
-        out[:, self.grid_cells:] = features
-        return out
+        return join_compact(grid, features)
 
     def _check_batch(self, batch: Transitions) -> None:
         n, d, a = len(batch), self.state_dim, self.num_actions
@@ -368,27 +375,20 @@ class DemoBuffer:
             raise ValueError("DemoBuffer.add: a teacher action is outside [0, 8) or not allowed by its mask")
         if not np.all(np.isfinite(state)):
             raise ValueError("DemoBuffer.add: state contains NaN or inf")
-        grid = state[:, :self.grid_cells]
-        if not np.all(np.abs(grid) == 1.0):
-            raise ValueError("DemoBuffer.add: grid cells must be exactly +1 or -1")
-        for k in range(n):
-            i = self._next
-            self._grid[i] = grid[k]
-            self._features[i] = state[k, self.grid_cells:]
-            self._mask[i] = mask[k]
-            self._action[i] = action[k]
-            self._next = (i + 1) % self.capacity
-            self._size = min(self._size + 1, self.capacity)
+        grid, features = split_compact(state, self.grid_cells, "DemoBuffer.add: state")
+        keep = slice(max(0, n - self.capacity), n)  # more than the capacity at once: the latest ones stay
+        slots = (self._next + np.arange(keep.stop - keep.start)) % self.capacity
+        self._grid[slots], self._features[slots] = grid[keep], features[keep]
+        self._mask[slots], self._action[slots] = mask[keep], action[keep]
+        self._next = int((self._next + slots.size) % self.capacity)
+        self._size = min(self._size + int(slots.size), self.capacity)
 
     def sample(self, batch_size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(state float32 [B, 408], mask bool [B, 8], action int64 [B]), drawn uniformly with replacement."""
         if self._size == 0:
             raise ValueError("DemoBuffer.sample: the buffer is empty")
         idx = self._rng.integers(0, self._size, size=batch_size)
-        state = np.empty((batch_size, self.state_dim), np.float32)
-        state[:, :self.grid_cells] = self._grid[idx]
-        state[:, self.grid_cells:] = self._features[idx]
-        return state, self._mask[idx].copy(), self._action[idx].copy()
+        return join_compact(self._grid[idx], self._features[idx]), self._mask[idx].copy(), self._action[idx].copy()
 
     def state_dict(self) -> dict:
         n = self._size

@@ -119,10 +119,7 @@ class VecEnv {
 
   void seed(uint64_t s) {
     seed_ = s;
-    for (auto& e : envs_) {
-      e->episodes = 0;
-      e->teacher_world = nullptr;  // the teacher starts afresh with the next episode
-    }
+    for (auto& e : envs_) e->episodes = 0;
   }
 
   py::tuple reset() {
@@ -273,23 +270,17 @@ class VecEnv {
         try {
           Episode& ep = env.ep();
           if (!env.teacher || env.teacher_name != teacher) {
+            // Built as the evaluation builds it: the oracle with this episode's success rule, S-DOVS with the shield.
+            EvalConfig setup;
+            setup.episode = ep.config();
+            setup.shield = shield_;
+            env.teacher = makeEvalPlanner(teacher, setup);
             env.teacher_name = teacher;
-            if (teacher == "oracle") {
-              OracleConfig oc;
-              oc.goal_tolerance_m = ep.config().reward.goal_tolerance_m;
-              oc.goal_speed_mps = ep.config().reward.goal_speed_mps;
-              oc.scan_period_s = ep.config().scan_period_s;
-              env.teacher = std::make_unique<OraclePlanner>(oc);
-            } else {
-              env.teacher = makePlanner(teacher, "", &shield_);
-            }
-            env.teacher_episode = ~uint64_t{0};
+            env.teacher_stale = true;
           }
-          // A fresh episode (or another Episode of the mixture) resets the teacher's per-episode state.
-          if (env.teacher_episode != env.episodes || env.teacher_world != env.active.get()) {
+          if (env.teacher_stale) {  // a new episode since the teacher last decided
             env.teacher->reset();
-            env.teacher_episode = env.episodes;
-            env.teacher_world = env.active.get();
+            env.teacher_stale = false;
           }
           if (auto* oracle = dynamic_cast<OraclePlanner*>(env.teacher.get())) oracle->setWorld(&ep.world());
           const PlannerDecision d = env.teacher->decide(ep.plannerInput());
@@ -356,11 +347,10 @@ class VecEnv {
     Twist2 escape;
     // The mask the agent chooses under for that state (set by copyMask).
     std::array<bool, kNumActions> mask{};
-    // teacher_actions' planner, made on first use, and the episode it last decided in.
+    // teacher_actions' planner, made on first use; stale once a new episode starts (resetEnv).
     std::unique_ptr<Planner> teacher;
     std::string teacher_name;
-    uint64_t teacher_episode = 0;
-    const Episode* teacher_world = nullptr;
+    bool teacher_stale = true;
   };
 
   void resetEnv(size_t i) {
@@ -384,6 +374,7 @@ class VecEnv {
       env.active = env.built[env.variant];
       env.current.seed = sim::mixSeed(s);
       env.ep().reset(env.current.scenario, env.current.seed);
+      env.teacher_stale = true;
       if (!env.ep().done()) return;
     }
     throw std::runtime_error("100 scenarios in a row ended before their first step or could not be laid out (last: " +
