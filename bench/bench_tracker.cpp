@@ -33,10 +33,11 @@
 // (and the clutter's chairs), plus wall_moving_tracks_per_scan: confirmed tracks matched to nobody, within 0.3 m of
 // a wall or piece of furniture, reported moving (>= 0.1 m/s).
 //
-// --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000).
+// --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000);
+// --tracker NAME=VALUE (repeatable) sets a tracker parameter by its config/tracker.yaml name in both parts.
 //
 // Usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only PART]
-//                      [--people-seed B]
+//                      [--people-seed B] [--tracker NAME=VALUE]...
 #include <sys/stat.h>
 #include <time.h>
 
@@ -138,7 +139,7 @@ struct PeopleRun {
 };
 
 PeopleRun trackPeople(const std::string& family, const std::string& sensor, int worlds, double duration_s,
-                      uint64_t seed_base) {
+                      uint64_t seed_base, const TrackerConfig& base) {
   sim::WorldFamilyConfig f;
   f.family = sim::parseWorldFamily(family);
   f.people = 10;
@@ -152,7 +153,7 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
   for (int k = 1; k <= worlds; ++k) {
     const sim::Scenario scenario = sim::generateWorld(f, seed_base + static_cast<uint64_t>(k));
     sim::World world(scenario, config, static_cast<uint64_t>(k));
-    TrackerConfig tracker_config;
+    TrackerConfig tracker_config = base;
     tracker_config.pair_legs = true;
     tracker_config.range_noise_m = config.lidar.noise_std_m;
     tracker_config.range_noise_fraction = config.lidar.noise_std_fraction;
@@ -170,21 +171,6 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
       std::vector<bool> used(result.scene.obstacles.size(), false);
       for (int m : matched) {
         if (m >= 0) used[static_cast<size_t>(m)] = true;
-      }
-      if (std::getenv("DBG_TRK")) {
-        for (size_t j = 0; j < result.scene.obstacles.size(); ++j) {
-          if (used[j]) continue;
-          const TrackedObstacle& o = result.scene.obstacles[j];
-          double dw = 1e9, dc = 1e9, dp = 1e9;
-          for (const Segment& w : world.walls()) {
-            dw = std::min(dw, pointSegmentDistance(o.center, w));
-            dc = std::min({dc, (o.center - w.a).norm(), (o.center - w.b).norm()});
-          }
-          for (const auto& tr : truths) dp = std::min(dp, (tr.center - o.center).norm() - tr.radius);
-          std::cerr << "FALSE " << family << " " << sensor << " k" << k << " t" << t << " id" << o.id << " dw " << dw
-                    << " dc " << dc << " dp " << dp << " v " << o.speed << " r " << o.radius << " age " << o.age_s
-                    << "\n";
-        }
       }
       for (size_t j = 0; j < result.scene.obstacles.size(); ++j) {
         const TrackedObstacle& o = result.scene.obstacles[j];
@@ -215,15 +201,30 @@ int main(int argc, char** argv) {
   double duration_s = 20.0;
   std::string only;
   uint64_t people_seed = 12000;
+  TrackerConfig tracker_config;
   const char* usage =
       "usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only original|people] "
-      "[--people-seed B]\n";
+      "[--people-seed B] [--tracker NAME=VALUE]...\n";
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if ((arg == "--scenarios" || arg == "--out" || arg == "--episodes" || arg == "--duration" || arg == "--only" ||
-         arg == "--people-seed") &&
+         arg == "--people-seed" || arg == "--tracker") &&
         i + 1 < argc) {
       const std::string value = argv[++i];
+      if (arg == "--tracker") {
+        const size_t eq = value.find('=');
+        const std::string why = eq == std::string::npos
+                                    ? "expected NAME=VALUE"
+                                    : setTrackerParameter(tracker_config, value.substr(0, eq), value.substr(eq + 1));
+        if (!why.empty()) {
+          std::cerr << "bench_tracker: --tracker '" << value << "': " << why << "\n" << usage;
+          return 2;
+        }
+        if (const std::string bad = tracker_config.validate(); !bad.empty()) {
+          std::cerr << "bench_tracker: --tracker '" << value << "': " << bad << "\n";
+          return 2;
+        }
+      }
       if (arg == "--only") {
         if (value != "original" && value != "people") {
           std::cerr << "bench_tracker: --only '" << value << "': expected original or people\n" << usage;
@@ -254,7 +255,7 @@ int main(int argc, char** argv) {
         sim::Scenario scenario = sim::loadDovsScenario(path);
         sim::applyDynamicFraction(scenario, 0.85);
         sim::World world(scenario, world_config, static_cast<uint64_t>(1000 * n + k));
-        ObstacleTracker tracker{TrackerConfig{}};
+        ObstacleTracker tracker{tracker_config};
         evaluator.beginEpisode();
         ++run_episodes;
         Vec2 goal = scenario.goal;
@@ -309,6 +310,7 @@ int main(int argc, char** argv) {
       {"matched_pairs", static_cast<double>(s.matched_pairs)},
       {"id_switches", static_cast<double>(s.id_switches)},
       {"id_switches_crowded", static_cast<double>(s.id_switches_crowded)},
+      {"id_switches_after_gap", static_cast<double>(s.id_switches_after_gap)},
       {"speed_abs_err_median_mps", s.speed_abs_err_median_mps},
       {"non_ok_updates", static_cast<double>(resets_or_rejects)},
   };
@@ -317,7 +319,7 @@ int main(int argc, char** argv) {
     for (const std::string sensor : {"sim", "urg04lx"}) {
       PeopleRun r;
       try {
-        r = trackPeople(family, sensor, episodes, duration_s, people_seed);
+        r = trackPeople(family, sensor, episodes, duration_s, people_seed, tracker_config);
       } catch (const std::exception& e) {
         std::cerr << "bench_tracker: people in " << family << " with " << sensor << ": " << e.what() << "\n";
         return 1;
@@ -326,6 +328,13 @@ int main(int argc, char** argv) {
       figures[key + "pos_rmse_m"] = r.summary.pos_rmse_m;
       figures[key + "speed_rmse_mps"] = r.summary.speed_rmse_mps;
       figures[key + "id_switches_per_min"] = r.summary.id_switches_per_min;
+      // The share of the switches that came after the person went unmatched (lost, then found under a new id).
+      figures[key + "id_switches_after_gap_per_min"] = r.summary.id_switches == 0
+                                                           ? 0.0
+                                                           : r.summary.id_switches_per_min *
+                                                                 static_cast<double>(r.summary.id_switches_after_gap) /
+                                                                 static_cast<double>(r.summary.id_switches);
+      figures[key + "speed_abs_err_median_mps"] = r.summary.speed_abs_err_median_mps;
       figures[key + "static_speed_mps_p95"] = r.summary.static_speed_mps_p95;
       figures[key + "wall_moving_tracks_per_scan"] = r.wall_moving_tracks_per_scan;
       figures[key + "false_tracks_per_scan"] = r.summary.false_tracks_per_scan;

@@ -87,6 +87,8 @@ std::string TrackerConfig::validate() const {
   if (!nonNegative(reacquire_window_s)) return badField("reacquire_window_s", reacquire_window_s, "must be >= 0 (s)");
   if (!positive(reacquire_max_distance_m))
     return badField("reacquire_max_distance_m", reacquire_max_distance_m, "must be > 0 (m)");
+  if (!nonNegative(reacquire_speed_mps))
+    return badField("reacquire_speed_mps", reacquire_speed_mps, "must be >= 0 (m/s)");
   if (!positive(max_time_gap_s)) return badField("max_time_gap_s", max_time_gap_s, "must be > 0 (s)");
   if (!nonNegative(static_speed_threshold_mps))
     return badField("static_speed_threshold_mps", static_speed_threshold_mps, "must be >= 0 (m/s)");
@@ -144,6 +146,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"max_position_std", &TrackerConfig::max_position_std_m},
       {"reacquire_window", &TrackerConfig::reacquire_window_s},
       {"reacquire_max_distance", &TrackerConfig::reacquire_max_distance_m},
+      {"reacquire_speed", &TrackerConfig::reacquire_speed_mps},
       {"max_time_gap", &TrackerConfig::max_time_gap_s},
       {"static_speed_threshold", &TrackerConfig::static_speed_threshold_mps},
   };
@@ -258,7 +261,6 @@ void ObstacleTracker::predictTracks(double stamp_s) {
   lost_.erase(std::remove_if(lost_.begin(), lost_.end(),
                              [&](const Track& t) { return stamp_s - t.last_hit_s > config_.reacquire_window_s; }),
               lost_.end());
-  for (Track& t : lost_) t.ekf.predict(dt, config_.accel_noise_mps2, config_.turn_accel_noise_rps2);
 }
 
 Eigen::Matrix2d ObstacleTracker::measurementCovariance(const CircleDetection& detection) const {
@@ -399,38 +401,66 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   track.ekf.clampTurnRate(config_.max_turn_rate_rps);
   track.hits += 1;
   track.last_hit_s = stamp_s;
+  track.hit_position = track.ekf.position();
+  track.hit_velocity = track.ekf.state()(kCtrvSpeed) *
+                       Vec2(std::cos(track.ekf.state()(kCtrvHeading)), std::sin(track.ekf.state()(kCtrvHeading)));
   track.updated_this_scan = true;
-  if (track.hits >= config_.confirm_hits) track.confirmed = true;
+  if (!track.confirmed && track.hits >= config_.confirm_hits) {
+    track.confirmed = true;
+    takeOverLostTrack(track, stamp_s);
+  }
   if (track.ekf.state()(kCtrvSpeed) >= config_.static_speed_threshold_mps) {
     track.reported_heading = track.ekf.state()(kCtrvHeading);
   }
 }
 
-void ObstacleTracker::birthTrack(const CircleDetection& detection, double stamp_s) {
-  Track t;
-  // Re-acquisition: the nearest remembered track whose coasted position could explain this detection
-  // lends its id (the filter restarts: its motion after a long occlusion is unknown).
-  const Eigen::Matrix2d r_gate =
-      config_.measurement_noise_m * config_.measurement_noise_m * Eigen::Matrix2d::Identity();
-  auto best = lost_.end();
+double ObstacleTracker::reacquireDistance(const Track& track, const Vec2& z, double silent_s) const {
+  if ((z - track.hit_position).norm() > config_.reacquire_max_distance_m + config_.reacquire_speed_mps * silent_s) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return pointSegmentDistance(z, Segment{track.hit_position, track.hit_position + silent_s * track.hit_velocity});
+}
+
+void ObstacleTracker::takeOverLostTrack(Track& track, double stamp_s) {
+  // Candidates: confirmed tracks dropped for silence, and live ones that have found nothing since this one was born.
+  const Vec2 z = track.ekf.position();
   double best_d = config_.reacquire_max_distance_m;
+  Track* best_live = nullptr;
+  auto best_lost = lost_.end();
+  auto closer = [&](const Track& old) {
+    const double d = reacquireDistance(old, z, stamp_s - old.last_hit_s);
+    if (d > best_d) return false;
+    best_d = d;
+    return true;
+  };
+  for (Track& old : tracks_) {
+    if (&old == &track || !old.confirmed || old.absorbed || old.hits < 2 || old.last_hit_s >= track.born_s) continue;
+    if (closer(old)) best_live = &old;
+  }
   for (auto it = lost_.begin(); it != lost_.end(); ++it) {
-    const double d = (it->ekf.position() - detection.circle.center).norm();
-    if (d <= best_d && it->ekf.mahalanobis2(detection.circle.center, r_gate) <= config_.gate_mahalanobis2) {
-      best_d = d;
-      best = it;
+    if (it->last_hit_s < track.born_s && closer(*it)) {
+      best_lost = it;
+      best_live = nullptr;
     }
   }
-  if (best != lost_.end()) {
-    t.id = best->id;
-    lost_.erase(best);
-  } else {
-    t.id = next_id_++;
+  if (best_live != nullptr) {
+    track.id = best_live->id;
+    best_live->absorbed = true;
+  } else if (best_lost != lost_.end()) {
+    track.id = best_lost->id;
+    lost_.erase(best_lost);
   }
+}
+
+void ObstacleTracker::birthTrack(const CircleDetection& detection, double stamp_s) {
+  Track t;
+  // A fresh id; on confirmation it may take over a lost track's (takeOverLostTrack).
+  t.id = next_id_++;
   t.born_s = stamp_s;
   t.last_hit_s = stamp_s;
   t.hits = 1;
   t.first_position = detection.circle.center;
+  t.hit_position = detection.circle.center;
   CtrvState x;
   x << detection.circle.center.x(), detection.circle.center.y(), 0.0, 0.0, 0.0;
   CtrvCovariance p = CtrvCovariance::Zero();
@@ -446,10 +476,12 @@ void ObstacleTracker::birthTrack(const CircleDetection& detection, double stamp_
   t.confirmed = config_.confirm_hits <= 1;
   t.updated_this_scan = true;
   tracks_.push_back(std::move(t));
+  if (tracks_.back().confirmed) takeOverLostTrack(tracks_.back(), stamp_s);
 }
 
 void ObstacleTracker::pruneTracks(double stamp_s) {
   auto dead = [&](const Track& t) {
+    if (t.absorbed) return true;
     const double silent = stamp_s - t.last_hit_s;
     if (silent > (t.confirmed ? config_.deletion_timeout_s : config_.tentative_timeout_s)) return true;
     const CtrvCovariance& p = t.ekf.covariance();
@@ -457,7 +489,8 @@ void ObstacleTracker::pruneTracks(double stamp_s) {
     return std::sqrt(std::max(p(kCtrvX, kCtrvX), p(kCtrvY, kCtrvY))) > config_.max_position_std_m;
   };
   for (const Track& t : tracks_) {
-    if (t.confirmed && t.hits >= 2 && dead(t) && t.ekf.state().allFinite() && config_.reacquire_window_s > 0.0) {
+    if (t.confirmed && !t.absorbed && t.hits >= 2 && dead(t) && t.ekf.state().allFinite() &&
+        config_.reacquire_window_s > 0.0) {
       lost_.push_back(t);
     }
   }

@@ -61,6 +61,7 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
     const auto last = last_id_.find(i);
     if (last != last_id_.end() && last->second != o.id) {
       ++switches_;
+      if (last_scan_[i] + 1 < scans_) ++gap_switches_;
       for (size_t q = 0; q < nt; ++q) {
         if (q != i && (truths[q].center - t.center).norm() < config_.crowded_distance_m) {
           ++crowded_switches_;
@@ -69,6 +70,7 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
       }
     }
     last_id_[i] = o.id;
+    last_scan_[i] = scans_;
     pos_err_.push_back((o.center - t.center).norm());
     if (o.age_s < config_.min_track_age_s) continue;
     if (t.is_static) {
@@ -98,6 +100,7 @@ TrackingSummary TrackingEvaluator::summary() const {
   s.matched_pairs = pairs_;
   s.id_switches = switches_;
   s.id_switches_crowded = crowded_switches_;
+  s.id_switches_after_gap = gap_switches_;
   std::vector<double> abs_speed(speed_err_.size());
   std::transform(speed_err_.begin(), speed_err_.end(), abs_speed.begin(), [](double e) { return std::abs(e); });
   s.speed_abs_err_median_mps = quantile(abs_speed, 0.5);

@@ -2,6 +2,9 @@
 
 #include <tf2/exceptions.h>
 
+#include <iomanip>
+#include <sstream>
+
 #include "conversions.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "pipeline_steps.h"
@@ -10,35 +13,34 @@
 namespace dqn_dovs {
 
 TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
+  // Every TrackerConfig field by its config/tracker.yaml name; a key under tracker/ that names none is a typo.
   TrackerConfig c;
-  const std::string p = "tracker/";
-  c.cluster_distance_base_m = param<double>(pnh, p + "cluster_distance_base", c.cluster_distance_base_m);
-  c.cluster_distance_beam_factor =
-      param<double>(pnh, p + "cluster_distance_beam_factor", c.cluster_distance_beam_factor);
-  c.min_cluster_points = param<int>(pnh, p + "min_cluster_points", c.min_cluster_points);
-  c.segment_min_length_m = param<double>(pnh, p + "segment_min_length", c.segment_min_length_m);
-  c.max_circle_radius_m = param<double>(pnh, p + "max_circle_radius", c.max_circle_radius_m);
-  c.measurement_noise_m = param<double>(pnh, p + "measurement_noise", c.measurement_noise_m);
-  c.accel_noise_mps2 = param<double>(pnh, p + "accel_noise", c.accel_noise_mps2);
-  c.turn_accel_noise_rps2 = param<double>(pnh, p + "turn_accel_noise", c.turn_accel_noise_rps2);
-  c.gate_mahalanobis2 = param<double>(pnh, p + "gate_mahalanobis2", c.gate_mahalanobis2);
-  c.confirm_hits = param<int>(pnh, p + "confirm_hits", c.confirm_hits);
-  c.deletion_timeout_s = param<double>(pnh, p + "deletion_timeout", c.deletion_timeout_s);
-  c.max_time_gap_s = param<double>(pnh, p + "max_time_gap", c.max_time_gap_s);
-  c.static_speed_threshold_mps = param<double>(pnh, p + "static_speed_threshold", c.static_speed_threshold_mps);
-  c.pair_legs = param<bool>(pnh, p + "pair_legs", c.pair_legs);
-  c.leg_max_radius_m = param<double>(pnh, p + "leg_max_radius", c.leg_max_radius_m);
-  c.leg_pair_max_distance_m = param<double>(pnh, p + "leg_pair_max_distance", c.leg_pair_max_distance_m);
-  c.person_radius_m = param<double>(pnh, p + "person_radius", c.person_radius_m);
-  c.leg_min_points = param<int>(pnh, p + "leg_min_points", c.leg_min_points);
-  c.lone_leg_std_m = param<double>(pnh, p + "lone_leg_std", c.lone_leg_std_m);
-  c.range_noise_m = param<double>(pnh, p + "range_noise", c.range_noise_m);
-  c.range_noise_fraction = param<double>(pnh, p + "range_noise_fraction", c.range_noise_fraction);
-  c.structure_memory_s = param<double>(pnh, p + "structure_memory", c.structure_memory_s);
-  c.structure_cell_m = param<double>(pnh, p + "structure_cell", c.structure_cell_m);
-  c.structure_min_scans = param<int>(pnh, p + "structure_min_scans", c.structure_min_scans);
-  c.structure_max_fraction = param<double>(pnh, p + "structure_max_fraction", c.structure_max_fraction);
-  c.structure_line_extension_m = param<double>(pnh, p + "structure_line_extension", c.structure_line_extension_m);
+  XmlRpc::XmlRpcValue block;
+  if (!pnh.getParam("tracker", block)) return c;
+  if (block.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
+    throw ParameterError(pnh.resolveName("tracker") + ": expected a dictionary of tracker parameters");
+  }
+  for (auto& [name, value] : block) {
+    std::ostringstream text;
+    switch (value.getType()) {
+      case XmlRpc::XmlRpcValue::TypeBoolean:
+        text << (static_cast<bool>(value) ? "true" : "false");
+        break;
+      case XmlRpc::XmlRpcValue::TypeInt:
+        text << static_cast<int>(value);
+        break;
+      case XmlRpc::XmlRpcValue::TypeDouble:
+        text << std::setprecision(17) << static_cast<double>(value);
+        break;
+      case XmlRpc::XmlRpcValue::TypeString:
+        text << static_cast<std::string>(value);
+        break;
+      default:
+        throw ParameterError(pnh.resolveName("tracker/" + name) + ": expected a number or true/false");
+    }
+    const std::string why = setTrackerParameter(c, name, text.str());
+    if (!why.empty()) throw ParameterError(pnh.resolveName("tracker/" + name) + ": " + why);
+  }
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);
   return c;

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -152,7 +153,7 @@ TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
   fresh(base_raw);
   std::vector<int> owner(sizeof(TrackerConfig), -1);
   const std::vector<std::string>& names = trackerParameterNames();
-  EXPECT_EQ(names.size(), 46u);  // every field of TrackerConfig
+  EXPECT_EQ(names.size(), 47u);  // every field of TrackerConfig
   for (size_t k = 0; k < names.size(); ++k) {
     TrackerConfig* c = fresh(raw);
     ASSERT_EQ(setTrackerParameter(*c, names[k], names[k] == "pair_legs" ? "true" : "7"), "") << names[k];
@@ -345,6 +346,65 @@ TEST(Tracker, OcclusionIsBridgedByPrediction) {
   EXPECT_EQ(s.ids_per_disc[0].size(), 1u) << "the track was lost during a 0.5 s occlusion";
   // During the occlusion the reported (predicted) position keeps following the disc.
   EXPECT_LT(percentile(s.pos_err, 1.0), 0.15);
+}
+
+/// Runs the tracker on one disc whose centre is `where(t)` (nullopt: hidden) seen from a fixed laser at the origin
+/// and returns the ids it was reported under (the confirmed track nearest it, within 0.5 m) and the largest number
+/// of confirmed tracks reported at once.
+struct IdRun {
+  std::set<int> ids;
+  size_t most_tracks = 0;
+};
+IdRun runOneDisc(const std::function<std::optional<Vec2>(double)>& where, double duration_s) {
+  ObstacleTracker tracker{TrackerConfig{}};
+  std::mt19937 rng(5);
+  SyntheticLidar lidar;
+  IdRun run;
+  for (double t = 0.0; t <= duration_s + 1e-9; t += kScanPeriod) {
+    const std::optional<Vec2> c = where(t);
+    std::vector<Circle> circles;
+    if (c) circles.push_back({*c, 0.2});
+    const TrackerResult r = tracker.update(syntheticScan(lidar, Pose2{}, circles, {}, t, rng), Pose2{});
+    EXPECT_EQ(r.status, TrackerStatus::kOk) << r.message;
+    run.most_tracks = std::max(run.most_tracks, r.scene.obstacles.size());
+    if (!c) continue;
+    for (const TrackedObstacle& o : r.scene.obstacles) {
+      if ((o.center - *c).norm() < 0.5) run.ids.insert(o.id);
+    }
+  }
+  return run;
+}
+
+TEST(Tracker, SomeoneWhoStoppedOutOfSightIsReidentifiedWhereLastSeen) {
+  // Walks at 1 m/s for 2 s, is hidden for 3 s (far longer than deletion_timeout_s) and stands still meanwhile,
+  // then is seen again where it stopped: the id comes back, although its velocity would have carried it 3 m on.
+  const auto stopped = [](double t) -> std::optional<Vec2> {
+    if (t > 2.0 && t < 5.0) return std::nullopt;
+    return Vec2(-2.0 + std::min(t, 2.0), 1.5);
+  };
+  EXPECT_EQ(runOneDisc(stopped, 7.0).ids.size(), 1u);
+  // So is someone who walked on at the same velocity behind the occluder.
+  const auto walked_on = [](double t) -> std::optional<Vec2> {
+    if (t > 1.0 && t < 3.0) return std::nullopt;
+    return Vec2(-2.5 + t, 1.5);
+  };
+  EXPECT_EQ(runOneDisc(walked_on, 4.5).ids.size(), 1u);
+  // Someone appearing off that path (beyond reacquire_max_distance_m of it) is someone else: a new id.
+  const auto elsewhere = [](double t) -> std::optional<Vec2> {
+    if (t > 2.0 && t < 5.0) return std::nullopt;
+    return t <= 2.0 ? Vec2(-2.0 + t, 1.5) : Vec2(-1.0, -2.0);
+  };
+  EXPECT_EQ(runOneDisc(elsewhere, 7.0).ids.size(), 2u);
+}
+
+TEST(Tracker, ATrackThatLostItsObjectHandsItsIdToTheTrackThatFoundIt) {
+  // At t = 2 s the disc jumps 0.7 m sideways (outside every gate, as after a wrong association): a new track
+  // starts on it while the old one coasts on. When the new one is confirmed it takes the old id, and the old
+  // track is dropped instead of being reported beside it until deletion_timeout_s.
+  const auto jumps = [](double t) -> std::optional<Vec2> { return Vec2(-2.0 + 0.8 * t, t < 2.0 ? 1.5 : 2.2); };
+  const IdRun run = runOneDisc(jumps, 4.0);
+  EXPECT_EQ(run.ids.size(), 1u);
+  EXPECT_EQ(run.most_tracks, 1u) << "the old track was reported beside the new one";
 }
 
 TEST(Tracker, StaticDiscsStayStaticWhileLaserDrives) {

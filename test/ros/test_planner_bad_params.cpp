@@ -173,7 +173,7 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
   struct Case {
     const char *exe, *culprit, *args;
   };
-  const std::array<Case, 10> cases = {{
+  const std::array<Case, 12> cases = {{
       {"dovs_node", "max_input_age", "_max_input_age:=0.0"},
       {"dovs_node", "v_max", "_robot/v_max:=-1.0"},
       // The shield's parameters, read by name (shieldParameterNames): the setter's and the validation's refusals.
@@ -181,6 +181,9 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
       {"dovs_node", "margin", "_static_safety/margin:=-1.0"},
       {"dovs_node", "action_shield/passive_escape", "_action_shield/passive_escape:=maybe"},
       {"obstacle_tracker_node", "tf_timeout", "_tf_timeout:=9.0"},
+      // Every tracker parameter is read by its config/tracker.yaml name; a misspelt one is named, not ignored.
+      {"obstacle_tracker_node", "reacquire_speed", "_tracker/reacquire_speed:=-1.0"},
+      {"obstacle_tracker_node", "tracker/confirm_hitz", "_tracker/confirm_hitz:=2"},
       {"simulator_node", "period", "_period:=0.0"},
       {"simulator_node", "realtime_factor", "_realtime_factor:=-1.0"},
       {"simulator_node", "odometry/level", "_odometry/level:=medium"},

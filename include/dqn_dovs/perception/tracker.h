@@ -142,13 +142,17 @@ struct TrackerConfig {
   double deletion_timeout_s = 0.8;
   /// Tracks whose position standard deviation exceeds this are dropped (m).
   double max_position_std_m = 1.0;
-  /// A confirmed track dropped for silence is remembered (not reported) this long (s): a new track born
-  /// near its coasted position within that time takes over its id (the obstacle was occluded for longer than
-  /// deletion_timeout_s, e.g. behind another one). 0 disables.
-  double reacquire_window_s = 2.0;
-  /// Largest distance between a remembered track's coasted position and a new detection for the new track to
-  /// take over its id (m). The coasted position's own uncertainty gates too (gate_mahalanobis2).
+  /// A confirmed track dropped for silence is remembered (not reported) this long (s): a new track born where
+  /// the obstacle could have gone meanwhile takes over its id (it was occluded for longer than
+  /// deletion_timeout_s, e.g. behind another one, or stood still out of sight). 0 disables.
+  double reacquire_window_s = 8.0;
+  /// Largest distance (m) between a new detection and the path a remembered track could have taken since its last
+  /// hit: anywhere from standing where it was last seen to walking on at its last velocity (a person stops, or
+  /// walks on, behind an occluder). The nearest remembered track by that distance lends its id.
   double reacquire_max_distance_m = 1.2;
+  /// Fastest speed of a remembered obstacle (m/s): a new detection farther from its last seen position than
+  /// reacquire_max_distance_m + this times the time since it was lost is never it.
+  double reacquire_speed_mps = 1.5;
 
   // --- time ---------------------------------------------------------------------------------------------
   /// A forward jump between scan stamps larger than this resets all tracks (s): their predictions would
@@ -265,10 +269,15 @@ class ObstacleTracker {
     bool confirmed = false;
     /// Position of the first detection; a one-hit track has no velocity yet.
     Vec2 first_position = Vec2::Zero();
+    /// Filtered position and velocity at the last hit (where a lost track was last seen, and how it moved).
+    Vec2 hit_position = Vec2::Zero();
+    Vec2 hit_velocity = Vec2::Zero();
     std::deque<double> radii;
     double radius = 0.0;
     double reported_heading = 0.0;
     bool updated_this_scan = false;
+    /// Its id was taken over by a track that found its object again (see takeOverLostTrack); dropped at pruning.
+    bool absorbed = false;
   };
 
   void predictTracks(double stamp_s);
@@ -276,6 +285,12 @@ class ObstacleTracker {
   /// maneuver: the pair came from the second, manoeuvre assignment (re-open the motion uncertainty first).
   void updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver = false);
   void birthTrack(const CircleDetection& detection, double stamp_s);
+  /// A track just confirmed takes over the id of a confirmed track that has found nothing since the new one was
+  /// born, when the new one is on the path the old one could have taken (its object, lost by its filter).
+  void takeOverLostTrack(Track& track, double stamp_s);
+  /// Distance (m) from `z` to where `track` could be after `silent_s` without a hit (its path from standing still
+  /// where it was last seen to walking on at its last velocity); infinity beyond its reachable range.
+  double reacquireDistance(const Track& track, const Vec2& z, double silent_s) const;
   void pruneTracks(double stamp_s);
   void buildScene(double stamp_s);
   /// Squared Mahalanobis distance of a detection from a track (infinity outside the hard distance cap).
@@ -285,7 +300,7 @@ class ObstacleTracker {
 
   TrackerConfig config_;
   std::vector<Track> tracks_;
-  /// Confirmed tracks dropped for silence, kept for re-acquisition (coasted to last_stamp_s_).
+  /// Confirmed tracks dropped for silence, kept for re-acquisition (as they were at their last hit).
   std::vector<Track> lost_;
   TrackedScene scene_;
   ScanDetections detections_;

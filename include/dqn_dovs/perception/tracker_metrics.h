@@ -36,6 +36,9 @@ struct TrackingSummary {
   size_t id_switches = 0;
   /// Id switches that happened while the obstacle was crowded (see crowded_distance_m).
   size_t id_switches_crowded = 0;
+  /// Id switches after the obstacle went unmatched for at least one scan (lost, then found under a new id);
+  /// the rest happened between consecutive matched scans (a swap or a duplicate track taking over).
+  size_t id_switches_after_gap = 0;
   /// Median |speed error| over the pairs of speed_rmse_mps (robust to the short lags after abrupt stops).
   double speed_abs_err_median_mps = 0.0;
 };
@@ -46,7 +49,10 @@ class TrackingEvaluator {
   explicit TrackingEvaluator(const TrackingMetricsConfig& config = {}) : config_(config) {}
 
   /// Starts a new episode: id histories are forgotten (ids of different episodes are unrelated).
-  void beginEpisode() { last_id_.clear(); }
+  void beginEpisode() {
+    last_id_.clear();
+    last_scan_.clear();
+  }
 
   /// Scores one scan. truths[k] is true obstacle k (stable index within the episode; is_static marks the
   /// obstacles that never move); counts_for_missed[k] says whether obstacle k should have been reported
@@ -59,9 +65,11 @@ class TrackingEvaluator {
 
  private:
   TrackingMetricsConfig config_;
-  std::map<size_t, int> last_id_;  // truth index -> last matched track id in this episode
+  std::map<size_t, int> last_id_;       // truth index -> last matched track id in this episode
+  std::map<size_t, size_t> last_scan_;  // truth index -> scan number of its last match
   std::vector<double> pos_err_, speed_err_, heading_err_deg_, turn_err_, static_speed_;
-  size_t scans_ = 0, false_tracks_ = 0, should_see_ = 0, missed_ = 0, switches_ = 0, crowded_switches_ = 0, pairs_ = 0;
+  size_t scans_ = 0, false_tracks_ = 0, should_see_ = 0, missed_ = 0, switches_ = 0, crowded_switches_ = 0,
+         gap_switches_ = 0, pairs_ = 0;
   double truth_minutes_ = 0.0;
 };
 
