@@ -505,7 +505,9 @@ void ObstacleTracker::pruneTracks(double stamp_s) {
       const Track& b = tracks_[j];
       const Vec2 pa = a.hits < 2 ? a.first_position : a.ekf.position();
       const Vec2 pb = b.hits < 2 ? b.first_position : b.ekf.position();
-      const double overlap = 0.5 * std::max({a.radius, b.radius, config_.fallback_radius_m});
+      // Among people (pair_legs) two bodies are never closer than one body radius.
+      const double overlap = std::max(0.5 * std::max({a.radius, b.radius, config_.fallback_radius_m}),
+                                      config_.pair_legs ? config_.person_radius_m : 0.0);
       if ((pa - pb).norm() >= overlap) continue;
       const bool keep_a = a.confirmed != b.confirmed ? a.confirmed : a.hits >= b.hits;
       drop[keep_a ? j : i] = true;

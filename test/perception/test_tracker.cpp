@@ -15,6 +15,8 @@
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/perception/tracker_metrics.h"
 #include "dqn_dovs/sim/people.h"
+#include "dqn_dovs/sim/world.h"
+#include "dqn_dovs/sim/worlds.h"
 #include "tracker_test_helpers.h"
 
 using namespace dqn_dovs;
@@ -405,6 +407,41 @@ TEST(Tracker, ATrackThatLostItsObjectHandsItsIdToTheTrackThatFoundIt) {
   const IdRun run = runOneDisc(jumps, 4.0);
   EXPECT_EQ(run.ids.size(), 1u);
   EXPECT_EQ(run.most_tracks, 1u) << "the old track was reported beside the new one";
+}
+
+TEST(Tracker, AmongPeopleNoTwoTracksAreCloserThanABodyRadius) {
+  // Ten social-force people seen by their legs in a generated crowd: a person's legs seen alone, then as a pair,
+  // can start a second track beside the first one. Two bodies are never closer than one body radius, so two such
+  // tracks are one person and only one is kept.
+  sim::WorldFamilyConfig family;
+  family.family = sim::parseWorldFamily("crowd");
+  family.people = 10;
+  sim::WorldConfig world_config;
+  world_config.stop_on_collision = false;
+  world_config.lidar = sim::LidarConfig::profile("urg04lx");
+  TrackerConfig config;
+  config.pair_legs = true;
+  config.range_noise_m = world_config.lidar.noise_std_m;
+  config.range_noise_fraction = world_config.lidar.noise_std_fraction;
+  size_t too_close = 0, reports = 0;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    sim::World world(sim::generateWorld(family, 16000 + seed), world_config, seed);
+    ObstacleTracker tracker(config);
+    LaserScan2 scan;
+    for (int k = 0; k < 150; ++k) {
+      world.scanInto(scan);
+      const TrackedScene scene = tracker.update(scan, world.laserPose()).scene;
+      reports += scene.obstacles.size();
+      for (size_t i = 0; i < scene.obstacles.size(); ++i) {
+        for (size_t j = i + 1; j < scene.obstacles.size(); ++j) {
+          if ((scene.obstacles[i].center - scene.obstacles[j].center).norm() < config.person_radius_m) ++too_close;
+        }
+      }
+      world.step(Twist2{}, world_config.lidar.scan_period_s);
+    }
+  }
+  ASSERT_GT(reports, 1000u);
+  EXPECT_EQ(too_close, 0u);
 }
 
 TEST(Tracker, StaticDiscsStayStaticWhileLaserDrives) {
