@@ -190,50 +190,64 @@ class Builder {
         return std::all_of(s.obstacles.begin(), s.obstacles.end(),
                            [&](const MovingObstacle& o) { return (o.center - q).norm() > o.radius + r + 0.1; });
       };
-      // A group member that finds no place beside its leader walks alone.
-      std::optional<Vec2> place = trySample(r + 0.1, clear, c_.max_attempts);
-      if (!place && leader != nullptr) {
-        leader = nullptr;
-        place = trySample(r + 0.1, clear, c_.max_attempts);
-      }
-      if (!place) fail("no free place for person " + std::to_string(i));
-      p.position = *place;
-      if (leader != nullptr) {
-        p.group = leader->group >= 0 ? leader->group : static_cast<int>(s.people.size()) - 1;
-        s.people.back().group = p.group;
-        p.preferred_speed_mps = leader->preferred_speed_mps;
-        p.destinations = leader->destinations;
-        p.wait_s = leader->wait_s;
-      } else {
-        std::vector<Vec2> stops;
-        Vec2 last = p.position;
-        for (int k = 0; k < 4; ++k) {
-          // Far enough, and reachable in a straight line (through the hub between regions); the last stop also
-          // leads back to the first. Where furniture leaves no such place, half the distance will do, and a
-          // person boxed in further keeps the stops it has.
-          auto stop = [&](double min_distance) {
-            return trySample(
-                r + 0.15,
-                [&](const Vec2& q) {
-                  return (q - last).norm() >= min_distance && reachable(last, q) &&
-                         (k < 3 || reachable(q, stops.front()));
-                },
-                c_.max_attempts);
-          };
-          std::optional<Vec2> q = stop(c_.destination_min_distance_m);
-          if (!q) q = stop(0.5 * c_.destination_min_distance_m);
-          if (!q) break;
-          last = *q;
-          stops.push_back(last);
+      // A group member that finds no place beside its leader walks alone. A person placed where furniture boxes
+      // it in (no stop reachable in a straight line) is placed again.
+      constexpr int kPlacements = 20;
+      for (int placement = 0;; ++placement) {
+        std::optional<Vec2> place = trySample(r + 0.1, clear, c_.max_attempts);
+        if (!place && leader != nullptr) {
+          leader = nullptr;
+          place = trySample(r + 0.1, clear, c_.max_attempts);
         }
-        while (stops.size() > 1 && !reachable(stops.back(), stops.front())) stops.pop_back();
-        if (stops.empty()) fail("no destination reachable from person " + std::to_string(i));
-        p.destinations = route(p.position, stops);
+        if (!place) fail("no free place for person " + std::to_string(i));
+        p.position = *place;
+        if (leader != nullptr) {
+          p.group = leader->group >= 0 ? leader->group : static_cast<int>(s.people.size()) - 1;
+          s.people.back().group = p.group;
+          p.preferred_speed_mps = leader->preferred_speed_mps;
+          p.destinations = leader->destinations;
+          p.wait_s = leader->wait_s;
+          break;
+        }
+        const std::vector<Vec2> stops = reachableStops(p.position, r);
+        if (!stops.empty()) {
+          p.destinations = route(p.position, stops);
+          break;
+        }
+        if (placement + 1 == kPlacements) {
+          fail("no destination reachable from person " + std::to_string(i) + " in " + std::to_string(kPlacements) +
+               " placements");
+        }
       }
       const Vec2 first = p.destinations.front() - p.position;
       p.heading_rad = std::atan2(first.y(), first.x());
       s.people.push_back(p);
     }
+  }
+
+  /// Up to four stops for a person of radius r at `from`: far enough, and reachable in a straight line (through the
+  /// hub between regions); the last stop also leads back to the first. Where furniture leaves no such place, half
+  /// the distance will do; empty when none is reachable (the person is boxed in).
+  std::vector<Vec2> reachableStops(const Vec2& from, double r) {
+    std::vector<Vec2> stops;
+    Vec2 last = from;
+    for (int k = 0; k < 4; ++k) {
+      auto stop = [&](double min_distance) {
+        return trySample(
+            r + 0.15,
+            [&](const Vec2& q) {
+              return (q - last).norm() >= min_distance && reachable(last, q) && (k < 3 || reachable(q, stops.front()));
+            },
+            c_.max_attempts);
+      };
+      std::optional<Vec2> q = stop(c_.destination_min_distance_m);
+      if (!q) q = stop(0.5 * c_.destination_min_distance_m);
+      if (!q) break;
+      last = *q;
+      stops.push_back(last);
+    }
+    while (stops.size() > 1 && !reachable(stops.back(), stops.front())) stops.pop_back();
+    return stops;
   }
 
   /// True when the straight walk from a to b (through the hub when they lie in different regions) crosses no wall.

@@ -154,6 +154,22 @@ TEST(Worlds, EveryFamilyHoldsFifteenPeople) {
   }
 }
 
+TEST(Worlds, APersonBoxedInByFurnitureIsPlacedAgain) {
+  // In this clutter world (dqn_dovs_eval --generate 15001 --world clutter --obstacles 10, episode 2) person 3 was
+  // first placed between pieces of furniture with no stop reachable in a straight line, and the world failed. It
+  // is placed again instead; every person has a plan whose legs cross no wall.
+  const Scenario s = generateWorld(family(WorldFamily::kClutter, 10), 9897651381771773557ULL);
+  ASSERT_EQ(s.people.size(), 10u);
+  for (const PersonSpec& p : s.people) {
+    ASSERT_FALSE(p.destinations.empty());
+    std::vector<Vec2> route = {p.position};
+    route.insert(route.end(), p.destinations.begin(), p.destinations.end());
+    for (size_t k = 0; k + 1 < route.size(); ++k) {
+      for (const Segment& w : s.static_segments) ASSERT_FALSE(segmentsCross(route[k], route[k + 1], w));
+    }
+  }
+}
+
 TEST(Worlds, BadConfigurationsAndImpossibleWorldsAreNamed) {
   try {
     parseWorldFamily("maze");
