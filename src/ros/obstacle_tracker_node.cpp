@@ -2,9 +2,6 @@
 
 #include <tf2/exceptions.h>
 
-#include <iomanip>
-#include <sstream>
-
 #include "conversions.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "pipeline_steps.h"
@@ -20,26 +17,12 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
   if (block.getType() != XmlRpc::XmlRpcValue::TypeStruct) {
     throw ParameterError(pnh.resolveName("tracker") + ": expected a dictionary of tracker parameters");
   }
-  for (auto& [name, value] : block) {
-    std::ostringstream text;
-    switch (value.getType()) {
-      case XmlRpc::XmlRpcValue::TypeBoolean:
-        text << (static_cast<bool>(value) ? "true" : "false");
-        break;
-      case XmlRpc::XmlRpcValue::TypeInt:
-        text << static_cast<int>(value);
-        break;
-      case XmlRpc::XmlRpcValue::TypeDouble:
-        text << std::setprecision(17) << static_cast<double>(value);
-        break;
-      case XmlRpc::XmlRpcValue::TypeString:
-        text << static_cast<std::string>(value);
-        break;
-      default:
-        throw ParameterError(pnh.resolveName("tracker/" + name) + ": expected a number or true/false");
-    }
-    const std::string why = setTrackerParameter(c, name, text.str());
-    if (!why.empty()) throw ParameterError(pnh.resolveName("tracker/" + name) + ": " + why);
+  for (const auto& entry : block) {
+    const std::string& name = entry.first;
+    std::string text;
+    paramText(pnh, "tracker/" + name, text);
+    const std::string why = setTrackerParameter(c, name, text);
+    if (!why.empty()) throw ParameterError("parameter '" + pnh.resolveName("tracker/" + name) + "': " + why);
   }
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("tracker") + ": " + error);

@@ -74,10 +74,6 @@ bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
   return loadRobotDescription(nh, limits, base_frame, laser_frame).has_value();
 }
 
-namespace {
-
-// A parameter's value as text, for the name-driven setters of the core (setShieldParameter); false when it is not
-// set. A list or map is a ParameterError naming it.
 bool paramText(const ros::NodeHandle& pnh, const std::string& name, std::string& out) {
   XmlRpc::XmlRpcValue v;
   if (!pnh.getParam(name, v)) return false;
@@ -102,6 +98,8 @@ bool paramText(const ros::NodeHandle& pnh, const std::string& name, std::string&
   out = os.str();
   return true;
 }
+
+namespace {
 
 // Reads the shield parameters whose names pass `wanted` into `c`; errors name the parameter.
 template <typename Wanted>

@@ -33,6 +33,10 @@ T param(const ros::NodeHandle& pnh, const std::string& name, const T& fallback) 
   return value;
 }
 
+/// A parameter's value as text, for the name-driven setters of the core (setShieldParameter, setTrackerParameter);
+/// false when it is not set. A list or map is a ParameterError naming it.
+bool paramText(const ros::NodeHandle& pnh, const std::string& name, std::string& out);
+
 /// Reads a number and checks lo <= value <= hi.
 double paramInRange(const ros::NodeHandle& pnh, const std::string& name, double fallback, double lo, double hi);
 
