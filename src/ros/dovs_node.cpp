@@ -6,7 +6,9 @@
 #include <tf2/exceptions.h>
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
+#include <boost/make_shared.hpp>
 #include <cmath>
+#include <utility>
 
 #include "conversions.h"
 #include "dqn_dovs/Dovs.h"
@@ -23,6 +25,7 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       limits_(loadRobotLimits(pnh)),
       builder_(limits_, loadDovsConfig(pnh)),
       tf_listener_(tf_buffer_),
+      tf_waiter_(tf_buffer_),
       image_transport_(nh) {
   fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
   base_frame_ = param<std::string>(pnh_, "base_frame", "base_footprint");
@@ -111,7 +114,7 @@ void DovsNode::addMapWalls(TrackedObstacleArray& obstacles, const Pose2& robot, 
   if (map_walls_.empty()) return;
   geometry_msgs::TransformStamped tf;
   try {
-    tf = tf_buffer_.lookupTransform(fixed_frame_, map_frame_, stamp, ros::Duration(tf_timeout_s_));
+    tf = tf_waiter_.lookup(fixed_frame_, map_frame_, stamp, tf_timeout_s_);
   } catch (const tf2::TransformException& e) {
     ROS_WARN_THROTTLE(2.0, "dovs: map walls left out: no transform %s <- %s at the obstacles' stamp: %s",
                       fixed_frame_.c_str(), map_frame_.c_str(), e.what());
@@ -153,7 +156,7 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   }
   geometry_msgs::TransformStamped tf;
   try {
-    tf = tf_buffer_.lookupTransform(fixed_frame_, base_frame_, msg->header.stamp, ros::Duration(tf_timeout_s_));
+    tf = tf_waiter_.lookup(fixed_frame_, base_frame_, msg->header.stamp, tf_timeout_s_);
   } catch (const tf2::TransformException& e) {
     ROS_WARN_THROTTLE(2.0, "dovs: no transform %s <- %s at the obstacles' stamp: %s", fixed_frame_.c_str(),
                       base_frame_.c_str(), e.what());
@@ -193,8 +196,10 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   step.msg.goal_stamp = goal_stamp_;
   step.msg.goal_x = goal_ ? goal_->x() : 0.0;
   step.msg.goal_y = goal_ ? goal_->y() : 0.0;
-  const Dovs& out = step.msg;
-  dovs_pub_.publish(out);
+  // Published as a shared pointer: a planner nodelet in the same manager gets this very message, not a copy.
+  const Dovs::ConstPtr shared = boost::make_shared<Dovs>(std::move(step.msg));
+  const Dovs& out = *shared;
+  dovs_pub_.publish(shared);
 
   if (image_pub_.getNumSubscribers() > 0) {
     const cv::Mat image = renderDovs(dovs_, step.actions, step.observation.robot_twist, chosen_action_, image_size_px_);

@@ -20,6 +20,7 @@
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
 #include "dqn_dovs/policy/action_shield.h"
+#include "transform_wait.h"
 
 namespace dqn_dovs {
 
@@ -63,6 +64,7 @@ class DovsNode {
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
+  TransformWaiter tf_waiter_;
   ros::Subscriber obstacles_sub_, odom_sub_, goal_sub_, action_sub_, map_sub_;
   ros::Publisher dovs_pub_;
   // dovs/image through image_transport: compressed and theora transports when their plugins are installed.

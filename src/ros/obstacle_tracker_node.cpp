@@ -2,6 +2,9 @@
 
 #include <tf2/exceptions.h>
 
+#include <boost/make_shared.hpp>
+#include <utility>
+
 #include "conversions.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "pipeline_steps.h"
@@ -30,7 +33,7 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
 }
 
 ObstacleTrackerNode::ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
+    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_), tf_waiter_(tf_buffer_) {
   fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
   if (fixed_frame_.empty()) throw ParameterError("parameter '" + pnh_.resolveName("fixed_frame") + "' is empty");
   tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.1, 0.0, 2.0);
@@ -57,8 +60,7 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
 
   geometry_msgs::TransformStamped tf;
   try {
-    tf =
-        tf_buffer_.lookupTransform(fixed_frame_, msg->header.frame_id, msg->header.stamp, ros::Duration(tf_timeout_s_));
+    tf = tf_waiter_.lookup(fixed_frame_, msg->header.frame_id, msg->header.stamp, tf_timeout_s_);
   } catch (const tf2::TransformException& e) {
     ROS_WARN_THROTTLE(2.0, "obstacle_tracker: no transform %s <- %s at the scan time: %s", fixed_frame_.c_str(),
                       msg->header.frame_id.c_str(), e.what());
@@ -82,9 +84,11 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
     ROS_WARN_THROTTLE(2.0, "obstacle_tracker: %s", reset_note.c_str());  // the note begins "tracks reset: "
   }
 
-  obstacles_pub_.publish(out);
+  // Published as a shared pointer: nodelets in the same manager get this very message, not a copy.
+  const TrackedObstacleArray::ConstPtr shared = boost::make_shared<TrackedObstacleArray>(std::move(out));
+  obstacles_pub_.publish(shared);
   if (publish_markers_ && markers_pub_.getNumSubscribers() > 0) {
-    markers_pub_.publish(obstacleMarkers(out, "tracks", 0.9f, 0.4f, 0.1f));
+    markers_pub_.publish(obstacleMarkers(*shared, "tracks", 0.9f, 0.4f, 0.1f));
   }
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "dqn_dovs/perception/tracker.h"
+#include "transform_wait.h"
 
 namespace dqn_dovs {
 
@@ -28,6 +29,7 @@ class ObstacleTrackerNode {
   std::unique_ptr<ObstacleTracker> tracker_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
+  TransformWaiter tf_waiter_;
   ros::Subscriber scan_sub_;
   ros::Publisher obstacles_pub_, markers_pub_;
   ros::Time last_stamp_;
