@@ -72,16 +72,24 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
     last_id_[i] = o.id;
     last_scan_[i] = scans_;
     pos_err_.push_back((o.center - t.center).norm());
-    if (o.age_s < config_.min_track_age_s) continue;
+    if (o.age_s < config_.min_track_age_s) {
+      pos_err_young_.push_back(pos_err_.back());
+      continue;
+    }
+    const auto hits_before = last_hits_.find(o.id);
+    const bool observed = hits_before == last_hits_.end() || o.hits > hits_before->second;
+    (observed ? pos_err_observed_ : pos_err_coasting_).push_back(pos_err_.back());
     if (t.is_static) {
       static_speed_.push_back(o.speed);
     } else if (t.speed >= config_.moving_speed_mps) {
       speed_err_.push_back(o.speed - t.speed);
+      (observed ? speed_err_observed_ : speed_err_coasting_).push_back(speed_err_.back());
       heading_err_deg_.push_back(std::abs(angleDiff(o.heading, t.heading)) * 180.0 / kPi);
       turn_err_.push_back(o.turn_rate - t.turn_rate);
     }
   }
   false_tracks_ += static_cast<size_t>(std::count(obs_matched.begin(), obs_matched.end(), false));
+  for (const TrackedObstacle& o : scene.obstacles) last_hits_[o.id] = o.hits;
   return truth_to_obs;
 }
 
@@ -104,6 +112,13 @@ TrackingSummary TrackingEvaluator::summary() const {
   std::vector<double> abs_speed(speed_err_.size());
   std::transform(speed_err_.begin(), speed_err_.end(), abs_speed.begin(), [](double e) { return std::abs(e); });
   s.speed_abs_err_median_mps = quantile(abs_speed, 0.5);
+  s.pos_rmse_young_m = rootMeanSquare(pos_err_young_);
+  s.pos_rmse_observed_m = rootMeanSquare(pos_err_observed_);
+  s.pos_rmse_coasting_m = rootMeanSquare(pos_err_coasting_);
+  s.speed_rmse_observed_mps = rootMeanSquare(speed_err_observed_);
+  s.speed_rmse_coasting_mps = rootMeanSquare(speed_err_coasting_);
+  s.coasting_pair_fraction =
+      pos_err_.empty() ? nan : static_cast<double>(pos_err_coasting_.size()) / static_cast<double>(pos_err_.size());
   return s;
 }
 

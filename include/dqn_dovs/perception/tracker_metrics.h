@@ -41,6 +41,17 @@ struct TrackingSummary {
   size_t id_switches_after_gap = 0;
   /// Median |speed error| over the pairs of speed_rmse_mps (robust to the short lags after abrupt stops).
   double speed_abs_err_median_mps = 0.0;
+  /// pos_rmse_m split by the state of the matched track: younger than min_track_age_s; older and updated by a
+  /// measurement at this scan (its hit count grew since it was last reported, or it is reported for the first
+  /// time); older and coasting (no measurement since it was last reported: occluded, or its object lost).
+  double pos_rmse_young_m = 0.0;
+  double pos_rmse_observed_m = 0.0;
+  double pos_rmse_coasting_m = 0.0;
+  /// speed_rmse_mps split the same way (its pairs are all at least min_track_age_s old).
+  double speed_rmse_observed_mps = 0.0;
+  double speed_rmse_coasting_mps = 0.0;
+  /// Share of the matched pairs whose track was coasting.
+  double coasting_pair_fraction = 0.0;
 };
 
 /// Accumulates per-scan matches over any number of episodes.
@@ -52,6 +63,7 @@ class TrackingEvaluator {
   void beginEpisode() {
     last_id_.clear();
     last_scan_.clear();
+    last_hits_.clear();
   }
 
   /// Scores one scan. truths[k] is true obstacle k (stable index within the episode; is_static marks the
@@ -67,7 +79,9 @@ class TrackingEvaluator {
   TrackingMetricsConfig config_;
   std::map<size_t, int> last_id_;       // truth index -> last matched track id in this episode
   std::map<size_t, size_t> last_scan_;  // truth index -> scan number of its last match
+  std::map<int, int> last_hits_;        // track id -> its hit count when last reported in this episode
   std::vector<double> pos_err_, speed_err_, heading_err_deg_, turn_err_, static_speed_;
+  std::vector<double> pos_err_young_, pos_err_observed_, pos_err_coasting_, speed_err_observed_, speed_err_coasting_;
   size_t scans_ = 0, false_tracks_ = 0, should_see_ = 0, missed_ = 0, switches_ = 0, crowded_switches_ = 0,
          gap_switches_ = 0, pairs_ = 0;
   double truth_minutes_ = 0.0;
