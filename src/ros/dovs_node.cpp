@@ -24,8 +24,8 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       pnh_(pnh),
       limits_(loadRobotLimits(pnh)),
       builder_(limits_, loadDovsConfig(pnh)),
-      tf_listener_(tf_buffer_),
       tf_waiter_(tf_buffer_),
+      tf_listener_(tf_buffer_),
       image_transport_(nh) {
   fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
   base_frame_ = param<std::string>(pnh_, "base_frame", "base_footprint");

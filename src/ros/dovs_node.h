@@ -63,8 +63,9 @@ class DovsNode {
   int chosen_action_ = -1;
 
   tf2_ros::Buffer tf_buffer_;
-  tf2_ros::TransformListener tf_listener_;
+  // The waiter before the listener: the listener's thread, which calls the waiter, stops first.
   TransformWaiter tf_waiter_;
+  tf2_ros::TransformListener tf_listener_;
   ros::Subscriber obstacles_sub_, odom_sub_, goal_sub_, action_sub_, map_sub_;
   ros::Publisher dovs_pub_;
   // dovs/image through image_transport: compressed and theora transports when their plugins are installed.

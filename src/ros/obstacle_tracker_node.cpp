@@ -33,7 +33,7 @@ TrackerConfig loadTrackerConfig(const ros::NodeHandle& pnh) {
 }
 
 ObstacleTrackerNode::ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
-    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_), tf_waiter_(tf_buffer_) {
+    : nh_(nh), pnh_(pnh), tf_waiter_(tf_buffer_), tf_listener_(tf_buffer_) {
   fixed_frame_ = param<std::string>(pnh_, "fixed_frame", "odom");
   if (fixed_frame_.empty()) throw ParameterError("parameter '" + pnh_.resolveName("fixed_frame") + "' is empty");
   tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.1, 0.0, 2.0);

@@ -28,8 +28,9 @@ class ObstacleTrackerNode {
   bool publish_markers_ = true;
   std::unique_ptr<ObstacleTracker> tracker_;
   tf2_ros::Buffer tf_buffer_;
-  tf2_ros::TransformListener tf_listener_;
+  // The waiter before the listener: the listener's thread, which calls the waiter, stops first.
   TransformWaiter tf_waiter_;
+  tf2_ros::TransformListener tf_listener_;
   ros::Subscriber scan_sub_;
   ros::Publisher obstacles_pub_, markers_pub_;
   ros::Time last_stamp_;
