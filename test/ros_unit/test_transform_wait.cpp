@@ -96,8 +96,8 @@ TEST_F(TransformWaiterTest, StaysUsableAfterAWaitThatTimedOut) {
 }
 
 TEST_F(TransformWaiterTest, TwoWaitersOnOneBufferAreEachWoken) {
-  // dovs_node and obstacle_tracker_node as nodelets share a process, each with its own buffer; two waiters on one
-  // buffer (two callbacks registered) must not take each other's answers.
+  // Each waiter registers its own callback on the buffer; two waiters on one buffer must not take each other's
+  // answers.
   TransformWaiter a(buffer_), b(buffer_);
   double xa = 0.0, xb = 0.0;
   std::thread ta([&] { xa = a.lookup("odom", "base", ros::Time(10.25), 20.0).transform.translation.x; });
