@@ -36,10 +36,13 @@
 // coasting_pair_fraction; TrackingSummary).
 //
 // --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000);
-// --tracker NAME=VALUE (repeatable) sets a tracker parameter by its config/tracker.yaml name in both parts.
+// --families LIST (comma-separated) picks the people part's families (default: every family but the room; `room` adds
+// the paper's world generated with 10 discs, pair_legs off, the robot driving, rows people_room_<sensor>_*: a
+// check on the paper's world with seeds of its own); --tracker NAME=VALUE (repeatable) sets a tracker parameter by its
+// config/tracker.yaml name in both parts.
 //
 // Usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only PART]
-//                      [--people-seed B] [--tracker NAME=VALUE]...
+//                      [--people-seed B] [--families LIST] [--tracker NAME=VALUE]...
 #include <sys/stat.h>
 #include <time.h>
 
@@ -51,6 +54,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -149,14 +153,14 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
   config.stop_on_collision = false;
   config.lidar = sim::LidarConfig::profile(sensor);
   const double period = config.lidar.scan_period_s;
-  const bool drives = family == "crowd" || family == "corridor" || family == "clutter";
+  const bool drives = family == "room" || family == "crowd" || family == "corridor" || family == "clutter";
   TrackingEvaluator evaluator;
   size_t wall_moving = 0, scans = 0;
   for (int k = 1; k <= worlds; ++k) {
     const sim::Scenario scenario = sim::generateWorld(f, seed_base + static_cast<uint64_t>(k));
     sim::World world(scenario, config, static_cast<uint64_t>(k));
     TrackerConfig tracker_config = base;
-    tracker_config.pair_legs = true;
+    tracker_config.pair_legs = family != "room";  // the paper's discs have no legs
     tracker_config.range_noise_m = config.lidar.noise_std_m;
     tracker_config.range_noise_fraction = config.lidar.noise_std_fraction;
     ObstacleTracker tracker(tracker_config);
@@ -203,14 +207,18 @@ int main(int argc, char** argv) {
   double duration_s = 20.0;
   std::string only;
   uint64_t people_seed = 12000;
+  std::vector<std::string> families;
+  for (const std::string& f : sim::worldFamilyNames()) {
+    if (f != "room") families.push_back(f);
+  }
   TrackerConfig tracker_config;
   const char* usage =
       "usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only original|people] "
-      "[--people-seed B] [--tracker NAME=VALUE]...\n";
+      "[--people-seed B] [--families LIST] [--tracker NAME=VALUE]...\n";
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if ((arg == "--scenarios" || arg == "--out" || arg == "--episodes" || arg == "--duration" || arg == "--only" ||
-         arg == "--people-seed" || arg == "--tracker") &&
+         arg == "--people-seed" || arg == "--families" || arg == "--tracker") &&
         i + 1 < argc) {
       const std::string value = argv[++i];
       if (arg == "--tracker") {
@@ -233,6 +241,22 @@ int main(int argc, char** argv) {
           return 2;
         }
         only = value;
+      }
+      if (arg == "--families") {
+        families.clear();
+        std::stringstream list(value);
+        for (std::string f; std::getline(list, f, ',');) {
+          const std::vector<std::string> known = sim::worldFamilyNames();
+          if (std::find(known.begin(), known.end(), f) == known.end()) {
+            std::cerr << "bench_tracker: --families '" << value << "': unknown family '" << f << "'\n" << usage;
+            return 2;
+          }
+          families.push_back(f);
+        }
+        if (families.empty()) {
+          std::cerr << "bench_tracker: --families: empty list\n" << usage;
+          return 2;
+        }
       }
       if (arg == "--people-seed") people_seed = std::strtoull(value.c_str(), nullptr, 10);
       if (arg == "--scenarios") scenario_dir = value;
@@ -316,8 +340,8 @@ int main(int argc, char** argv) {
       {"speed_abs_err_median_mps", s.speed_abs_err_median_mps},
       {"non_ok_updates", static_cast<double>(resets_or_rejects)},
   };
-  for (const std::string& family : sim::worldFamilyNames()) {
-    if (family == "room" || only == "original") continue;
+  for (const std::string& family : families) {
+    if (only == "original") break;
     for (const std::string sensor : {"sim", "urg04lx"}) {
       PeopleRun r;
       try {

@@ -67,6 +67,7 @@ std::string TrackerConfig::validate() const {
   if (!nonNegative(structure_line_extension_m))
     return badField("structure_line_extension_m", structure_line_extension_m, "must be >= 0 (m); 0 disables");
   if (!positive(measurement_noise_m)) return badField("measurement_noise_m", measurement_noise_m, "must be > 0 (m)");
+  if (!nonNegative(outlier_sigma)) return badField("outlier_sigma", outlier_sigma, "must be >= 0; 0 disables");
   if (!positive(accel_noise_mps2)) return badField("accel_noise_mps2", accel_noise_mps2, "must be > 0 (m/s^2)");
   if (!positive(turn_accel_noise_rps2))
     return badField("turn_accel_noise_rps2", turn_accel_noise_rps2, "must be > 0 (rad/s^2)");
@@ -78,6 +79,12 @@ std::string TrackerConfig::validate() const {
   if (!positive(gate_max_distance_m)) return badField("gate_max_distance_m", gate_max_distance_m, "must be > 0 (m)");
   if (!nonNegative(maneuver_gate_m))
     return badField("maneuver_gate_m", maneuver_gate_m, "must be >= 0 (m); 0 disables");
+  if (!nonNegative(maneuver_speed_std_mps))
+    return badField("maneuver_speed_std_mps", maneuver_speed_std_mps, "must be >= 0 (m/s)");
+  if (!(nonNegative(maneuver_position_share) && maneuver_position_share <= 1.0))
+    return badField("maneuver_position_share", maneuver_position_share, "must be in [0, 1]");
+  if (!nonNegative(maneuver_heading_std_rad))
+    return badField("maneuver_heading_std_rad", maneuver_heading_std_rad, "must be >= 0 (rad)");
   if (!nonNegative(maneuver_max_silence_s))
     return badField("maneuver_max_silence_s", maneuver_max_silence_s, "must be >= 0 (s)");
   if (confirm_hits < 1) return badField("confirm_hits", confirm_hits, "must be >= 1");
@@ -131,6 +138,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"structure_max_fraction", &TrackerConfig::structure_max_fraction},
       {"structure_line_extension", &TrackerConfig::structure_line_extension_m},
       {"measurement_noise", &TrackerConfig::measurement_noise_m},
+      {"outlier_sigma", &TrackerConfig::outlier_sigma},
       {"accel_noise", &TrackerConfig::accel_noise_mps2},
       {"turn_accel_noise", &TrackerConfig::turn_accel_noise_rps2},
       {"max_turn_rate", &TrackerConfig::max_turn_rate_rps},
@@ -140,6 +148,9 @@ const std::vector<TrackerField>& trackerFields() {
       {"gate_max_distance", &TrackerConfig::gate_max_distance_m},
       {"maneuver_gate", &TrackerConfig::maneuver_gate_m},
       {"maneuver_max_silence", &TrackerConfig::maneuver_max_silence_s},
+      {"maneuver_speed_std", &TrackerConfig::maneuver_speed_std_mps},
+      {"maneuver_heading_std", &TrackerConfig::maneuver_heading_std_rad},
+      {"maneuver_position_share", &TrackerConfig::maneuver_position_share},
       {"confirm_hits", nullptr, &TrackerConfig::confirm_hits},
       {"tentative_timeout", &TrackerConfig::tentative_timeout_s},
       {"deletion_timeout", &TrackerConfig::deletion_timeout_s},
@@ -270,6 +281,13 @@ Eigen::Matrix2d ObstacleTracker::measurementCovariance(const CircleDetection& de
   return var * Eigen::Matrix2d::Identity();
 }
 
+Eigen::Matrix2d ObstacleTracker::robustCovariance(const Track& track, const Vec2& z, const Eigen::Matrix2d& r) const {
+  if (config_.outlier_sigma <= 0.0) return r;
+  const double d2 = track.ekf.mahalanobis2(z, r);
+  const double k2 = config_.outlier_sigma * config_.outlier_sigma;
+  return std::isfinite(d2) && d2 > k2 ? Eigen::Matrix2d(r * (d2 / k2)) : r;
+}
+
 double ObstacleTracker::associationCost(const Track& track, const CircleDetection& detection, double stamp_s) const {
   const double inf = std::numeric_limits<double>::infinity();
   const Vec2& z = detection.circle.center;
@@ -387,16 +405,21 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
     track.ekf = CtrvEkf(x, p);
   } else {
     if (maneuver) {
+      // Among people seen by their legs most detections outside the gate only look like a manoeuvre (a person
+      // placed on the wrong legs, or on two legs merged into one circle): the motion is re-opened, the position
+      // by a share of the miss only (none by default), so such a detection moves the track part of the way and a
+      // true manoeuvre is followed over a few scans. Discs that turn or stop are followed at once, as they are.
       CtrvCovariance p = track.ekf.covariance();
-      const Vec2 miss = z - track.ekf.position();
+      const bool soft = config_.pair_legs;
+      const Vec2 miss = (soft ? config_.maneuver_position_share : 1.0) * (z - track.ekf.position());
       p(kCtrvX, kCtrvX) += miss.x() * miss.x();
       p(kCtrvY, kCtrvY) += miss.y() * miss.y();
-      p(kCtrvHeading, kCtrvHeading) += 0.25 * kPi * kPi;
-      p(kCtrvSpeed, kCtrvSpeed) += std::pow(config_.init_speed_std_mps, 2);
+      p(kCtrvHeading, kCtrvHeading) += soft ? std::pow(config_.maneuver_heading_std_rad, 2) : 0.25 * kPi * kPi;
+      p(kCtrvSpeed, kCtrvSpeed) += std::pow(soft ? config_.maneuver_speed_std_mps : config_.init_speed_std_mps, 2);
       p(kCtrvTurnRate, kCtrvTurnRate) += std::pow(config_.init_turn_rate_std_rps, 2);
       track.ekf = CtrvEkf(track.ekf.state(), p);
     }
-    if (!track.ekf.update(z, r)) return;  // numerically unusable update: treat as a miss
+    if (!track.ekf.update(z, maneuver ? r : robustCovariance(track, z, r))) return;  // unusable: a miss
   }
   track.ekf.clampTurnRate(config_.max_turn_rate_rps);
   track.hits += 1;

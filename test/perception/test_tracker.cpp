@@ -155,7 +155,7 @@ TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
   fresh(base_raw);
   std::vector<int> owner(sizeof(TrackerConfig), -1);
   const std::vector<std::string>& names = trackerParameterNames();
-  EXPECT_EQ(names.size(), 47u);  // every field of TrackerConfig
+  EXPECT_EQ(names.size(), 51u);  // every field of TrackerConfig
   for (size_t k = 0; k < names.size(); ++k) {
     TrackerConfig* c = fresh(raw);
     ASSERT_EQ(setTrackerParameter(*c, names[k], names[k] == "pair_legs" ? "true" : "7"), "") << names[k];
@@ -442,6 +442,101 @@ TEST(Tracker, AmongPeopleNoTwoTracksAreCloserThanABodyRadius) {
   }
   ASSERT_GT(reports, 1000u);
   EXPECT_EQ(too_close, 0u);
+}
+
+TEST(Tracker, ADetectionFarFromThePredictionPullsTheTrackLessThanAPlainUpdate) {
+  // A disc walks a straight line at 0.8 m/s; at t = 3 s its detection is off to the side (a person placed on
+  // the wrong pair of legs), then it is back on its line. The plain update follows that detection a long way;
+  // the robust one (outlier_sigma) a little. A detection near its prediction is used alike by both.
+  const auto laneOf = [](double offset_at_3s) {
+    return [offset_at_3s](double t) -> Vec2 {
+      return Vec2(-2.0 + 0.8 * t, 1.5 + (std::abs(t - 3.0) < 1e-6 ? offset_at_3s : 0.0));
+    };
+  };
+  struct Seen {
+    double jump = 0.0;            // the track's lateral move at the stray scan
+    double heading_after = 0.0;   // |heading| 0.3 s later (the line's heading is 0)
+    double off_line_after = 0.0;  // |lateral offset| from the line 0.3 s later
+    std::set<int> ids;
+  };
+  const auto run = [](double outlier_sigma, const std::function<Vec2(double)>& where) {
+    TrackerConfig config;
+    config.outlier_sigma = outlier_sigma;
+    config.pair_legs = true;  // among people: the manoeuvre recovery re-opens the motion, not the position
+    ObstacleTracker tracker(config);
+    std::mt19937 rng(21);
+    SyntheticLidar lidar;
+    lidar.noise_std_m = 0.002;
+    Seen seen;
+    double y_before = 0.0;
+    for (int k = 0; k <= 33; ++k) {
+      const double t = k * kScanPeriod;
+      const TrackerResult r = tracker.update(syntheticScan(lidar, {}, {{where(t), 0.2}}, {}, t, rng), {});
+      EXPECT_EQ(r.status, TrackerStatus::kOk) << r.message;
+      for (const TrackedObstacle& o : r.scene.obstacles) seen.ids.insert(o.id);
+      if (r.scene.obstacles.size() != 1u) continue;
+      const TrackedObstacle& o = r.scene.obstacles[0];
+      if (k == 29) y_before = o.center.y();
+      if (k == 30) seen.jump = o.center.y() - y_before;
+      if (k == 33) {
+        seen.heading_after = std::abs(angleDiff(o.heading, 0.0));
+        seen.off_line_after = std::abs(o.center.y() - 1.5);
+      }
+    }
+    return seen;
+  };
+  // 0.14 m: inside the association gate, a plain update moves the track about half of the way.
+  const Seen plain = run(0.0, laneOf(0.14)), robust = run(2.0, laneOf(0.14));
+  EXPECT_GT(plain.jump, 0.04) << "the stray detection should move a plain track";
+  EXPECT_LT(robust.jump, 0.6 * plain.jump);
+  EXPECT_LT(robust.heading_after, plain.heading_after);
+  EXPECT_EQ(robust.ids.size(), 1u);
+  // 0.3 m: outside the gate, taken by the manoeuvre recovery, which re-opens the motion but not the position:
+  // the track moves part of the way and is back near its line three scans later, under one id.
+  const Seen far = run(2.0, laneOf(0.3));
+  EXPECT_GT(far.jump, 0.0);
+  EXPECT_LT(far.jump, 0.15);
+  EXPECT_LT(far.off_line_after, 0.06);
+  EXPECT_EQ(far.ids.size(), 1u);
+  // Without the stray detection both updates give the same track.
+  const Seen plain_clean = run(0.0, laneOf(0.0)), robust_clean = run(2.0, laneOf(0.0));
+  EXPECT_NEAR(plain_clean.jump, robust_clean.jump, 0.005);
+  EXPECT_NEAR(plain_clean.heading_after, robust_clean.heading_after, 0.02);
+}
+
+TEST(Tracker, TheRobustUpdateFollowsPeopleOnTheirLegsMoreCloselyThanThePlainOne) {
+  // Ten social-force people seen by their legs (sim profile) in three generated crowds, the laser still:
+  // person centres placed on the wrong legs or on a lone leg are outliers the robust update discounts.
+  sim::WorldFamilyConfig family;
+  family.family = sim::parseWorldFamily("crowd");
+  family.people = 10;
+  sim::WorldConfig world_config;
+  world_config.stop_on_collision = false;
+  world_config.lidar = sim::LidarConfig::profile("sim");
+  const auto run = [&](double outlier_sigma) {
+    TrackerConfig config;
+    config.pair_legs = true;
+    config.outlier_sigma = outlier_sigma;
+    config.range_noise_m = world_config.lidar.noise_std_m;
+    TrackingEvaluator evaluator;
+    for (uint64_t seed = 1; seed <= 3; ++seed) {
+      sim::World world(sim::generateWorld(family, 16100 + seed), world_config, seed);
+      ObstacleTracker tracker(config);
+      evaluator.beginEpisode();
+      LaserScan2 scan;
+      for (int k = 0; k < 200; ++k) {
+        world.scanInto(scan);
+        evaluator.addScan(tracker.update(scan, world.laserPose()).scene, world.groundTruthObstacles(), {},
+                          world_config.lidar.scan_period_s);
+        world.step(Twist2{}, world_config.lidar.scan_period_s);
+      }
+    }
+    return evaluator.summary();
+  };
+  const TrackingSummary plain = run(0.0), robust = run(2.0);
+  ASSERT_GT(robust.matched_pairs, 2000u);
+  EXPECT_LT(robust.speed_rmse_mps, plain.speed_rmse_mps - 0.01) << "plain " << plain.speed_rmse_mps;
+  EXPECT_LT(robust.pos_rmse_m, plain.pos_rmse_m);
 }
 
 TEST(Tracker, StaticDiscsStayStaticWhileLaserDrives) {

@@ -86,7 +86,7 @@ struct TrackerConfig {
   double person_radius_m = 0.25;
   /// Standard deviation of a person's centre placed on a lone leg (m): the body is anywhere within about half
   /// a stride of it, so the filter leans on its prediction until both legs are seen again.
-  double lone_leg_std_m = 0.2;
+  double lone_leg_std_m = 0.12;
 
   // --- static structure ---------------------------------------------------------------------------------
   /// Memory of the walls seen (StaticMap): a circle detection with at least structure_max_fraction of its
@@ -107,6 +107,11 @@ struct TrackerConfig {
   // --- filter -------------------------------------------------------------------------------------------
   /// Standard deviation of a detected centre, each axis (m).
   double measurement_noise_m = 0.03;
+  /// Robust update: a detection whose innovation lies d > outlier_sigma standard deviations from the track's
+  /// prediction has its covariance scaled by (d / outlier_sigma)^2, so its pull on the track shrinks as the
+  /// miss grows (a person placed on the legs of two people, or on one leg alone, moves the track a little, not
+  /// all the way). 0 disables (plain Kalman update).
+  double outlier_sigma = 2.0;
   /// Process noise: white linear acceleration of the obstacles (m/s^2).
   double accel_noise_mps2 = 1.0;
   /// Process noise: white angular acceleration of the obstacles (rad/s^2).
@@ -127,11 +132,22 @@ struct TrackerConfig {
   double gate_max_distance_m = 1.0;
   /// Manoeuvre recovery: a track that was hit within the last maneuver_max_silence_s but finds nothing in
   /// its gate (the obstacle stopped, reversed or turned sharply) is paired, in a second assignment, with a
-  /// detection left over within this distance (m); its speed, heading and turn-rate uncertainty is then
-  /// re-opened so the filter follows the new motion instead of a duplicate track being born.
+  /// detection left over within this distance (m); its uncertainty is then re-opened so the filter follows the
+  /// new motion instead of a duplicate track being born. Without pair_legs: the position's by the whole miss, the
+  /// speed's by init_speed_std_mps, the heading's by pi/2, the turn rate's by init_turn_rate_std_rps. With
+  /// pair_legs (among people, where most such detections are a person placed on the wrong legs): the position's
+  /// by maneuver_position_share of the miss, the speed's by maneuver_speed_std_mps, the heading's by
+  /// maneuver_heading_std_rad, the turn rate's as without.
   double maneuver_gate_m = 0.45;
   /// See maneuver_gate_m (s).
   double maneuver_max_silence_s = 0.3;
+  /// Speed standard deviation added on a manoeuvre recovery with pair_legs (m/s).
+  double maneuver_speed_std_mps = 0.2;
+  /// Heading standard deviation added on a manoeuvre recovery with pair_legs (rad).
+  double maneuver_heading_std_rad = 0.5;
+  /// Share of the miss (detection - predicted centre) added to the position's standard deviation on a manoeuvre
+  /// recovery with pair_legs, in [0, 1].
+  double maneuver_position_share = 0.0;
 
   // --- track life ---------------------------------------------------------------------------------------
   /// Hits needed before a track is reported (confirmed tracks stay confirmed).
@@ -297,6 +313,8 @@ class ObstacleTracker {
   double associationCost(const Track& track, const CircleDetection& detection, double stamp_s) const;
   TrackedObstacle toTrackedObstacle(const Track& track, double stamp_s) const;
   Eigen::Matrix2d measurementCovariance(const CircleDetection& detection) const;
+  /// r, inflated for a detection far outside the track's prediction (TrackerConfig::outlier_sigma).
+  Eigen::Matrix2d robustCovariance(const Track& track, const Vec2& z, const Eigen::Matrix2d& r) const;
 
   TrackerConfig config_;
   std::vector<Track> tracks_;
