@@ -409,20 +409,30 @@ TEST(Tracker, ATrackThatLostItsObjectHandsItsIdToTheTrackThatFoundIt) {
   EXPECT_EQ(run.most_tracks, 1u) << "the old track was reported beside the new one";
 }
 
+/// Generated crowds of ten social-force people seen by their legs with the `sensor` profile, and a tracker
+/// configured for them (pair_legs, the profile's range noise).
+struct LegCrowd {
+  sim::WorldFamilyConfig family;
+  sim::WorldConfig world_config;
+  TrackerConfig config;
+};
+LegCrowd legCrowd(const std::string& sensor) {
+  LegCrowd c;
+  c.family.family = sim::parseWorldFamily("crowd");
+  c.family.people = 10;
+  c.world_config.stop_on_collision = false;
+  c.world_config.lidar = sim::LidarConfig::profile(sensor);
+  c.config.pair_legs = true;
+  c.config.range_noise_m = c.world_config.lidar.noise_std_m;
+  c.config.range_noise_fraction = c.world_config.lidar.noise_std_fraction;
+  return c;
+}
+
 TEST(Tracker, AmongPeopleNoTwoTracksAreCloserThanABodyRadius) {
   // Ten social-force people seen by their legs in a generated crowd: a person's legs seen alone, then as a pair,
   // can start a second track beside the first one. Two bodies are never closer than one body radius, so two such
   // tracks are one person and only one is kept.
-  sim::WorldFamilyConfig family;
-  family.family = sim::parseWorldFamily("crowd");
-  family.people = 10;
-  sim::WorldConfig world_config;
-  world_config.stop_on_collision = false;
-  world_config.lidar = sim::LidarConfig::profile("urg04lx");
-  TrackerConfig config;
-  config.pair_legs = true;
-  config.range_noise_m = world_config.lidar.noise_std_m;
-  config.range_noise_fraction = world_config.lidar.noise_std_fraction;
+  const auto [family, world_config, config] = legCrowd("urg04lx");
   size_t too_close = 0, reports = 0;
   for (uint64_t seed = 1; seed <= 3; ++seed) {
     sim::World world(sim::generateWorld(family, 16000 + seed), world_config, seed);
@@ -507,17 +517,12 @@ TEST(Tracker, ADetectionFarFromThePredictionPullsTheTrackLessThanAPlainUpdate) {
 TEST(Tracker, TheRobustUpdateFollowsPeopleOnTheirLegsMoreCloselyThanThePlainOne) {
   // Ten social-force people seen by their legs (sim profile) in three generated crowds, the laser still:
   // person centres placed on the wrong legs or on a lone leg are outliers the robust update discounts.
-  sim::WorldFamilyConfig family;
-  family.family = sim::parseWorldFamily("crowd");
-  family.people = 10;
-  sim::WorldConfig world_config;
-  world_config.stop_on_collision = false;
-  world_config.lidar = sim::LidarConfig::profile("sim");
+  const LegCrowd crowd = legCrowd("sim");
+  const sim::WorldFamilyConfig& family = crowd.family;
+  const sim::WorldConfig& world_config = crowd.world_config;
   const auto run = [&](double outlier_sigma) {
-    TrackerConfig config;
-    config.pair_legs = true;
+    TrackerConfig config = crowd.config;
     config.outlier_sigma = outlier_sigma;
-    config.range_noise_m = world_config.lidar.noise_std_m;
     TrackingEvaluator evaluator;
     for (uint64_t seed = 1; seed <= 3; ++seed) {
       sim::World world(sim::generateWorld(family, 16100 + seed), world_config, seed);
