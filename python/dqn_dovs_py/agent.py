@@ -58,6 +58,7 @@ class LearnResult:
     td_errors: np.ndarray  # float32 [B], target - Q(s, a), for the new priorities
     mean_q: float  # mean Q(s, a) of the batch, a divergence indicator for the logs
     demo_loss: float = float("nan")  # large-margin loss on the teacher's batch (nan: none given)
+    aux_loss: float = float("nan")  # the auxiliary head's cross-entropy on its batch (nan: none given)
 
 
 def large_margin_loss(q: torch.Tensor, mask: torch.Tensor, action: torch.Tensor, margin: float) -> torch.Tensor:
@@ -79,7 +80,9 @@ class DQNAgent:
     """Online and target Q-networks, Adam, and the behaviour policy."""
 
     def __init__(self, model: nn.Module, config: AgentConfig | None = None, device: str | torch.device = "cpu",
-                 seed: int = 0):
+                 seed: int = 0, aux_head: nn.Module | None = None):
+        """`aux_head`: an optional training-only head on the online network's embedding (`model.embed`), trained
+        by `learn`'s auxiliary loss; it is never exported and never acts."""
         self.config = config or AgentConfig()
         error = self.config.validate()
         if error:
@@ -89,7 +92,14 @@ class DQNAgent:
         self.target = copy.deepcopy(self.online)
         for p in self.target.parameters():
             p.requires_grad_(False)
-        self.optimizer = torch.optim.Adam(self.online.parameters(), lr=self.config.lr_start, eps=self.config.adam_eps)
+        if aux_head is not None and not hasattr(self.online, "embed"):
+            raise ValueError(f"DQNAgent: an auxiliary head needs a network with embed(); "
+                             f"{type(self.online).__name__} has none")
+        self.aux_head = aux_head.to(self.device) if aux_head is not None else None
+        parameters = list(self.online.parameters())
+        if self.aux_head is not None:
+            parameters += list(self.aux_head.parameters())
+        self.optimizer = torch.optim.Adam(parameters, lr=self.config.lr_start, eps=self.config.adam_eps)
         self.updates = 0
         self._rng = np.random.default_rng(seed)
 
@@ -152,9 +162,11 @@ class DQNAgent:
             return reward + torch.where(discount > 0, discount * bootstrap, torch.zeros_like(bootstrap))
 
     def learn(self, batch: SampledBatch, demo: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-              demo_weight: float = 0.0, margin: float = 0.8) -> LearnResult:
+              demo_weight: float = 0.0, margin: float = 0.8, aux: tuple[np.ndarray, np.ndarray] | None = None,
+              aux_weight: float = 0.0) -> LearnResult:
         """One Double-DQN step on `batch`; with `demo` = (state, mask, teacher action) the large-margin loss of
-        those states, times `demo_weight`, is added to the TD loss."""
+        those states, times `demo_weight`, is added to the TD loss; with `aux` = (state, 0/1 label) and an
+        auxiliary head, the head's binary cross-entropy on those states, times `aux_weight`."""
         t = batch.transitions
         state = self._tensor(t.state)
         action = torch.from_numpy(np.ascontiguousarray(t.action)).to(self.device)
@@ -165,9 +177,23 @@ class DQNAgent:
         next_mask = torch.from_numpy(np.ascontiguousarray(t.next_mask)).to(self.device)
 
         target = self.compute_targets(reward, discount, next_state, next_mask)
-        q = self.online(state).gather(1, action[:, None]).squeeze(1)
+        aux_loss = None
+        if aux is not None and aux_weight > 0:
+            if self.aux_head is None:
+                raise ValueError("DQNAgent.learn: auxiliary labels given but the agent has no auxiliary head")
+            a_state, a_label = aux
+            # One pass of the network over both batches: the TD batch's rows first, then the labelled states.
+            h = self.online.embed(torch.cat([state, self._tensor(a_state)]))
+            q_all = self.online.q_from_embedding(h[:state.shape[0]])
+            logits = self.aux_head(h[state.shape[0]:]).squeeze(1)
+            aux_loss = F.binary_cross_entropy_with_logits(logits, self._tensor(a_label))
+        else:
+            q_all = self.online(state)
+        q = q_all.gather(1, action[:, None]).squeeze(1)
         per_sample = F.huber_loss(q, target, reduction="none", delta=self.config.huber_delta)
         loss = (weights * per_sample).mean()
+        if aux_loss is not None:
+            loss = loss + float(aux_weight) * aux_loss
         demo_loss = None
         if demo is not None and demo_weight > 0:
             d_state, d_mask, d_action = demo
@@ -181,7 +207,8 @@ class DQNAgent:
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         if self.config.grad_clip_norm > 0:
-            nn.utils.clip_grad_norm_(self.online.parameters(), self.config.grad_clip_norm)
+            nn.utils.clip_grad_norm_([p for group in self.optimizer.param_groups for p in group["params"]],
+                                     self.config.grad_clip_norm)
         self.optimizer.step()
         self.updates += 1
         if self.updates % self.config.target_update_period == 0:
@@ -189,7 +216,8 @@ class DQNAgent:
         td = (target - q).detach()
         return LearnResult(loss=float(loss.item()), td_errors=td.float().cpu().numpy(),
                            mean_q=float(q.detach().mean().item()),
-                           demo_loss=float(demo_loss.item()) if demo_loss is not None else float("nan"))
+                           demo_loss=float(demo_loss.item()) if demo_loss is not None else float("nan"),
+                           aux_loss=float(aux_loss.item()) if aux_loss is not None else float("nan"))
 
     def sync_target(self) -> None:
         self.target.load_state_dict(self.online.state_dict())
@@ -199,9 +227,17 @@ class DQNAgent:
     def state_dict(self) -> dict:
         return {"online": self.online.state_dict(), "target": self.target.state_dict(),
                 "optimizer": self.optimizer.state_dict(), "updates": self.updates,
-                "rng": self._rng.bit_generator.state}
+                "rng": self._rng.bit_generator.state,
+                "aux_head": self.aux_head.state_dict() if self.aux_head is not None else None}
 
     def load_state_dict(self, state: dict) -> None:
+        saved_aux = state.get("aux_head")
+        if (saved_aux is None) != (self.aux_head is None):
+            raise ValueError("DQNAgent.load_state_dict: the checkpoint was made " +
+                             ("without" if saved_aux is None else "with") + " an auxiliary head and this agent has " +
+                             ("one" if saved_aux is None else "none"))
+        if self.aux_head is not None:
+            self.aux_head.load_state_dict(saved_aux)
         self.online.load_state_dict(state["online"])
         self.target.load_state_dict(state["target"])
         self.optimizer.load_state_dict(state["optimizer"])

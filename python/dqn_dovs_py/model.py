@@ -79,6 +79,7 @@ class DuelingQNet(nn.Module):
             trunk += [nn.Linear(width, hidden), nn.ReLU()]
             width = hidden
         self.trunk = nn.Sequential(*trunk)
+        self.trunk_width = width
         self.value = nn.Linear(width, 1)
         self.advantage = nn.Linear(width, self.action_count)
 
@@ -100,17 +101,25 @@ class DuelingQNet(nn.Module):
             "trunk_hidden": list(self.trunk_hidden),
         }
 
-    def forward(self, state: torch.Tensor) -> torch.Tensor:
-        """state [B, 408] -> Q [B, 8]."""
+    def embed(self, state: torch.Tensor) -> torch.Tensor:
+        """state [B, 408] -> the trunk's last hidden layer [B, trunk_width], which both heads read (and the
+        trainer's auxiliary head, when one is configured)."""
         if state.dim() != 2 or state.shape[1] != self.state_size:
             raise ValueError(f"DuelingQNet expects a state batch of shape [B, {self.state_size}], got {tuple(state.shape)}")
         n_grid = self.grid_rows * self.grid_cols
         grid = state[:, :n_grid].reshape(-1, 1, self.grid_rows, self.grid_cols)
         g = self.grid(grid).flatten(1)
         f = self.features(state[:, n_grid:])
-        h = self.trunk(torch.cat([g, f], dim=1))
+        return self.trunk(torch.cat([g, f], dim=1))
+
+    def q_from_embedding(self, h: torch.Tensor) -> torch.Tensor:
+        """The dueling heads on an embedding from `embed`: Q [B, 8]."""
         advantage = self.advantage(h)
         return self.value(h) + advantage - advantage.mean(dim=1, keepdim=True)
+
+    def forward(self, state: torch.Tensor) -> torch.Tensor:
+        """state [B, 408] -> Q [B, 8]."""
+        return self.q_from_embedding(self.embed(state))
 
 
 def masked_argmax(q: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:

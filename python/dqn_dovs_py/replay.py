@@ -1,5 +1,6 @@
 """Experience replay for the DQN-DOVS trainer: a vectorised sum tree, prioritized replay
-with stored action masks, and the per-environment n-step transition builder.
+with stored action masks, the per-environment n-step transition builder, and the
+labelled-state buffers of the teacher and of the auxiliary head.
 
 Everything works on numpy batches (one call per environment step or per learning
 step), never on per-transition Python objects, so the trainer's overhead stays small
@@ -343,20 +344,22 @@ class PrioritizedReplay:
             raise ValueError("PrioritizedReplay.add: a bootstrapped transition has no valid action in next_mask")
 
 
-class DemoBuffer:
-    """Teacher-labelled states for the large-margin loss (docs/training.md, "Learning from a teacher"): a ring
-    buffer of (state, mask, teacher action), sampled uniformly. Grid cells are stored as int8 (they are +1/-1)."""
+class LabelledStates:
+    """A ring buffer of states, each with named per-state arrays (its labels), sampled uniformly with replacement.
+    Grid cells are stored as int8 (they are +1/-1). The teacher's DemoBuffer and the auxiliary head's LabelBuffer
+    are its two uses; `name` prefixes their error messages."""
 
-    def __init__(self, capacity: int, seed: int = 0, state_dim: int = STATE_DIM, grid_cells: int = GRID_CELLS,
-                 num_actions: int = NUM_ACTIONS):
+    name = "LabelledStates"
+
+    def __init__(self, capacity: int, labels: dict[str, tuple[tuple[int, ...], type]], seed: int = 0,
+                 state_dim: int = STATE_DIM, grid_cells: int = GRID_CELLS):
         if capacity < 1:
-            raise ValueError(f"DemoBuffer: capacity must be >= 1, got {capacity}")
+            raise ValueError(f"{self.name}: capacity must be >= 1, got {capacity}")
         self.capacity = int(capacity)
-        self.state_dim, self.grid_cells, self.num_actions = state_dim, grid_cells, num_actions
+        self.state_dim, self.grid_cells = state_dim, grid_cells
         self._grid = np.zeros((self.capacity, grid_cells), np.int8)
         self._features = np.zeros((self.capacity, state_dim - grid_cells), np.float32)
-        self._mask = np.zeros((self.capacity, num_actions), bool)
-        self._action = np.zeros(self.capacity, np.int64)
+        self._labels = {key: np.zeros((self.capacity, *shape), dtype) for key, (shape, dtype) in labels.items()}
         self._size = 0
         self._next = 0
         self._rng = np.random.default_rng(seed)
@@ -364,48 +367,170 @@ class DemoBuffer:
     def __len__(self) -> int:
         return self._size
 
-    def add(self, state: np.ndarray, mask: np.ndarray, action: np.ndarray) -> None:
+    def _store(self, state: np.ndarray, labels: dict[str, np.ndarray]) -> None:
+        """Appends states [n, state_dim] with their labels (checked by the caller); beyond the capacity at once,
+        the latest ones stay."""
         state = np.asarray(state, np.float32)
-        mask = np.asarray(mask, bool)
-        action = np.asarray(action, np.int64)
-        n = action.shape[0]
-        if state.shape != (n, self.state_dim) or mask.shape != (n, self.num_actions):
-            raise ValueError(f"DemoBuffer.add: state {state.shape} / mask {mask.shape} do not match {n} actions")
-        if np.any((action < 0) | (action >= self.num_actions)) or not np.all(mask[np.arange(n), action]):
-            raise ValueError("DemoBuffer.add: a teacher action is outside [0, 8) or not allowed by its mask")
+        n = state.shape[0]
+        if state.shape != (n, self.state_dim):
+            raise ValueError(f"{self.name}.add: state has shape {state.shape}, expected ({n}, {self.state_dim})")
         if not np.all(np.isfinite(state)):
-            raise ValueError("DemoBuffer.add: state contains NaN or inf")
-        grid, features = split_compact(state, self.grid_cells, "DemoBuffer.add: state")
-        keep = slice(max(0, n - self.capacity), n)  # more than the capacity at once: the latest ones stay
+            raise ValueError(f"{self.name}.add: state contains NaN or inf")
+        grid, features = split_compact(state, self.grid_cells, f"{self.name}.add: state")
+        keep = slice(max(0, n - self.capacity), n)
         slots = (self._next + np.arange(keep.stop - keep.start)) % self.capacity
         self._grid[slots], self._features[slots] = grid[keep], features[keep]
-        self._mask[slots], self._action[slots] = mask[keep], action[keep]
+        for key, value in labels.items():
+            self._labels[key][slots] = value[keep]
         self._next = int((self._next + slots.size) % self.capacity)
         self._size = min(self._size + int(slots.size), self.capacity)
 
-    def sample(self, batch_size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(state float32 [B, 408], mask bool [B, 8], action int64 [B]), drawn uniformly with replacement."""
+    def _draw(self, batch_size: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         if self._size == 0:
-            raise ValueError("DemoBuffer.sample: the buffer is empty")
+            raise ValueError(f"{self.name}.sample: the buffer is empty")
         idx = self._rng.integers(0, self._size, size=batch_size)
-        return join_compact(self._grid[idx], self._features[idx]), self._mask[idx].copy(), self._action[idx].copy()
+        return (join_compact(self._grid[idx], self._features[idx]),
+                {key: value[idx].copy() for key, value in self._labels.items()})
 
     def state_dict(self) -> dict:
         n = self._size
         return {"capacity": self.capacity, "size": n, "next": self._next, "grid": self._grid[:n].copy(),
-                "features": self._features[:n].copy(), "mask": self._mask[:n].copy(),
-                "action": self._action[:n].copy(), "rng": self._rng.bit_generator.state}
+                "features": self._features[:n].copy(), "rng": self._rng.bit_generator.state,
+                **{key: value[:n].copy() for key, value in self._labels.items()}}
 
     def load_state_dict(self, state: dict) -> None:
         if int(state["capacity"]) != self.capacity:
-            raise ValueError(f"DemoBuffer.load_state_dict: capacity {state['capacity']} != {self.capacity}")
+            raise ValueError(f"{self.name}.load_state_dict: capacity {state['capacity']} != {self.capacity}")
         n = int(state["size"])
         self._size, self._next = n, int(state["next"])
         self._grid[:n] = state["grid"]
         self._features[:n] = state["features"]
-        self._mask[:n] = state["mask"]
-        self._action[:n] = state["action"]
+        for key, value in self._labels.items():
+            value[:n] = state[key]
         self._rng.bit_generator.state = state["rng"]
+
+
+class DemoBuffer(LabelledStates):
+    """Teacher-labelled states for the large-margin loss (docs/training.md, "Learning from a teacher"):
+    (state, mask, teacher action)."""
+
+    name = "DemoBuffer"
+
+    def __init__(self, capacity: int, seed: int = 0, state_dim: int = STATE_DIM, grid_cells: int = GRID_CELLS,
+                 num_actions: int = NUM_ACTIONS):
+        super().__init__(capacity, {"mask": ((num_actions,), bool), "action": ((), np.int64)}, seed=seed,
+                         state_dim=state_dim, grid_cells=grid_cells)
+        self.num_actions = num_actions
+
+    def add(self, state: np.ndarray, mask: np.ndarray, action: np.ndarray) -> None:
+        mask = np.asarray(mask, bool)
+        action = np.asarray(action, np.int64)
+        n = action.shape[0]
+        if np.shape(state) != (n, self.state_dim) or mask.shape != (n, self.num_actions):
+            raise ValueError(f"DemoBuffer.add: state {np.shape(state)} / mask {mask.shape} do not match {n} actions")
+        if np.any((action < 0) | (action >= self.num_actions)) or not np.all(mask[np.arange(n), action]):
+            raise ValueError("DemoBuffer.add: a teacher action is outside [0, 8) or not allowed by its mask")
+        self._store(state, {"mask": mask, "action": action})
+
+    def sample(self, batch_size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(state float32 [B, 408], mask bool [B, 8], action int64 [B]), drawn uniformly with replacement."""
+        state, labels = self._draw(batch_size)
+        return state, labels["mask"], labels["action"]
+
+
+class LabelBuffer(LabelledStates):
+    """States with a binary label for the auxiliary head (docs/training.md, "An auxiliary head"): (state, label)."""
+
+    name = "LabelBuffer"
+
+    def __init__(self, capacity: int, seed: int = 0, state_dim: int = STATE_DIM, grid_cells: int = GRID_CELLS):
+        super().__init__(capacity, {"label": ((), np.float32)}, seed=seed, state_dim=state_dim,
+                         grid_cells=grid_cells)
+        self.positives = 0  # positive labels ever added (their share is the base rate of the head's task)
+        self.added = 0
+
+    def add(self, state: np.ndarray, label: np.ndarray) -> None:
+        label = np.asarray(label, np.float32).reshape(-1)
+        if np.shape(state)[0] != label.shape[0]:
+            raise ValueError(f"LabelBuffer.add: {np.shape(state)[0]} states but {label.shape[0]} labels")
+        if not np.all((label == 0.0) | (label == 1.0)):
+            raise ValueError("LabelBuffer.add: labels must be 0 or 1")
+        self._store(state, {"label": label})
+        self.positives += int(label.sum())
+        self.added += int(label.size)
+
+    def sample(self, batch_size: int) -> tuple[np.ndarray, np.ndarray]:
+        """(state float32 [B, 408], label float32 [B]), drawn uniformly with replacement."""
+        state, labels = self._draw(batch_size)
+        return state, labels["label"]
+
+    def latest(self, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """The newest `count` (or fewer) states and labels, oldest first."""
+        n = min(int(count), self._size)
+        idx = (self._next - n + np.arange(n)) % self.capacity
+        return join_compact(self._grid[idx], self._features[idx]), self._labels["label"][idx].copy()
+
+    def state_dict(self) -> dict:
+        return {**super().state_dict(), "positives": self.positives, "added": self.added}
+
+    def load_state_dict(self, state: dict) -> None:
+        super().load_state_dict(state)
+        self.positives, self.added = int(state["positives"]), int(state["added"])
+
+
+class HorizonLabeller:
+    """Labels each environment's states with whether an event (the robot boxed in: the shield's escape ran, or a
+    collision) happens within the next `horizon` decisions, the one taken in that state included.
+
+    `push` takes every environment's state together with whether the step taken from it was such an event and
+    whether the episode ended there; it returns the states whose label is now known: the oldest of a full window
+    (positive if any of its `horizon` steps was an event), and at an episode's end every state still waiting.
+    There the window is cut: a state counts as positive if an event happened before the end; after a
+    collision every state left is positive (the collision is within its horizon); after a success or a timeout the
+    unfinished ones are labelled with what happened before the end (a success ends with no event to come; a
+    timeout's unseen future is taken as free, which it is for the robot at rest or driving clear).
+    """
+
+    def __init__(self, num_envs: int, horizon: int, state_dim: int = STATE_DIM):
+        if num_envs < 1 or horizon < 1:
+            raise ValueError(f"HorizonLabeller: num_envs ({num_envs}) and horizon ({horizon}) must be >= 1")
+        self.num_envs, self.horizon, self.state_dim = int(num_envs), int(horizon), int(state_dim)
+        self._state = np.zeros((num_envs, horizon, state_dim), np.float32)
+        self._event = np.zeros((num_envs, horizon), bool)
+        self._count = np.zeros(num_envs, np.int64)  # steps of the current episode pushed so far
+
+    def reset(self) -> None:
+        self._count[:] = 0
+
+    def push(self, state: np.ndarray, event: np.ndarray, done: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        e, h = self.num_envs, self.horizon
+        if np.shape(state) != (e, self.state_dim) or np.shape(event) != (e,) or np.shape(done) != (e,):
+            raise ValueError(f"HorizonLabeller.push: state {np.shape(state)}, event {np.shape(event)}, done "
+                             f"{np.shape(done)}; expected ({e}, {self.state_dim}), ({e},), ({e},)")
+        event, done = np.asarray(event, bool), np.asarray(done, bool)
+        envs = np.arange(e)
+        slot = self._count % h
+        self._state[envs, slot] = state
+        self._event[envs, slot] = event
+        self._count += 1
+        states, labels = [], []
+        full = np.flatnonzero(~done & (self._count >= h))
+        if full.size:
+            oldest = self._count[full] % h  # the slot to be written next holds the oldest step
+            states.append(self._state[full, oldest])
+            labels.append(self._event[full].any(axis=1))
+        for env in np.flatnonzero(done):
+            length = int(min(self._count[env], h))
+            order = (self._count[env] - length + np.arange(length)) % h
+            events = self._event[env, order]
+            # Positive where an event lies at or after the state, within the window (the last step included).
+            later = np.logical_or.accumulate(events[::-1])[::-1]
+            states.append(self._state[env, order])
+            labels.append(later)
+            self._count[env] = 0
+        if not states:
+            return np.zeros((0, self.state_dim), np.float32), np.zeros(0, np.float32)
+        return np.concatenate(states), np.concatenate(labels).astype(np.float32)
 
 
 class NStepAccumulator:

@@ -31,7 +31,7 @@ from .decision_config import DecisionConfigError, load_shield_parameters
 from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, EnvContractError, StepResult, VecEnv
 from .escape import one_action_masks
 from .export import WeightFileError
-from .replay import DemoBuffer, NStepAccumulator, PrioritizedReplay
+from .replay import DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator, PrioritizedReplay
 
 TRAIN_LOG = "train_log.csv"
 EVAL_LOG = "eval_log.csv"
@@ -203,6 +203,37 @@ class TeacherConfig:
 
 
 @dataclass
+class AuxiliaryConfig:
+    """An auxiliary head (docs/training.md, "An auxiliary head"): a linear layer on the network's last hidden layer
+    predicts whether the robot will be boxed in (the shield's escape runs, or it collides) within the next
+    `horizon` decisions; its cross-entropy is added to the TD loss. It shapes the shared layers only: it is not
+    exported and never chooses an action."""
+
+    # Decisions ahead the label looks (0: no auxiliary head).
+    horizon: int = 0
+    # Weight of its cross-entropy beside the TD loss.
+    loss_weight: float = 0.5
+    # Labelled states kept, labelled states per learning step, and labels needed before the loss starts.
+    buffer_capacity: int = 50000
+    batch_size: int = 64
+    min_labels: int = 1000
+
+    def validate(self) -> str:
+        if self.horizon < 0:
+            return f"auxiliary.horizon must be >= 0 (0: off), got {self.horizon}"
+        if not (math.isfinite(self.loss_weight) and self.loss_weight >= 0):
+            return f"auxiliary.loss_weight must be >= 0, got {self.loss_weight}"
+        for name in ("buffer_capacity", "batch_size", "min_labels"):
+            if getattr(self, name) < 1:
+                return f"auxiliary.{name} must be >= 1, got {getattr(self, name)}"
+        return ""
+
+    @property
+    def enabled(self) -> bool:
+        return self.horizon > 0
+
+
+@dataclass
 class TrainConfig:
     """Everything a training run depends on (config/curriculum.yaml, docs/training.md)."""
 
@@ -229,6 +260,7 @@ class TrainConfig:
     checkpoint: CheckpointConfig = field(default_factory=CheckpointConfig)
     log: LogConfig = field(default_factory=LogConfig)
     teacher: TeacherConfig = field(default_factory=TeacherConfig)
+    auxiliary: AuxiliaryConfig = field(default_factory=AuxiliaryConfig)
     # The raw `curriculum` section (parsed by Curriculum.from_dict); kept raw so that it
     # can be written back verbatim into the run directory.
     curriculum: dict = field(default_factory=dict)
@@ -242,7 +274,8 @@ class TrainConfig:
             return f"gamma must be in (0, 1], got {self.gamma}"
         if self.n_step < 1:
             return f"n_step must be >= 1, got {self.n_step}"
-        for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log, self.teacher):
+        for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log, self.teacher,
+                     self.auxiliary):
             error = part.validate()
             if error:
                 return error
@@ -263,7 +296,8 @@ class TrainConfig:
         if not isinstance(raw, dict):
             raise ConfigError("configuration: expected a mapping at the top level")
         sections = {"agent": AgentConfig, "replay": ReplayConfig, "evaluation": EvalConfig,
-                    "checkpoint": CheckpointConfig, "log": LogConfig, "teacher": TeacherConfig}
+                    "checkpoint": CheckpointConfig, "log": LogConfig, "teacher": TeacherConfig,
+                    "auxiliary": AuxiliaryConfig}
         known = {f.name for f in fields(TrainConfig)}
         unknown = set(raw) - known
         if unknown:
@@ -332,6 +366,14 @@ def load_config(path: str) -> TrainConfig:
 
 
 # ---- helpers -------------------------------------------------------------------------------
+
+
+def boxed_in_events(out: StepResult) -> np.ndarray:
+    """Per environment, whether its step boxed the robot in: the shield's escape ran, or the step collided."""
+    event = (np.asarray(out.terminated, bool) & (np.asarray(out.outcome) == OUTCOME_COLLISION))
+    if out.escaped is not None:
+        event |= np.asarray(out.escaped, bool)
+    return event
 
 
 def env_seed(seed: int, episodes_done: int) -> int:
@@ -497,7 +539,10 @@ class Trainer:
 
         self._seed_everything(config.seed)
         model = self._model_factory()
-        self.agent = DQNAgent(model, config.agent, device=self.device, seed=config.seed + 1)
+        ac = config.auxiliary
+        # The auxiliary head is made after the network, so a run without one draws the same initial weights.
+        aux_head = torch.nn.Linear(model.trunk_width, 1) if ac.enabled else None
+        self.agent = DQNAgent(model, config.agent, device=self.device, seed=config.seed + 1, aux_head=aux_head)
         rc = config.replay
         self.replay = PrioritizedReplay(rc.capacity, alpha=rc.alpha, priority_eps=rc.priority_eps,
                                         seed=config.seed + 2, compact_states=rc.compact_states)
@@ -513,6 +558,10 @@ class Trainer:
         self.teacher_counts = {"labels": 0, "agreed": 0, "executed": 0}
         self._demo_loss_sum = 0.0
         self._demo_loss_count = 0
+        self.aux_labels = LabelBuffer(ac.buffer_capacity, seed=config.seed + 5) if ac.enabled else None
+        self.labeller = HorizonLabeller(config.num_envs, ac.horizon) if ac.enabled else None
+        self._aux_loss_sum = 0.0
+        self._aux_loss_count = 0
 
         self.episodes_done = 0
         self.env_steps = 0
@@ -560,6 +609,8 @@ class Trainer:
         env.set_stage(self.curriculum.settings_at(self.episodes_done))
         state, mask = env.reset()
         self.nstep.reset()
+        if self.labeller is not None:
+            self.labeller.reset()
         ep_return = np.zeros(e, np.float64)
         ep_stage = np.full(e, self.curriculum.locate(self.episodes_done)[0])  # stage each running episode began in
         # Stages count episodes in the order they start. With one episode running per
@@ -591,6 +642,8 @@ class Trainer:
                 acted, acted_mask = self._executed(mask, actions, out)
                 self.replay.add(self.nstep.push(state, acted_mask, acted, out.reward, out.next_state, out.next_mask,
                                                 out.terminated, out.truncated))
+                if self.labeller is not None:
+                    self.aux_labels.add(*self.labeller.push(state, boxed_in_events(out), out.terminated | out.truncated))
                 t3 = perf()
                 self._timing["act_s"] += t1 - t0
                 self._timing["env_s"] += t2 - t1
@@ -645,6 +698,8 @@ class Trainer:
             **{f"time_{k}": v for k, v in t.items()},
             "final_eval": final, "best_eval_success_rate": self.best_eval, "model": model_path,
         }
+        if self.aux_labels is not None:
+            summary["auxiliary"] = self.auxiliary_summary()
         if self.demos is not None:
             c = self.teacher_counts
             summary["teacher"] = {
@@ -654,6 +709,25 @@ class Trainer:
         with open(os.path.join(self.out_dir, SUMMARY), "w") as f:
             json.dump(summary, f, indent=2)
         return summary
+
+    def auxiliary_summary(self, recent: int = 4096) -> dict:
+        """Labels made and their positive share; the head's mean cross-entropy over the run, and at the end on the
+        `recent` newest labelled states next to that of always answering their base rate (what a head that
+        learned nothing would reach)."""
+        buffer = self.aux_labels
+        state, label = buffer.latest(recent)
+        rate = float(label.mean()) if label.size else 0.0
+        base = -(rate * math.log(rate) + (1 - rate) * math.log(1 - rate)) if 0 < rate < 1 else 0.0
+        final = float("nan")
+        if label.size:
+            with torch.inference_mode():
+                logits = self.agent.aux_head(self.agent.online.embed(self.agent._tensor(state))).squeeze(1)
+                final = float(torch.nn.functional.binary_cross_entropy_with_logits(
+                    logits, self.agent._tensor(label)).item())
+        return {"horizon": self.config.auxiliary.horizon, "labels": buffer.added,
+                "positive_share": buffer.positives / max(buffer.added, 1),
+                "mean_loss": self._aux_loss_sum / max(self._aux_loss_count, 1),
+                "recent_states": int(label.size), "recent_loss": final, "recent_base_rate_loss": base}
 
     def teacher_behaviour(self) -> float:
         t = self.config.teacher
@@ -717,10 +791,17 @@ class Trainer:
             tc = self.config.teacher
             demo = (self.demos.sample(tc.batch_size)
                     if self.demos is not None and len(self.demos) >= tc.min_labels else None)
-            result = self.agent.learn(batch, demo=demo, demo_weight=tc.loss_weight, margin=tc.margin)
+            ac = self.config.auxiliary
+            aux = (self.aux_labels.sample(ac.batch_size)
+                   if self.aux_labels is not None and len(self.aux_labels) >= ac.min_labels else None)
+            result = self.agent.learn(batch, demo=demo, demo_weight=tc.loss_weight, margin=tc.margin,
+                                      aux=aux, aux_weight=ac.loss_weight)
             if demo is not None:
                 self._demo_loss_sum += result.demo_loss
                 self._demo_loss_count += 1
+            if aux is not None:
+                self._aux_loss_sum += result.aux_loss
+                self._aux_loss_count += 1
             self.replay.update_priorities(batch.indices, result.td_errors)
             self._loss_sum += result.loss
             self._q_sum += result.mean_q
@@ -828,7 +909,8 @@ class Trainer:
         replay_saved = False
         if self.config.checkpoint.save_replay:
             _atomic_torch_save({"episodes_done": self.episodes_done, "replay": self.replay.state_dict(),
-                                "demos": self.demos.state_dict() if self.demos is not None else None},
+                                "demos": self.demos.state_dict() if self.demos is not None else None,
+                                "aux_labels": self.aux_labels.state_dict() if self.aux_labels is not None else None},
                                os.path.join(self.out_dir, REPLAY_FILE))
             replay_saved = True
         state = {
@@ -847,6 +929,7 @@ class Trainer:
             "replay_saved": replay_saved,
             "teacher": {"counts": dict(self.teacher_counts), "rng": self._teacher_rng.bit_generator.state,
                         "loss_sum": self._demo_loss_sum, "loss_count": self._demo_loss_count},
+            "auxiliary": {"loss_sum": self._aux_loss_sum, "loss_count": self._aux_loss_count},
             "normalization": self._normalization,
             "rng": {"python": random.getstate(), "numpy": _numpy_global_state(), "torch": torch.get_rng_state(),
                     "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else None},
@@ -857,9 +940,9 @@ class Trainer:
         state = torch.load(path, map_location=self.device, weights_only=True)
         saved = state["config"]
         mine = self.config.to_dict()
-        for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay", "teacher"):
-            if key == "teacher" and key not in saved and not self.config.teacher.enabled:
-                continue  # a run from before teachers existed, resumed without one
+        for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay", "teacher", "auxiliary"):
+            if key in ("teacher", "auxiliary") and key not in saved and not getattr(self.config, key).enabled:
+                continue  # a run from before teachers / auxiliary heads existed, resumed without one
             if saved.get(key) != mine.get(key):
                 raise ConfigError(f"--resume: {key} differs from the one the run in {self.out_dir} was started with "
                                   f"({saved.get(key)!r} != {mine.get(key)!r}); resume with the run's own "
@@ -882,11 +965,16 @@ class Trainer:
             self.replay.load_state_dict(saved_replay["replay"])
             if self.demos is not None and saved_replay.get("demos") is not None:
                 self.demos.load_state_dict(saved_replay["demos"])
+            if self.aux_labels is not None and saved_replay.get("aux_labels") is not None:
+                self.aux_labels.load_state_dict(saved_replay["aux_labels"])
         if "teacher" in state:
             self.teacher_counts.update(state["teacher"]["counts"])
             self._teacher_rng.bit_generator.state = state["teacher"]["rng"]
             self._demo_loss_sum = float(state["teacher"]["loss_sum"])
             self._demo_loss_count = int(state["teacher"]["loss_count"])
+        if "auxiliary" in state:
+            self._aux_loss_sum = float(state["auxiliary"]["loss_sum"])
+            self._aux_loss_count = int(state["auxiliary"]["loss_count"])
         rng = state["rng"]
         random.setstate(rng["python"])
         _set_numpy_global_state(rng["numpy"])
