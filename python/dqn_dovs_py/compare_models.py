@@ -8,7 +8,7 @@ of the suite (a world family, LIDAR profile, people model and count; POINTS), an
 default). The first network is the reference. Written into --out: one folder per point and network with
 dqn_dovs_eval's results.csv, and compare.md / compare.csv: success per point, pooled over the points, and each
 network's paired sign test (exact, two-sided, episodes matched by point, count and number) against the reference
-and against the baseline. Decisions are made on seeds kept for them, never on ../shared/scenarios.
+and against the baseline, and against any other network named with --pair. Decisions are made on seeds kept for them, never on ../shared/scenarios.
 """
 
 from __future__ import annotations
@@ -131,8 +131,44 @@ def _paired_text(records: Records, method: str, rival: str, points: list[str]) -
     return f"+{w} / -{lo}, p = {p:.2g}" if e else "-"
 
 
+def parse_pairs(specs: list[str], names: list[str]) -> list[tuple[str, str]]:
+    """--pair A=B specs as (A, B); both must name compared networks (or the baseline)."""
+    pairs = []
+    for spec in specs:
+        a, sep, b = spec.partition("=")
+        if not sep or not a or not b or a == b:
+            raise CompareError(f"--pair {spec!r}: expected NAME=OTHER, two different networks")
+        unknown = [n for n in (a, b) if n not in names]
+        if unknown:
+            raise CompareError(f"--pair {spec!r}: {', '.join(unknown)} is not compared (known: {', '.join(names)})")
+        pairs.append((a, b))
+    return pairs
+
+
+def render_pairs(records: Records, pairs: list[tuple[str, str]], points: list[str]) -> list[str]:
+    """A table of each pair's paired sign test per point and pooled, and, with several pairs, every pair's episodes
+    pooled (the same episodes once per pair: e.g. three training seeds each against its twin)."""
+    if not pairs:
+        return []
+    labels = [f"{a} vs {b}" for a, b in pairs]
+    lines = ["", "## Pairs (wins / losses of the first, exact sign test)", "",
+             "| point | " + " | ".join(labels) + (" | all pairs |" if len(pairs) > 1 else " |"),
+             "|---|" + "---|" * (len(pairs) + (len(pairs) > 1))]
+    for p in points + [None]:
+        at = points if p is None else [p]
+        cells = [_paired_text(records, a, b, at) for a, b in pairs]
+        if len(pairs) > 1:
+            wins = losses = 0
+            for a, b in pairs:
+                _, w, lo, _ = pooled(records, a, b, at)
+                wins, losses = wins + w, losses + lo
+            cells.append(f"+{wins} / -{losses}, p = {sign_test_p(wins, losses):.2g}")
+        lines.append(f"| {p or '**pooled**'} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def render(records: Records, methods: list[str], reference: str, baseline: str, points: list[str],
-           header: str) -> tuple[str, list[dict]]:
+           header: str, pairs: list[tuple[str, str]] | None = None) -> tuple[str, list[dict]]:
     rows: list[dict] = []
     lines = [header, "", "## Success per point", "",
              "| point | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
@@ -156,6 +192,7 @@ def render(records: Records, methods: list[str], reference: str, baseline: str, 
             at = points if p is None else [p]
             lines.append(f"| {p or '**pooled**'} | " + " | ".join(_paired_text(records, m, rival, at) for m in others)
                          + " |")
+    lines += render_pairs(records, pairs or [], points)
     return "\n".join(lines) + "\n", rows
 
 
@@ -169,6 +206,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--episodes", type=int, default=40, help="episodes per count (the room: half per count)")
     ap.add_argument("--points", default=",".join(p.name for p in POINTS),
                     help="comma-separated points of the suite (default: all)")
+    ap.add_argument("--pair", action="append", default=[], metavar="NAME=OTHER",
+                    help="also test NAME against OTHER, paired (repeat; e.g. each seed against its twin)")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--eval", default=None, help="dqn_dovs_eval executable (default: the installed one)")
     ap.add_argument("--out", required=True)
@@ -182,6 +221,7 @@ def main(argv: list[str] | None = None) -> int:
         bad = [s for s in wanted if s not in known]
         if bad or not wanted:
             raise CompareError(f"--points: unknown {bad} (known: {', '.join(known)})")
+        pairs = parse_pairs(args.pair, [n for n, _ in models] + [args.baseline])
         exe = find_eval(args.eval)
         records: Records = {}
         runs = [(name, "dqn_dovs", path) for name, path in models] + [(args.baseline, args.baseline, None)]
@@ -201,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
               f"(the room: {max(1, round(args.episodes * 0.5))} per count 3-15); the tracker in the loop. Networks: "
               + ", ".join(f"`{n}` = `{p}`" for n, p in models) + f"; baseline `{args.baseline}`.\n\n"
               f"Command: `python -m dqn_dovs_py.compare_models {' '.join(argv if argv is not None else sys.argv[1:])}`")
-    text, rows = render(records, names, models[0][0], args.baseline, wanted, header)
+    text, rows = render(records, names, models[0][0], args.baseline, wanted, header, pairs)
     with open(os.path.join(args.out, "compare.md"), "w") as f:
         f.write(text)
     with open(os.path.join(args.out, "compare.csv"), "w", newline="") as f:

@@ -21,6 +21,7 @@ def test_two_networks_and_the_baseline_are_compared_episode_by_episode(tmp_path)
     rc = compare_models.main(["--model", f"shipped={ROOT / 'models' / 'dqn_dovs.dqnw'}",
                               "--model", f"curriculum={ROOT / 'models' / 'curriculum.dqnw'}",
                               "--seed", "14901", "--episodes", "6", "--points", "room,crowd_urg_n10",
+                              "--pair", "curriculum=s_dovs", "--pair", "shipped=s_dovs",
                               "--threads", "2", "--eval", str(exe), "--out", str(out)])
     assert rc == 0
     outcome = {}
@@ -43,6 +44,17 @@ def test_two_networks_and_the_baseline_are_compared_episode_by_episode(tmp_path)
     text = (out / "compare.md").read_text()
     assert "## Paired against shipped" in text and "## Paired against s_dovs" in text
     assert "--seed 14901" in text
+    # The pairs' table: each pair recounted, and both pairs' episodes pooled.
+    counts = {}
+    for name in ("curriculum", "shipped"):
+        counts[name] = (
+            sum(v and not outcome[(k[0], "s_dovs", k[2], k[3])] for k, v in outcome.items() if k[1] == name),
+            sum(outcome[(k[0], "s_dovs", k[2], k[3])] and not v for k, v in outcome.items() if k[1] == name))
+    pooled_line = next(line for line in text.split("## Pairs")[1].splitlines() if line.startswith("| **pooled**"))
+    (cw, cl), (sw, sl) = counts["curriculum"], counts["shipped"]
+    assert pooled_line == (f"| **pooled** | +{cw} / -{cl}, p = {sign_test_p(cw, cl):.2g} | +{sw} / -{sl}, "
+                           f"p = {sign_test_p(sw, sl):.2g} | +{cw + sw} / -{cl + sl}, "
+                           f"p = {sign_test_p(cw + sw, cl + sl):.2g} |")
 
 
 @pytest.mark.parametrize("args, message", [
@@ -51,6 +63,8 @@ def test_two_networks_and_the_baseline_are_compared_episode_by_episode(tmp_path)
     (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}"],
      "given twice"),
     (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--points", "moon"], "unknown \\['moon'\\]"),
+    (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--pair", "a=b"], "--pair 'a=b': b is not compared"),
+    (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--pair", "a=a"], "two different networks"),
 ])
 def test_bad_arguments_are_named(tmp_path, capsys, args, message):
     assert compare_models.main([*args, "--seed", "1", "--out", str(tmp_path)]) == 2
