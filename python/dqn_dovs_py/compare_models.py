@@ -8,13 +8,16 @@ of the suite (a world family, LIDAR profile, people model and count; POINTS), an
 default). The first network is the reference. Written into --out: one folder per point and network with
 dqn_dovs_eval's results.csv, and compare.md / compare.csv: success per point, pooled over the points, and each
 network's paired sign test (exact, two-sided, episodes matched by point, count and number) against the reference
-and against the baseline, and against any other network named with --pair. Decisions are made on seeds kept for them, never on ../shared/scenarios.
+and against the baseline, and against any other network named with --pair. With --reuse, a run whose results are
+already in --out from the same command, evaluation tool and network bytes is read instead of run again (networks
+can then be added to a comparison later). Decisions are made on seeds kept for them, never on ../shared/scenarios.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
 import os
 import subprocess
 import sys
@@ -77,6 +80,14 @@ def parse_models(specs: list[str]) -> list[tuple[str, str]]:
     return out
 
 
+def file_sha256(path: str) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
 def find_eval(explicit: str | None) -> str:
     """--eval when given, else the sweep's search ($DQN_DOVS_BIN_DIR, then the repository's install tree)."""
     if not explicit:
@@ -95,14 +106,28 @@ def run_point(exe: str, point: Point, method: str, model: str | None, args, fold
     if model:
         cmd += ["--model", model]
     os.makedirs(folder, exist_ok=True)
-    with open(os.path.join(folder, "command.txt"), "w") as f:
-        f.write(" ".join(cmd) + "\n")
-    with open(os.path.join(folder, "eval.log"), "w") as log:
-        rc = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
-    if rc != 0:
-        with open(os.path.join(folder, "eval.log")) as f:
-            last = (f.read().strip().splitlines() or ["(no output)"])[-1]
-        raise CompareError(f"{point.name}, {os.path.basename(folder)}: dqn_dovs_eval exited with {rc}: {last}")
+    # What the results depend on: the command, and the bytes of the evaluation tool and of the network.
+    inputs = [exe] + ([model] if model else [])
+    key = " ".join(cmd) + "\n" + "".join(f"{path} sha256 {file_sha256(path)}\n" for path in inputs)
+    key_path, results_path = os.path.join(folder, "inputs.txt"), os.path.join(folder, "results.csv")
+    reused = False
+    if getattr(args, "reuse", False) and os.path.isfile(results_path) and os.path.isfile(key_path):
+        with open(key_path) as f:
+            reused = f.read() == key
+    if not reused:
+        for stale in (key_path, results_path):
+            if os.path.exists(stale):
+                os.remove(stale)
+        with open(os.path.join(folder, "command.txt"), "w") as f:
+            f.write(" ".join(cmd) + "\n")
+        with open(os.path.join(folder, "eval.log"), "w") as log:
+            rc = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+        if rc != 0:
+            with open(os.path.join(folder, "eval.log")) as f:
+                last = (f.read().strip().splitlines() or ["(no output)"])[-1]
+            raise CompareError(f"{point.name}, {os.path.basename(folder)}: dqn_dovs_eval exited with {rc}: {last}")
+        with open(key_path, "w") as f:
+            f.write(key)
     name = os.path.basename(folder)
     return [Record(**{**r.__dict__, "method": name}) for r in read_results(os.path.join(folder, "results.csv"))]
 
@@ -208,6 +233,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="comma-separated points of the suite (default: all)")
     ap.add_argument("--pair", action="append", default=[], metavar="NAME=OTHER",
                     help="also test NAME against OTHER, paired (repeat; e.g. each seed against its twin)")
+    ap.add_argument("--reuse", action="store_true",
+                    help="keep a run's results already in --out when its command, evaluation tool and network file "
+                         "are the same (inputs.txt); otherwise it runs again")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--eval", default=None, help="dqn_dovs_eval executable (default: the installed one)")
     ap.add_argument("--out", required=True)

@@ -50,6 +50,19 @@ def test_two_networks_and_the_baseline_are_compared_episode_by_episode(tmp_path)
         counts[name] = (
             sum(v and not outcome[(k[0], "s_dovs", k[2], k[3])] for k, v in outcome.items() if k[1] == name),
             sum(outcome[(k[0], "s_dovs", k[2], k[3])] and not v for k, v in outcome.items() if k[1] == name))
+    # --reuse reads every run back instead of running it again, except one whose inputs changed.
+    results = {f: f.stat().st_mtime_ns for f in out.rglob("results.csv")}
+    assert len(results) == 6
+    (out / "room" / "shipped" / "inputs.txt").write_text("another network\n")
+    again = ["--model", f"shipped={ROOT / 'models' / 'dqn_dovs.dqnw'}",
+             "--model", f"curriculum={ROOT / 'models' / 'curriculum.dqnw'}",
+             "--seed", "14901", "--episodes", "6", "--points", "room,crowd_urg_n10",
+             "--pair", "curriculum=s_dovs", "--pair", "shipped=s_dovs",
+             "--threads", "2", "--eval", str(exe), "--out", str(out), "--reuse"]
+    assert compare_models.main(again) == 0
+    rerun = [f for f, t in results.items() if f.stat().st_mtime_ns != t]
+    assert rerun == [out / "room" / "shipped" / "results.csv"]
+    assert (out / "compare.md").read_text().split("## Success")[1] == text.split("## Success")[1]
     pooled_line = next(line for line in text.split("## Pairs")[1].splitlines() if line.startswith("| **pooled**"))
     (cw, cl), (sw, sl) = counts["curriculum"], counts["shipped"]
     assert pooled_line == (f"| **pooled** | +{cw} / -{cl}, p = {sign_test_p(cw, cl):.2g} | +{sw} / -{sl}, "
