@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import hashlib
 import os
 import subprocess
 import sys
@@ -26,6 +25,7 @@ from dataclasses import dataclass
 
 from .benchmark_report import paired_comparison, read_results, sign_test_p
 from .report import Record
+from .run_info import sha256_of
 from .sweep import find_eval_tool
 
 
@@ -80,14 +80,6 @@ def parse_models(specs: list[str]) -> list[tuple[str, str]]:
     return out
 
 
-def file_sha256(path: str) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def find_eval(explicit: str | None) -> str:
     """--eval when given, else the sweep's search ($DQN_DOVS_BIN_DIR, then the repository's install tree)."""
     if not explicit:
@@ -108,7 +100,7 @@ def run_point(exe: str, point: Point, method: str, model: str | None, args, fold
     os.makedirs(folder, exist_ok=True)
     # What the results depend on: the command, and the bytes of the evaluation tool and of the network.
     inputs = [exe] + ([model] if model else [])
-    key = " ".join(cmd) + "\n" + "".join(f"{path} sha256 {file_sha256(path)}\n" for path in inputs)
+    key = " ".join(cmd) + "\n" + "".join(f"{path} sha256 {sha256_of(path)}\n" for path in inputs)
     key_path, results_path = os.path.join(folder, "inputs.txt"), os.path.join(folder, "results.csv")
     reused = False
     if getattr(args, "reuse", False) and os.path.isfile(results_path) and os.path.isfile(key_path):

@@ -158,7 +158,23 @@ TEACHERS = ("none", "oracle", "s_dovs")
 
 
 @dataclass
-class TeacherConfig:
+class LabelBufferFields:
+    """The buffer of labelled states the teacher's and the auxiliary head's losses draw from."""
+
+    # Labelled states kept, labelled states per learning step, and labels needed before the loss starts.
+    buffer_capacity: int = 50000
+    batch_size: int = 64
+    min_labels: int = 1000
+
+    def buffer_problem(self, section: str) -> str:
+        for name in ("buffer_capacity", "batch_size", "min_labels"):
+            if getattr(self, name) < 1:
+                return f"{section}.{name} must be >= 1, got {getattr(self, name)}"
+        return ""
+
+
+@dataclass
+class TeacherConfig(LabelBufferFields):
     """Learning from a teacher (docs/training.md, "Learning from a teacher"): a share of the states the agent
     visits is labelled with the teacher's action (DAgger: the learner's own states), the labels train a
     large-margin loss beside the TD loss, and some labelled steps run the teacher's action instead of the agent's.
@@ -175,10 +191,6 @@ class TeacherConfig:
     # Weight of the large-margin loss beside the TD loss, and its margin.
     loss_weight: float = 1.0
     margin: float = 0.8
-    # Labelled states kept, labelled states per learning step, and labels needed before the loss starts.
-    buffer_capacity: int = 50000
-    batch_size: int = 64
-    min_labels: int = 1000
 
     def validate(self) -> str:
         if self.kind not in TEACHERS:
@@ -190,9 +202,9 @@ class TeacherConfig:
         for name in ("loss_weight", "margin"):
             if getattr(self, name) < 0:
                 return f"teacher.{name} must be >= 0, got {getattr(self, name)}"
-        for name in ("buffer_capacity", "batch_size", "min_labels"):
-            if getattr(self, name) < 1:
-                return f"teacher.{name} must be >= 1, got {getattr(self, name)}"
+        error = self.buffer_problem("teacher")
+        if error:
+            return error
         if self.kind != "none" and self.label_fraction == 0:
             return "teacher.label_fraction is 0, so the teacher is never asked; set teacher.kind: none"
         return ""
@@ -203,7 +215,7 @@ class TeacherConfig:
 
 
 @dataclass
-class AuxiliaryConfig:
+class AuxiliaryConfig(LabelBufferFields):
     """An auxiliary head (docs/training.md, "An auxiliary head"): a linear layer on the network's last hidden layer
     predicts whether the robot will be boxed in (the shield's escape runs, or it collides) within the next
     `horizon` decisions; its cross-entropy is added to the TD loss. It shapes the shared layers only: it is not
@@ -213,20 +225,13 @@ class AuxiliaryConfig:
     horizon: int = 0
     # Weight of its cross-entropy beside the TD loss.
     loss_weight: float = 0.5
-    # Labelled states kept, labelled states per learning step, and labels needed before the loss starts.
-    buffer_capacity: int = 50000
-    batch_size: int = 64
-    min_labels: int = 1000
 
     def validate(self) -> str:
         if self.horizon < 0:
             return f"auxiliary.horizon must be >= 0 (0: off), got {self.horizon}"
         if not (math.isfinite(self.loss_weight) and self.loss_weight >= 0):
             return f"auxiliary.loss_weight must be >= 0, got {self.loss_weight}"
-        for name in ("buffer_capacity", "batch_size", "min_labels"):
-            if getattr(self, name) < 1:
-                return f"auxiliary.{name} must be >= 1, got {getattr(self, name)}"
-        return ""
+        return self.buffer_problem("auxiliary")
 
     @property
     def enabled(self) -> bool:
