@@ -221,7 +221,9 @@ TEST_F(Navigation, MapGoalIsReachedInPositionAndHeadingAndFollowsALocalisationJu
   EXPECT_LT(std::hypot(p.x - gx, p.y - gy), 0.2)
       << "robot at (" << p.x << ", " << p.y << ") in odom, goal at (" << gx << ", " << gy << ") after the correction";
   EXPECT_LT(std::abs(dqn_dovs::normalizeAngle(p.theta - 1.2)), 0.2) << "heading " << p.theta << ", goal 1.2";
-  EXPECT_EQ(h_->lastStatus().state, PlannerStatus::REACHED);
+  // The status topic may trail the action's result by a message: wait for it rather than read the last one at once.
+  EXPECT_TRUE(waitFor([] { return h_->lastStatus().state == PlannerStatus::REACHED; }, 2.0))
+      << "planner status " << static_cast<int>(h_->lastStatus().state) << ", expected REACHED";
   EXPECT_EQ(h_->lastStatus().goal_frame, "map");
   localisation_->set(1.0, -0.5);
 }
