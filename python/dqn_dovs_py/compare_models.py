@@ -24,6 +24,7 @@ import time
 from dataclasses import dataclass
 
 from .benchmark_report import paired_comparison, read_results, sign_test_p
+from .export import load_weights
 from .report import Record
 from .run_info import sha256_of
 from .sweep import find_eval_tool
@@ -89,6 +90,13 @@ def find_eval(explicit: str | None) -> str:
     return explicit
 
 
+def state_flags(model: str) -> list[str]:
+    """dqn_dovs_eval flags that build the state the network in `model` was trained on: its graded grid's
+    horizon (normalisation entry grid_contact_horizon_s, docs/dovs.md "The graded grid"), none for a +1 / -1 grid."""
+    horizon = load_weights(model).normalization.get("grid_contact_horizon_s", 0.0)
+    return ["--dovs", f"grid_contact_horizon={horizon:.9g}"] if horizon else []
+
+
 def run_point(exe: str, point: Point, method: str, model: str | None, args, folder: str) -> list[Record]:
     """One dqn_dovs_eval run of `method` at `point` into `folder`; its records with the method renamed to the
     folder's last part (the network's name)."""
@@ -96,7 +104,7 @@ def run_point(exe: str, point: Point, method: str, model: str | None, args, fold
     cmd = [exe, "--methods", method, "--generate", str(args.seed), "--obstacles", point.obstacles,
            "--episodes", str(episodes), "--threads", str(args.threads), "--out", folder, *point.flags]
     if model:
-        cmd += ["--model", model]
+        cmd += ["--model", model, *state_flags(model)]
     os.makedirs(folder, exist_ok=True)
     # What the results depend on: the command, and the bytes of the evaluation tool and of the network.
     inputs = [exe] + ([model] if model else [])

@@ -135,7 +135,8 @@ class VecEnv:
     """
 
     def __init__(self, num_envs: int, seed: int, perfect_info: bool = False, core: Any = None,
-                 action_shield: bool = False, shield_parameters: dict[str, str] | None = None):
+                 action_shield: bool = False, shield_parameters: dict[str, str] | None = None,
+                 dovs_parameters: dict[str, str] | None = None):
         if num_envs < 1:
             raise ValueError(f"VecEnv: num_envs must be >= 1, got {num_envs}")
         self.num_envs = int(num_envs)
@@ -143,7 +144,8 @@ class VecEnv:
         if core is None:
             core = import_core().VecEnv(self.num_envs, self.seed, bool(perfect_info),
                                         action_shield=bool(action_shield),
-                                        shield_parameters=dict(shield_parameters or {}))
+                                        shield_parameters=dict(shield_parameters or {}),
+                                        dovs_parameters=dict(dovs_parameters or {}))
         self._core = core
         self._worlds = ROOM_ONLY
 

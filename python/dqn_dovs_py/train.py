@@ -255,6 +255,10 @@ class TrainConfig:
     # Folder of the dovs.yaml and static_safety.yaml whose action shield the environments run ("": the
     # repository's config/, what the robot's launch files load; python/dqn_dovs_py/decision_config.py).
     decision_config: str = ""
+    # The DOVS model's parameters by name (config/dovs.yaml's dovs/* names, docs/dovs.md) on top of its defaults,
+    # in every world: e.g. {grid_contact_horizon: 5.0} for the graded grid. The exported weight file records
+    # the state encoding they give (its normalisation), and the robot's dovs.yaml must then say the same.
+    dovs: dict = field(default_factory=dict)
     # Discount per control period.
     gamma: float = 0.97
     # Rewards summed before bootstrapping.
@@ -279,6 +283,13 @@ class TrainConfig:
             return f"gamma must be in (0, 1], got {self.gamma}"
         if self.n_step < 1:
             return f"n_step must be >= 1, got {self.n_step}"
+        for name, value in self.dovs.items():
+            if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                return f"dovs: {name!r} must map to a finite number, got {value!r}"
+        if self.dovs.get("grid_contact_horizon", 0) and self.replay.compact_states:
+            return ("dovs.grid_contact_horizon grades the grid, which compact storage (+1 / -1 cells as int8) cannot "
+                    "hold: set replay.compact_states: false")
         for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log, self.teacher,
                      self.auxiliary):
             error = part.validate()
@@ -313,6 +324,10 @@ class TrainConfig:
                 kwargs[name] = _build_section(name, sections[name], value or {})
             elif name == "curriculum":
                 kwargs[name] = copy.deepcopy(value)
+            elif name == "dovs":
+                if not isinstance(value or {}, dict):
+                    raise ConfigError("dovs: expected a mapping of DOVS parameter names to numbers")
+                kwargs[name] = dict(value or {})
             else:
                 kwargs[name] = _coerce(name, TrainConfig.__dataclass_fields__[name].default, value)
         return TrainConfig(**kwargs)
@@ -529,9 +544,11 @@ class Trainer:
         # The shield the robot runs, read from the same YAML files as the nodes (never the C++ defaults).
         self.shield_parameters = load_shield_parameters(config.decision_config or None) if env_factory is None else {}
         shield_parameters = self.shield_parameters
+        dovs_parameters = {name: repr(float(value)) if isinstance(value, float) else str(value)
+                           for name, value in config.dovs.items()}
         self._env_factory = env_factory or (
             lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
-                                            shield_parameters=shield_parameters))
+                                            shield_parameters=shield_parameters, dovs_parameters=dovs_parameters))
         self._model_factory = model_factory or default_model_factory
 
         os.makedirs(out_dir, exist_ok=True)
@@ -945,9 +962,12 @@ class Trainer:
         state = torch.load(path, map_location=self.device, weights_only=True)
         saved = state["config"]
         mine = self.config.to_dict()
-        for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay", "teacher", "auxiliary"):
+        for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay", "teacher", "auxiliary",
+                    "dovs"):
             if key in ("teacher", "auxiliary") and key not in saved and not getattr(self.config, key).enabled:
                 continue  # a run from before teachers / auxiliary heads existed, resumed without one
+            if key == "dovs" and key not in saved and not self.config.dovs:
+                continue  # a run from before the dovs section, resumed without one
             if saved.get(key) != mine.get(key):
                 raise ConfigError(f"--resume: {key} differs from the one the run in {self.out_dir} was started with "
                                   f"({saved.get(key)!r} != {mine.get(key)!r}); resume with the run's own "

@@ -65,6 +65,10 @@ std::string DovsConfig::validate() const {
   if (grid_size < 2 || grid_size > 256) return fieldError("grid_size", grid_size, "must be in [2, 256] cells");
   if (!(std::isfinite(prediction_growth_mps) && prediction_growth_mps >= 0.0 && prediction_growth_mps <= 2.0))
     return fieldError("prediction_growth_mps", prediction_growth_mps, "must be in [0, 2] m/s");
+  if (!(std::isfinite(grid_contact_horizon_s) &&
+        (grid_contact_horizon_s == 0.0 || (grid_contact_horizon_s >= 0.5 && grid_contact_horizon_s <= 30.0))))
+    return fieldError("grid_contact_horizon_s", grid_contact_horizon_s,
+                      "must be 0 (the +1 / -1 grid) or in [0.5, 30] s (the graded grid)");
   return {};
 }
 
@@ -81,6 +85,7 @@ const std::vector<DovsField>& dovsFields() {
       {"static_reaction_time", &DovsConfig::static_reaction_time_s},
       {"static_margin", &DovsConfig::static_margin_m},
       {"prediction_growth", &DovsConfig::prediction_growth_mps},
+      {"grid_contact_horizon", &DovsConfig::grid_contact_horizon_s},
   };
   return fields;
 }

@@ -45,13 +45,15 @@ std::vector<std::pair<std::string, float>> StateNormalization::fields() const {
   std::vector<std::pair<std::string, float>> out;
   const auto ptrs = fieldPointers();
   for (int i = 0; i < kNumFields; ++i) out.emplace_back(kFieldNames[i], this->*ptrs[static_cast<size_t>(i)]);
+  if (grid_contact_horizon_s != 0.0f) out.emplace_back(kGridContactHorizonField, grid_contact_horizon_s);
   return out;
 }
 
 StateNormalization StateNormalization::fromFields(const std::vector<std::pair<std::string, float>>& fields) {
-  if (fields.size() != static_cast<size_t>(kNumFields)) {
+  if (fields.size() != static_cast<size_t>(kNumFields) && fields.size() != static_cast<size_t>(kNumFields) + 1) {
     std::ostringstream os;
-    os << "state normalisation: expected " << kNumFields << " fields, got " << fields.size();
+    os << "state normalisation: expected " << kNumFields << " fields (" << kNumFields + 1
+       << " with a graded grid), got " << fields.size();
     throw StateError(os.str());
   }
   StateNormalization n;
@@ -65,7 +67,29 @@ StateNormalization StateNormalization::fromFields(const std::vector<std::pair<st
     }
     n.*ptrs[static_cast<size_t>(i)] = fields[static_cast<size_t>(i)].second;
   }
+  if (fields.size() > static_cast<size_t>(kNumFields)) {
+    const auto& [name, value] = fields.back();
+    if (name != kGridContactHorizonField) {
+      throw StateError("state normalisation: field " + std::to_string(kNumFields) + " is '" + name + "', expected '" +
+                       kGridContactHorizonField + "'");
+    }
+    n.grid_contact_horizon_s = value;
+  }
   return n;
+}
+
+bool StateNormalization::fromValues(const std::vector<float>& values, StateNormalization& out, std::string& why) {
+  if (values.size() != static_cast<size_t>(kNumFields) && values.size() != static_cast<size_t>(kNumFields) + 1) {
+    why = "state_normalization has " + std::to_string(values.size()) + " values, expected " +
+          std::to_string(kNumFields) + " (or " + std::to_string(kNumFields + 1) + " with a graded grid)";
+    return false;
+  }
+  std::vector<std::pair<std::string, float>> named;
+  for (size_t i = 0; i < values.size(); ++i)
+    named.emplace_back(i < static_cast<size_t>(kNumFields) ? kFieldNames[i] : kGridContactHorizonField, values[i]);
+  out = fromFields(named);
+  why.clear();
+  return true;
 }
 
 std::string StateNormalization::validate() const {
@@ -84,7 +108,110 @@ std::string StateNormalization::validate() const {
     const float v = this->*ptrs[static_cast<size_t>(i)];
     if (!(std::isfinite(v) && std::abs(v) <= clip)) return bad(i, v, "far-away value must be finite and within clip");
   }
+  const float t = grid_contact_horizon_s;
+  if (!(std::isfinite(t) && (t == 0.0f || (t >= 0.5f && t <= 30.0f)))) {
+    std::ostringstream os;
+    os << "state normalisation field '" << kGridContactHorizonField << "' = " << t
+       << ": must be 0 (the +1 / -1 grid) or in [0.5, 30] s";
+    return os.str();
+  }
   return {};
+}
+
+std::vector<float> gradedGrid(const VelocitySpace& dovs, const Observation& obs, double horizon_s) {
+  if (!(std::isfinite(horizon_s) && horizon_s >= 0.5 && horizon_s <= 30.0))
+    throw StateError("state: the graded grid's horizon must be in [0.5, 30] s, got " + std::to_string(horizon_s));
+  const RobotLimits& limits = dovs.limits();
+  const DovsConfig& config = dovs.config();
+  const Pose2& pose = obs.robot_pose;
+  constexpr double kStep = 0.1;  // s
+  const int steps = static_cast<int>(std::ceil(horizon_s / kStep - 1e-9));
+  // Obstacles as the DOVS models them (docs/dovs.md): within range, enlarged, constant (v, w) unless static; their
+  // centres at every step, in the robot frame. Contact inside a disc of squared radius r2.
+  struct Disc {
+    std::vector<Vec2> at;  // one entry when static
+    double r2;
+  };
+  std::vector<Disc> discs;
+  for (const MovingObstacle& o : obs.obstacles) {
+    const Vec2 p0 = pose.toLocal(o.center);
+    const double d0 = p0.norm();
+    if (!(d0 <= config.obstacle_range_m)) continue;
+    const double enlarged = (o.radius + limits.radius) * config.safety_factor;
+    const double touching = o.radius + limits.radius;
+    double r = enlarged;
+    if (d0 < enlarged && d0 > touching) r = std::max(touching, d0 - 0.01);  // the DOVS's in-contact rule
+    Disc disc{{}, r * r};
+    const bool is_static = o.is_static || std::abs(o.speed) <= std::max(config.static_speed_threshold_mps, 1e-6);
+    if (is_static) {
+      disc.at.push_back(p0);
+    } else {
+      const Pose2 start{o.center.x(), o.center.y(), o.heading};
+      for (int k = 1; k <= steps; ++k)
+        disc.at.push_back(pose.toLocal(integrateUnicycle(start, o.speed, o.turn_rate, k * kStep).position()));
+    }
+    discs.push_back(std::move(disc));
+  }
+  struct Wall {
+    Segment segment;
+    double half_width;
+  };
+  std::vector<Wall> walls;
+  for (const Segment& s_world : obs.segments) {
+    Wall wall{{pose.toLocal(s_world.a), pose.toLocal(s_world.b)}, limits.radius * config.safety_factor};
+    const double d0 = pointSegmentDistance(Vec2::Zero(), wall.segment);
+    if (!(d0 <= config.obstacle_range_m)) continue;
+    if (d0 < wall.half_width && d0 > limits.radius) wall.half_width = std::max(limits.radius, d0 - 0.01);
+    walls.push_back(wall);
+  }
+  const int n = dovs.gridSize();
+  // The robot's position at every step of every cell's velocity depends on the limits only: kept per thread.
+  struct RobotPaths {
+    int n = 0, steps = 0;
+    double v_max = 0.0, w_max = 0.0;
+    std::vector<Vec2> at;  // [cell][step - 1]
+  };
+  thread_local RobotPaths paths;
+  if (paths.n != n || paths.steps != steps || paths.v_max != limits.v_max || paths.w_max != limits.w_max) {
+    paths = RobotPaths{n, steps, limits.v_max, limits.w_max, {}};
+    paths.at.reserve(static_cast<size_t>(n * n * steps));
+    for (int cell = 0; cell < n * n; ++cell) {
+      const Twist2 t = dovs.gridCellVelocity(cell / n, cell % n);
+      for (int k = 1; k <= steps; ++k)
+        paths.at.push_back(integrateUnicycle(Pose2{0.0, 0.0, 0.0}, t.v, t.w, k * kStep).position());
+    }
+  }
+  std::vector<float> grid(static_cast<size_t>(n * n), -1.0f);
+  const double horizon = steps * kStep;
+  for (int row = 0; row < n; ++row) {
+    for (int col = 0; col < n; ++col) {
+      const Twist2 cell = dovs.gridCellVelocity(row, col);
+      if (!dovs.isFeasible(cell)) continue;  // -1
+      // Free cells too: a velocity heading for a wall is free while it can still brake.
+      const bool free = dovs.gridCell(row, col) > 0.0f;
+      double contact = horizon;
+      for (int k = 1; k <= steps && contact == horizon; ++k) {
+        const Vec2& p = paths.at[static_cast<size_t>((row * n + col) * steps + k - 1)];
+        for (const Disc& d : discs) {
+          const Vec2& c = d.at.size() == 1 ? d.at.front() : d.at[static_cast<size_t>(k - 1)];
+          if ((p - c).squaredNorm() < d.r2) {
+            contact = k * kStep;
+            break;
+          }
+        }
+        if (contact < horizon) break;
+        for (const Wall& w : walls) {
+          if (pointSegmentDistance(p, w.segment) < w.half_width) {
+            contact = k * kStep;
+            break;
+          }
+        }
+      }
+      const float t = static_cast<float>(contact / horizon);
+      grid[static_cast<size_t>(row * n + col)] = free ? t : t - 1.0f;
+    }
+  }
+  return grid;
 }
 
 FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm) {
@@ -125,9 +252,14 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
     throw StateError(os.str());
   }
   StateVector s;
-  const std::vector<float>& grid = dovs.grid();
-  for (int i = 0; i < kStateGridCells; ++i) s(i) = grid[static_cast<size_t>(i)];
-  const FeatureVector f = computeFeatures(dovs, obs, norm);
+  const FeatureVector f = computeFeatures(dovs, obs, norm);  // validates norm and the robot state first
+  if (norm.grid_contact_horizon_s > 0.0f) {
+    const std::vector<float> grid = gradedGrid(dovs, obs, norm.grid_contact_horizon_s);
+    for (int i = 0; i < kStateGridCells; ++i) s(i) = grid[static_cast<size_t>(i)];
+  } else {
+    const std::vector<float>& grid = dovs.grid();
+    for (int i = 0; i < kStateGridCells; ++i) s(i) = grid[static_cast<size_t>(i)];
+  }
   for (int i = 0; i < kNumFeatures; ++i) s(kStateGridCells + i) = f[static_cast<size_t>(i)];
   return s;
 }
@@ -137,6 +269,7 @@ StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfi
   n.v_scale_mps = static_cast<float>(limits.v_max);
   n.w_scale_rps = static_cast<float>(limits.w_max);
   n.obstacle_clearance_scale_m = static_cast<float>(dovs.obstacle_range_m);
+  n.grid_contact_horizon_s = static_cast<float>(dovs.grid_contact_horizon_s);
   return n;
 }
 

@@ -171,7 +171,9 @@ std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalCo
     oracle.scan_period_s = config.episode.scan_period_s;
     return std::make_unique<OraclePlanner>(oracle);
   }
-  return makePlanner(method, config.model_path, &config.shield);
+  // The network is checked against the states the episodes build (robot limits, DOVS range, grid encoding).
+  const StateNormalization normalization = stateNormalization(config.episode.world.robot, config.episode.dovs);
+  return makePlanner(method, config.model_path, &config.shield, &normalization);
 }
 
 EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& method, const EvalScenario& s,

@@ -58,10 +58,11 @@ const std::vector<std::pair<std::string, PlannerFactory>>& registry() {
 }  // namespace
 
 std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string& model_path,
-                                     const ActionShieldConfig* shield) {
+                                     const ActionShieldConfig* shield, const StateNormalization* normalization) {
   DqnDovsConfig config;
   if (!model_path.empty()) config.model_path = model_path;
   if (shield != nullptr) config.shield = *shield;
+  if (normalization != nullptr) config.normalization = *normalization;
   for (const auto& [known, factory] : registry()) {
     if (known == name) return factory(config);
   }

@@ -50,19 +50,18 @@ int chooseAction(const QNetwork& network, const DovsDecision& dovs, std::string&
     return -1;
   }
   // The state must be normalised the way the network was trained (dovs_node builds it from its own robot/* and
-  // dovs/* parameters, which may differ from the planner's).
-  const std::vector<std::pair<std::string, float>> expected = StateNormalization{}.fields();
-  if (dovs.state_normalization.size() != expected.size()) {
-    why = "dovs state_normalization has " + std::to_string(dovs.state_normalization.size()) + " values, expected " +
-          std::to_string(expected.size());
+  // dovs/* parameters, which may differ from the planner's), its grid encoded the same way.
+  StateNormalization built;
+  std::string count_problem;
+  if (!StateNormalization::fromValues(dovs.state_normalization, built, count_problem)) {
+    why = "dovs " + count_problem;
     return -1;
   }
-  std::vector<std::pair<std::string, float>> used = expected;
-  for (size_t i = 0; i < used.size(); ++i) used[i].second = dovs.state_normalization[i];
+  const std::vector<std::pair<std::string, float>> used = built.fields();
   if (const std::string mismatch = network.normalizationMismatch(used, 1e-4f); !mismatch.empty()) {
     why =
         "planner error: the dovs states are normalised differently from the model's training (check robot/* and "
-        "dovs/obstacle_range of dovs_node): " +
+        "dovs/obstacle_range and dovs/grid_contact_horizon of dovs_node): " +
         mismatch;
     return -1;
   }

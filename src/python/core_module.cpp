@@ -58,8 +58,9 @@ class VecEnv {
  public:
   VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads, bool action_shield,
          const std::map<std::string, std::string>& shield_parameters,
-         const std::map<std::string, std::string>& world_options)
-      : seed_(seed), perfect_info_(perfect_info) {
+         const std::map<std::string, std::string>& world_options,
+         const std::map<std::string, std::string>& dovs_parameters)
+      : seed_(seed), perfect_info_(perfect_info), dovs_parameters_(dovs_parameters) {
     // The shield as the robot runs it: the named parameters of config/dovs.yaml and config/static_safety.yaml
     // (python/dqn_dovs_py/decision_config.py reads them), then `action_shield` switches it on or off.
     for (const auto& [name, value] : shield_parameters) {
@@ -313,7 +314,7 @@ class VecEnv {
     EpisodeRecord r;
     {
       py::gil_scoped_release release;
-      std::unique_ptr<Planner> planner = makePlanner(method, model_path, &shield_);
+      std::unique_ptr<Planner> planner = makePlanner(method, model_path, &shield_, &env.ep().normalization());
       Episode episode(env.ep().config());
       r = runEpisode(*planner, episode, method, env.current);
     }
@@ -429,6 +430,13 @@ class VecEnv {
     }
     v.config = world.episode;
     v.config.perfect_info = perfect_info_;
+    // The DOVS as the robot's dovs.yaml would set it (names of setDovsParameter), in every world.
+    for (const auto& [name, value] : dovs_parameters_) {
+      if (const std::string e = setDovsParameter(v.config.dovs, name, value); !e.empty())
+        throw std::invalid_argument("dovs_parameters: " + e);
+    }
+    if (const std::string e = v.config.dovs.validate(); !e.empty())
+      throw std::invalid_argument("dovs_parameters: " + e);
     return v;
   }
 
@@ -517,6 +525,7 @@ class VecEnv {
   std::vector<WorldVariant> variants_;
   uint64_t seed_ = 0;
   bool perfect_info_ = false;
+  std::map<std::string, std::string> dovs_parameters_;  // applied to every world's DovsConfig
   int threads_ = 1;
 
  public:
@@ -537,13 +546,16 @@ PYBIND11_MODULE(_core, m) {
       "The C++ defaults of the shield's parameters (what dqn_dovs_eval runs without --shield).");
   py::class_<VecEnv>(m, "VecEnv")
       .def(py::init<int, uint64_t, bool, int, bool, const std::map<std::string, std::string>&,
-                    const std::map<std::string, std::string>&>(),
+                    const std::map<std::string, std::string>&, const std::map<std::string, std::string>&>(),
            py::arg("num_envs"), py::arg("seed"), py::arg("perfect_info") = false, py::arg("threads") = 0,
            py::arg("action_shield") = false, py::arg("shield_parameters") = std::map<std::string, std::string>{},
            py::arg("world_options") = std::map<std::string, std::string>{},
+           py::arg("dovs_parameters") = std::map<std::string, std::string>{},
            "world_options: the evaluation's world flags by name (world: room, crowd, corridor, doorway, clutter, "
            "junction, with the stage's obstacle counts as people; sensor; people_model; people_see_robot: true or "
-           "false; odom_noise; route: on (default: routes in worlds with walls, as the robot follows them) or off).")
+           "false; odom_noise; route: on (default: routes in worlds with walls, as the robot follows them) or off). "
+           "dovs_parameters: the DOVS model's parameters by name (config/dovs.yaml dovs/*, e.g. grid_contact_horizon), "
+           "applied in every world.")
       .def("shield_parameters", &VecEnv::shieldParameters,
            "The action shield's parameters as the environments run them (name -> value as text).")
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),

@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include "dqn_dovs/dovs/state.h"
 
@@ -135,6 +137,181 @@ TEST(StateNormalization, FieldsRoundTripInAStableOrder) {
   StateNormalization bad;
   bad.far_clearance = 2.0f;
   EXPECT_NE(bad.validate().find("far_clearance"), std::string::npos);
+}
+
+// The earliest time the constant velocity `cell` from the origin comes within `r` of `at(t)`, by 1 ms steps
+// (a finer, independent roll-out than gradedGrid's 0.1 s); `horizon` when it does not.
+template <class Where>
+double fineContact(const Twist2& cell, Where at, double r, double horizon) {
+  for (double t = 0.001; t <= horizon; t += 0.001) {
+    const Vec2 p = integrateUnicycle(Pose2{0.0, 0.0, 0.0}, cell.v, cell.w, t).position();
+    if ((p - at(t)).norm() < r) return t;
+  }
+  return horizon;
+}
+
+Observation emptyScene() {
+  Observation obs;
+  obs.robot_pose = {0.0, 0.0, 0.0};
+  obs.goal = {5.0, 0.0};
+  return obs;
+}
+
+TEST(GradedGrid, EmptySceneIsOneWhereFeasibleAndMinusOneElsewhere) {
+  const Observation obs = emptyScene();
+  const VelocitySpace d = buildDovs(obs, RobotLimits{}, DovsConfig{});
+  const std::vector<float> g = gradedGrid(d, obs, 5.0);
+  ASSERT_EQ(g.size(), d.grid().size());
+  int feasible = 0;
+  for (int r = 0; r < 20; ++r) {
+    for (int c = 0; c < 20; ++c) {
+      const bool ok = d.isFeasible(d.gridCellVelocity(r, c));
+      feasible += ok;
+      EXPECT_EQ(g[static_cast<size_t>(r * 20 + c)], ok ? 1.0f : -1.0f) << r << "," << c;
+    }
+  }
+  EXPECT_GT(feasible, 100);
+}
+
+TEST(GradedGrid, StaticDiscAheadGivesItsContactTimeWithTheDovsSign) {
+  Observation obs = emptyScene();
+  MovingObstacle o;
+  o.center = {1.6, 0.1};
+  o.radius = 0.25;
+  o.is_static = true;
+  obs.obstacles.push_back(o);
+  const RobotLimits limits;
+  const DovsConfig config;
+  const VelocitySpace d = buildDovs(obs, limits, config);
+  const double horizon = 5.0;
+  const std::vector<float> g = gradedGrid(d, obs, horizon);
+  const double r = (o.radius + limits.radius) * config.safety_factor;
+  int checked = 0, sooner_when_faster = 0;
+  for (int c = 0; c < 20; ++c) {
+    double previous = -1.0;  // contact time of the row below (slower), same column
+    for (int row = 19; row >= 0; --row) {
+      const Twist2 cell = d.gridCellVelocity(row, c);
+      const float value = g[static_cast<size_t>(row * 20 + c)];
+      if (!d.isFeasible(cell)) {
+        EXPECT_EQ(value, -1.0f);
+        continue;
+      }
+      const bool free = d.gridCell(row, c) > 0.0f;
+      EXPECT_EQ(value > 0.0f, free) << row << "," << c << " value " << value;
+      const double t = (free ? value : value + 1.0f) * horizon;
+      const double exact = fineContact(
+          cell, [&](double) { return o.center; }, r, horizon);
+      // The 0.1 s roll-out finds the first step at or after the true contact.
+      EXPECT_GE(t, exact - 1e-3) << row << "," << c;
+      EXPECT_LE(t, exact + 0.1 + 1e-3) << row << "," << c;
+      if (exact < horizon) {
+        ++checked;
+        if (previous >= 0.0 && t <= previous + 1e-6) ++sooner_when_faster;
+        previous = t;
+      }
+    }
+  }
+  EXPECT_GT(checked, 12);            // the disc is hit by many velocities, and
+  EXPECT_GT(sooner_when_faster, 6);  // the faster, the sooner
+}
+
+TEST(GradedGrid, MovingObstacleIsRolledForwardAndWallsCount) {
+  Observation obs = emptyScene();
+  MovingObstacle o;
+  o.center = {3.0, 0.0};
+  o.radius = 0.25;
+  o.heading = kPi;  // coming straight at the robot
+  o.speed = 0.8;
+  obs.obstacles.push_back(o);
+  const RobotLimits limits;
+  const DovsConfig config;
+  const VelocitySpace d = buildDovs(obs, limits, config);
+  const std::vector<float> g = gradedGrid(d, obs, 5.0);
+  const double r = (o.radius + limits.radius) * config.safety_factor;
+  const int row = 1, col = 10;  // fast, nearly straight
+  const Twist2 cell = d.gridCellVelocity(row, col);
+  ASSERT_TRUE(d.isFeasible(cell));
+  const double exact = fineContact(
+      cell, [&](double t) { return Vec2(o.center.x() - o.speed * t, o.center.y()); }, r, 5.0);
+  ASSERT_LT(exact, 2.5);  // closing at about 1.45 m/s from 2.5 m of clearance
+  const double t = (g[static_cast<size_t>(row * 20 + col)] + 1.0f) * 5.0;  // unsafe
+  EXPECT_GE(t, exact - 1e-3);
+  EXPECT_LE(t, exact + 0.1 + 1e-3);
+
+  // A wall 1.5 m ahead, across the robot's way.
+  Observation walled = emptyScene();
+  walled.segments.push_back(Segment{Vec2(1.5, -3.0), Vec2(1.5, 3.0)});
+  const VelocitySpace dw = buildDovs(walled, limits, config);
+  const std::vector<float> gw = gradedGrid(dw, walled, 5.0);
+  const float value = gw[static_cast<size_t>(row * 20 + col)];
+  EXPECT_EQ(value > 0.0f, dw.gridCell(row, col) > 0.0f);                          // free while it can still brake
+  const double expected = (1.5 - limits.radius * config.safety_factor) / cell.v;  // nearly straight
+  EXPECT_NEAR((value > 0.0f ? value : value + 1.0f) * 5.0, expected, 0.15);
+}
+
+TEST(GradedGrid, BuildStateUsesItWhenTheNormalisationAsks) {
+  Observation obs = knownScene();
+  MovingObstacle ahead;  // 1.5 m ahead of the robot, coming closer
+  ahead.center = {1.0, 2.5};
+  ahead.radius = 0.3;
+  ahead.heading = -kPi / 2;
+  ahead.speed = 0.5;
+  obs.obstacles.push_back(ahead);
+  DovsConfig config;
+  const VelocitySpace d = buildDovs(obs, RobotLimits{}, config);
+  const StateVector plain = buildState(d, obs, stateNormalization(RobotLimits{}, config));
+  for (int i = 0; i < kStateGridCells; ++i) EXPECT_EQ(plain(i), d.grid()[static_cast<size_t>(i)]);
+  config.grid_contact_horizon_s = 4.0;
+  const StateNormalization graded = stateNormalization(RobotLimits{}, config);
+  EXPECT_FLOAT_EQ(graded.grid_contact_horizon_s, 4.0f);
+  const StateVector s = buildState(d, obs, graded);
+  const std::vector<float> g = gradedGrid(d, obs, 4.0);
+  int differ = 0;
+  for (int i = 0; i < kStateGridCells; ++i) {
+    EXPECT_EQ(s(i), g[static_cast<size_t>(i)]);
+    differ += s(i) != plain(i);
+    EXPECT_EQ(s(i) > 0.0f, plain(i) > 0.0f) << i;  // same signs
+  }
+  EXPECT_GT(differ, 0);
+  for (int i = kStateGridCells; i < kStateSize; ++i) EXPECT_EQ(s(i), plain(i));  // same features
+  EXPECT_THROW(gradedGrid(d, obs, 0.2), StateError);
+}
+
+TEST(StateNormalization, GradedGridAddsANamedFourteenthField) {
+  StateNormalization n;
+  n.grid_contact_horizon_s = 5.0f;
+  const auto fields = n.fields();
+  ASSERT_EQ(fields.size(), static_cast<size_t>(StateNormalization::kNumFields) + 1);
+  EXPECT_EQ(fields.back().first, "grid_contact_horizon_s");
+  EXPECT_EQ(StateNormalization::fromFields(fields).grid_contact_horizon_s, 5.0f);
+  auto renamed = fields;
+  renamed.back().first = "grid_horizon";
+  try {
+    StateNormalization::fromFields(renamed);
+    FAIL();
+  } catch (const StateError& e) {
+    EXPECT_NE(std::string(e.what()).find("grid_horizon"), std::string::npos) << e.what();
+  }
+  std::vector<float> values;
+  for (const auto& f : fields) values.push_back(f.second);
+  StateNormalization back;
+  std::string why;
+  ASSERT_TRUE(StateNormalization::fromValues(values, back, why)) << why;
+  EXPECT_EQ(back.fields(), fields);
+  values.pop_back();
+  ASSERT_TRUE(StateNormalization::fromValues(values, back, why)) << why;
+  EXPECT_EQ(back.grid_contact_horizon_s, 0.0f);  // 13 values: the +1 / -1 grid
+  values.pop_back();
+  EXPECT_FALSE(StateNormalization::fromValues(values, back, why));
+  EXPECT_NE(why.find("12 values"), std::string::npos) << why;
+  n.grid_contact_horizon_s = 0.2f;
+  EXPECT_NE(n.validate().find("grid_contact_horizon_s"), std::string::npos);
+  DovsConfig c;
+  EXPECT_EQ(setDovsParameter(c, "grid_contact_horizon", "5"), "");
+  EXPECT_EQ(c.grid_contact_horizon_s, 5.0);
+  EXPECT_EQ(c.validate(), "");
+  c.grid_contact_horizon_s = 40.0;
+  EXPECT_NE(c.validate().find("grid_contact_horizon_s"), std::string::npos);
 }
 
 }  // namespace

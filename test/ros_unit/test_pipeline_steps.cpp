@@ -155,6 +155,32 @@ TEST(PipelineSteps, ThePlannerRefusesStatesNormalisedOtherwiseThanItsModel) {
   EXPECT_NE(why.find("state_normalization has 0 values"), std::string::npos) << why;
 }
 
+TEST(PipelineSteps, AGradedGridIsCarriedAndRefusedByAPlusMinusOneModel) {
+  // dovs_node configured for the graded grid (dovs/grid_contact_horizon) publishes graded states and says so in
+  // state_normalization; the shipped network, trained on the +1 / -1 grid, is not run on them.
+  const RobotLimits limits;
+  DovsConfig graded;
+  graded.grid_contact_horizon_s = 5.0;
+  DovsBuilder builder(limits, graded);
+  TrackedObstacleArray msg = movingObstaclesToMsg({movingDisc(2.5, 1.5, 0.0, 0.3)}, {});
+  msg.header.stamp = ros::Time(10.0);
+  msg.header.frame_id = "odom";
+  Step s;
+  ASSERT_EQ(buildDovsStep(msg, Pose2{}, {0.3, 0.0}, Vec2(4.0, 0.0), limits, stateNormalization(limits, graded),
+                          ActionShieldConfig{}, "base_footprint", builder, s.space, s.step),
+            "");
+  const Dovs& d = s.step.msg;
+  ASSERT_EQ(d.state_normalization.size(), static_cast<size_t>(StateNormalization::kNumFields) + 1);
+  EXPECT_FLOAT_EQ(d.state_normalization.back(), 5.0f);
+  int graded_cells = 0;
+  for (int i = 0; i < kStateGridCells; ++i) graded_cells += std::abs(d.state[static_cast<size_t>(i)]) < 1.0f;
+  EXPECT_GT(graded_cells, 0);  // the disc's cells hold contact times, not +-1
+  std::string why;
+  EXPECT_EQ(chooseAction(shippedNetwork(), d, why), -1);
+  EXPECT_NE(why.find("grid_contact_horizon_s"), std::string::npos) << why;
+  EXPECT_NE(why.find("dovs/grid_contact_horizon"), std::string::npos) << why;
+}
+
 // The decision step through the robot's path (the Dovs message dovs_node builds, then the planner's choice on it)
 // and through the evaluation's (DqnDovsPlanner on the Episode's context) makes the same choices, step by step, on
 // the same inputs: whole episodes with the LIDAR and the tracker in the loop, driven by the evaluation's choices.

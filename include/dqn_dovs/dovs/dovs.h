@@ -52,13 +52,19 @@ struct DovsConfig {
   /// change speed and direction, so the prediction is less sure the farther it looks; 0 is the paper's model.
   /// Static obstacles and walls are not affected.
   double prediction_growth_mps = 0.0;
+  /// The network state's grid encoding (StateNormalization::grid_contact_horizon_s, docs/dovs.md "The graded
+  /// grid"): 0 is the paper's +1 free / -1 unsafe grid; T > 0 grades each feasible cell by the earliest contact
+  /// of its constant velocity within T seconds (free cells in (0, 1], unsafe ones in [-1, 0]). The DOVS itself,
+  /// its intervals, grid() and the actions' safety do not change. 0 or [0.5, 30] s.
+  double grid_contact_horizon_s = 0.0;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
 };
 
 /// Sets the DovsConfig field named as in config/dovs.yaml's `dovs/` block (obstacle_range, safety_factor,
-/// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth) from text. Returns
+/// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth, grid_contact_horizon)
+/// from text. Returns
 /// an empty string, or a message naming the parameter and the reason (unknown name, not a number, not an
 /// integer). The value is not range-checked here: validate() does that for the whole configuration.
 std::string setDovsParameter(DovsConfig& config, const std::string& name, const std::string& value);

@@ -51,15 +51,25 @@ struct StateNormalization {
   float far_bearing = 1.0f;                        ///< normalised bearing when no obstacle is in range (behind)
   float far_clearance = 1.0f;                      ///< normalised clearance when no obstacle is in range
   float clip = 1.0f;                               ///< every normalised feature is clamped to [-clip, clip]
+  /// The grid's encoding (DovsConfig::grid_contact_horizon_s): 0 is the +1 / -1 grid; T > 0 grades every feasible
+  /// cell by the earliest contact of its constant velocity within T seconds (docs/dovs.md, "The graded grid").
+  float grid_contact_horizon_s = 0.0f;
 
+  /// The fields every normalisation has (the first 13, the paper's state).
   static constexpr int kNumFields = 13;
-  /// (name, value) pairs in field order, as the weight file stores them.
+  /// Name of the optional 14th field, present only for a graded grid (a file without it has the +1 / -1 grid).
+  static constexpr const char* kGridContactHorizonField = "grid_contact_horizon_s";
+  /// (name, value) pairs in field order, as the weight file stores them: the 13 fields, then
+  /// grid_contact_horizon_s when it is not 0 (so a +1 / -1 model's file is what it always was).
   std::vector<std::pair<std::string, float>> fields() const;
-  /// Inverse of fields(); throws std::runtime_error naming the field when a name is missing, unknown or out of
-  /// order, or the count is wrong.
+  /// Inverse of fields(); throws StateError naming the field when a name is missing, unknown or out of order, or
+  /// the count is neither 13 nor 14.
   static StateNormalization fromFields(const std::vector<std::pair<std::string, float>>& fields);
+  /// fromFields() of values in field order (13 or 14 of them, as a Dovs message's state_normalization carries
+  /// them). Returns false with `why` naming the count when it is neither.
+  static bool fromValues(const std::vector<float>& values, StateNormalization& out, std::string& why);
   /// Empty when usable, otherwise a message naming the field: scales finite and positive, far values finite
-  /// and within [-clip, clip], clip finite and positive.
+  /// and within [-clip, clip], clip finite and positive, grid_contact_horizon_s 0 or in [0.5, 30].
   std::string validate() const;
 };
 
@@ -76,11 +86,20 @@ class StateError : public std::runtime_error {
   explicit StateError(const std::string& what) : std::runtime_error(what) {}
 };
 
+/// The graded grid (docs/dovs.md, "The graded grid"), row-major like VelocitySpace::grid(): each cell's constant
+/// velocity is rolled out over `horizon_s` (0.1 s steps) against the obstacles and walls the DOVS modelled
+/// (obs, enlarged as the DOVS enlarges them, moving at their constant (v, w)); with t its earliest contact
+/// (horizon_s when none), a cell the DOVS finds free holds t / T and an unsafe one t / T - 1, so the sign is the
+/// +1 / -1 grid's and the size says how soon contact comes. Infeasible cells hold -1. Throws StateError for a
+/// horizon outside [0.5, 30] s.
+std::vector<float> gradedGrid(const VelocitySpace& dovs, const Observation& obs, double horizon_s);
+
 /// The 8 normalised features of `obs` (robot twist, goal) and the DOVS's closest obstacle.
 FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
 
 /// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), then the 8
-/// features. Throws StateError unless dovs.gridSize() == 20.
+/// features. With norm.grid_contact_horizon_s = T > 0 the grid is graded (gradedGrid). Throws StateError unless
+/// dovs.gridSize() == 20.
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
 
 }  // namespace dqn_dovs

@@ -12,6 +12,7 @@
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/dovs/state.h"
 #include "dqn_dovs/policy/action_shield.h"
 
 namespace dqn_dovs {
@@ -54,10 +55,13 @@ class Planner {
 };
 
 /// Builds a planner by name with its default configuration; `model_path` is used by `dqn_dovs`; `shield`, when
-/// given, replaces the default action shield of the DQN-DOVS planners (a variant's own changes still apply).
-/// Throws PlannerError for an unknown name (the message lists the known ones).
+/// given, replaces the default action shield of the DQN-DOVS planners (a variant's own changes still apply);
+/// `normalization`, when given, is the one the caller's states are built with (stateNormalization of its robot
+/// and DOVS; default: the default robot's and DOVS's), which a DQN-DOVS planner's network must have been trained
+/// with. Throws PlannerError for an unknown name (the message lists the known ones).
 std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string& model_path = "",
-                                     const ActionShieldConfig* shield = nullptr);
+                                     const ActionShieldConfig* shield = nullptr,
+                                     const StateNormalization* normalization = nullptr);
 
 /// Names accepted by makePlanner.
 std::vector<std::string> plannerNames();

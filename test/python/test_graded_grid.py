@@ -1,0 +1,86 @@
+"""The graded grid (docs/dovs.md, "The graded grid"): the environment builds it when the DOVS parameter
+grid_contact_horizon asks, the trainer passes its `dovs` section on, the exported weight file names the encoding, and
+the evaluation runs such a network only with the same encoding (compare_models gives it)."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from built_tools import built_tool
+from dqn_dovs_py.compare_models import state_flags
+from dqn_dovs_py.export import load_weights
+
+GRID = 400
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _states(core, **kwargs) -> np.ndarray:
+    env = core.VecEnv(3, 41, threads=1, **kwargs)
+    env.set_stage(3.0, 6.0, 8, 12, "dynamic")
+    states, _ = env.reset()
+    out = [states]
+    for _ in range(5):
+        out.append(env.step(np.full(3, 4, dtype=np.int64))["state"])  # keep
+    return np.concatenate(out)
+
+
+def test_the_environment_grades_the_grid_keeping_its_signs_and_the_features(core):
+    plain = _states(core)
+    graded = _states(core, dovs_parameters={"grid_contact_horizon": "5"})
+    assert plain.shape == graded.shape
+    np.testing.assert_array_equal(graded[:, GRID:], plain[:, GRID:])  # same episodes, same features
+    np.testing.assert_array_equal(graded[:, :GRID] > 0, plain[:, :GRID] > 0)  # free stays free
+    assert set(np.unique(plain[:, :GRID])) <= {-1.0, 1.0}
+    inside = (np.abs(graded[:, :GRID]) < 1.0).sum()
+    assert inside > 100, f"only {inside} graded cells strictly inside (-1, 1) among 8-12 moving obstacles"
+    env = core.VecEnv(1, 1, threads=1, dovs_parameters={"grid_contact_horizon": "5"})
+    assert env.normalization()["grid_contact_horizon_s"] == pytest.approx(5.0)
+    assert "grid_contact_horizon_s" not in core.VecEnv(1, 1, threads=1).normalization()
+
+
+@pytest.mark.parametrize("parameters, message", [
+    ({"grid_horizon": "5"}, "grid_horizon"),
+    ({"grid_contact_horizon": "0.2"}, "grid_contact_horizon_s"),
+    ({"grid_contact_horizon": "soon"}, "grid_contact_horizon"),
+])
+def test_bad_dovs_parameters_are_refused_naming_them(core, parameters, message):
+    with pytest.raises(ValueError, match=message):
+        core.VecEnv(1, 1, threads=1, dovs_parameters=parameters)
+
+
+def test_a_graded_run_exports_its_encoding_and_the_evaluation_needs_it(core, tmp_path):
+    from dqn_dovs_py.train import ConfigError, TrainConfig, Trainer  # noqa: PLC0415 - torch only where it trains
+    from test_train_smoke import smoke_config  # noqa: PLC0415
+
+    with pytest.raises(ConfigError, match="dovs"):
+        TrainConfig.from_dict({"dovs": [5]})
+    bad = smoke_config()
+    bad.dovs = {"grid_contact_horizon": "5"}
+    assert "grid_contact_horizon" in bad.validate()
+    bad.dovs = {"grid_contact_horizon": 5.0}
+    assert "compact_states" in bad.validate()
+
+    config = smoke_config()
+    config.scale = 0.001  # 9 episodes
+    config.dovs = {"grid_contact_horizon": 5.0}
+    config.replay.compact_states = False
+    Trainer(config, str(tmp_path / "run"), device="cpu", threads=1, progress=False).run()
+    model = str(tmp_path / "run" / "model.dqnw")
+    assert load_weights(model).normalization["grid_contact_horizon_s"] == pytest.approx(5.0)
+    assert state_flags(model) == ["--dovs", "grid_contact_horizon=5"]
+
+    tool = str(built_tool("dqn_dovs_eval"))
+    common = [tool, "--methods", "dqn_dovs", "--generate", "5", "--obstacles", "4", "--episodes", "2",
+              "--threads", "1", "--model", model]
+    refused = subprocess.run(common + ["--out", str(tmp_path / "plain")], capture_output=True, text=True)
+    assert refused.returncode != 0
+    assert "grid_contact_horizon_s" in refused.stdout + refused.stderr
+    ran = subprocess.run(common + state_flags(model) + ["--out", str(tmp_path / "graded")], capture_output=True,
+                         text=True)
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+    assert (tmp_path / "graded" / "results.csv").is_file()
+    assert state_flags(str(ROOT / "models" / "dqn_dovs.dqnw")) == []  # a +1 / -1 network needs none
