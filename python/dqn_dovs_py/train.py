@@ -28,10 +28,11 @@ import yaml
 from .agent import AgentConfig, DQNAgent
 from .curriculum import Curriculum, CurriculumError
 from .decision_config import DecisionConfigError, load_shield_parameters
-from .env import OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, EnvContractError, StepResult, VecEnv
+from .env import (OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, EnvContractError, StepResult,
+                  VecEnv, import_core)
 from .escape import one_action_masks
 from .export import WeightFileError
-from .replay import DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator, PrioritizedReplay
+from .replay import GRID_CELLS, DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator, PrioritizedReplay
 
 TRAIN_LOG = "train_log.csv"
 EVAL_LOG = "eval_log.csv"
@@ -287,9 +288,6 @@ class TrainConfig:
             if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (int, float)) \
                     or not math.isfinite(value):
                 return f"dovs: {name!r} must map to a finite number, got {value!r}"
-        if self.dovs.get("grid_contact_horizon", 0) and self.replay.compact_states:
-            return ("dovs.grid_contact_horizon grades the grid, which compact storage (+1 / -1 cells as int8) cannot "
-                    "hold: set replay.compact_states: false")
         for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log, self.teacher,
                      self.auxiliary):
             error = part.validate()
@@ -546,6 +544,11 @@ class Trainer:
         shield_parameters = self.shield_parameters
         dovs_parameters = {name: repr(float(value)) if isinstance(value, float) else str(value)
                            for name, value in config.dovs.items()}
+        if dovs_parameters and env_factory is None:
+            try:  # names and ranges are the C++ DOVS's: one environment built now says what is wrong, before any run
+                import_core().VecEnv(1, 0, threads=1, dovs_parameters=dovs_parameters)
+            except ValueError as error:
+                raise ConfigError(f"dovs: {error}") from None
         self._env_factory = env_factory or (
             lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
                                             shield_parameters=shield_parameters, dovs_parameters=dovs_parameters))
@@ -566,21 +569,25 @@ class Trainer:
         aux_head = torch.nn.Linear(model.trunk_width, 1) if ac.enabled else None
         self.agent = DQNAgent(model, config.agent, device=self.device, seed=config.seed + 1, aux_head=aux_head)
         rc = config.replay
+        # A graded grid's cells are not +1 / -1: its states are stored as float32.
+        compact = rc.compact_states and not config.dovs.get("grid_contact_horizon")
         self.replay = PrioritizedReplay(rc.capacity, alpha=rc.alpha, priority_eps=rc.priority_eps,
-                                        seed=config.seed + 2, compact_states=rc.compact_states)
+                                        seed=config.seed + 2, compact_states=compact)
         # With the shield, the environment may run its escape instead of the chosen action: the transition
         # then stores the action executed with a one-action mask, and the n-step targets that bootstrap on
         # such a state wait one step for that mask (NStepAccumulator, defer_bootstrap).
         self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma,
                                       defer_bootstrap=config.action_shield)
         tc = config.teacher
-        self.demos = DemoBuffer(tc.buffer_capacity, seed=config.seed + 3) if tc.enabled else None
+        grid_cells = GRID_CELLS if compact else 0  # the labelled states are stored like the replay's
+        self.demos = DemoBuffer(tc.buffer_capacity, seed=config.seed + 3, grid_cells=grid_cells) if tc.enabled else None
         self._teacher_rng = np.random.default_rng(config.seed + 4)
         # Labelled steps, those where the agent's own choice was the teacher's, and those that ran the teacher's.
         self.teacher_counts = {"labels": 0, "agreed": 0, "executed": 0}
         self._demo_loss_sum = 0.0
         self._demo_loss_count = 0
-        self.aux_labels = LabelBuffer(ac.buffer_capacity, seed=config.seed + 5) if ac.enabled else None
+        self.aux_labels = LabelBuffer(ac.buffer_capacity, seed=config.seed + 5, grid_cells=grid_cells) if ac.enabled \
+            else None
         self.labeller = HorizonLabeller(config.num_envs, ac.horizon) if ac.enabled else None
         self._aux_loss_sum = 0.0
         self._aux_loss_count = 0
@@ -1038,6 +1045,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scale", type=float, default=None, help="multiply every stage's episode count (smoke runs)")
     p.add_argument("--seed", type=int, default=None, help="override the configuration's seed")
     p.add_argument("--num-envs", type=int, default=None, help="override the configuration's num_envs")
+    p.add_argument("--dovs", default=None, metavar="NAME=VALUE,...",
+                   help="DOVS parameters added to the configuration's `dovs` section, e.g. grid_contact_horizon=5 "
+                        "(the graded grid, docs/dovs.md)")
     p.add_argument("--device", default="auto", choices=["auto", "cpu", "cuda"])
     p.add_argument("--threads", type=int, default=1,
                    help="torch.set_num_threads (default 1: the environments run their own C++ threads, and "
@@ -1049,6 +1059,21 @@ def build_parser() -> argparse.ArgumentParser:
                         "replay and counters; the file must have been trained with the environment's state "
                         "normalisation)")
     return p
+
+
+def parse_dovs_option(text: str) -> dict[str, float]:
+    """--dovs NAME=VALUE,... as {name: float}; ConfigError naming the item that is not NAME=NUMBER."""
+    out: dict[str, float] = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        try:
+            number = float(value) if sep and name.strip() else math.nan
+        except ValueError:
+            number = math.nan
+        if not math.isfinite(number):
+            raise ConfigError(f"--dovs: {item!r} is not NAME=NUMBER")
+        out[name.strip()] = number
+    return out
 
 
 def init_from_factory(path: str) -> Callable[[], torch.nn.Module]:
@@ -1077,6 +1102,8 @@ def main(argv: list[str] | None = None) -> int:
             config.seed = args.seed
         if args.num_envs is not None:
             config.num_envs = args.num_envs
+        if args.dovs is not None:
+            config.dovs = {**config.dovs, **parse_dovs_option(args.dovs)}
         message = config.validate()
         if message:
             raise ConfigError(message)

@@ -53,7 +53,8 @@ def test_bad_dovs_parameters_are_refused_naming_them(core, parameters, message):
 
 
 def test_a_graded_run_exports_its_encoding_and_the_evaluation_needs_it(core, tmp_path):
-    from dqn_dovs_py.train import ConfigError, TrainConfig, Trainer  # noqa: PLC0415 - torch only where it trains
+    from dqn_dovs_py.train import (  # noqa: PLC0415 - torch only where it trains
+        ConfigError, TrainConfig, Trainer, parse_dovs_option)
     from test_train_smoke import smoke_config  # noqa: PLC0415
 
     with pytest.raises(ConfigError, match="dovs"):
@@ -61,14 +62,23 @@ def test_a_graded_run_exports_its_encoding_and_the_evaluation_needs_it(core, tmp
     bad = smoke_config()
     bad.dovs = {"grid_contact_horizon": "5"}
     assert "grid_contact_horizon" in bad.validate()
-    bad.dovs = {"grid_contact_horizon": 5.0}
-    assert "compact_states" in bad.validate()
+    for wrong, message in (({"grid_horizon": 5.0}, "grid_horizon"), ({"grid_contact_horizon": 0.2}, "0.5, 30")):
+        bad.dovs = wrong
+        with pytest.raises(ConfigError, match=message):
+            Trainer(bad, str(tmp_path / "bad"), device="cpu", threads=1, progress=False)
+    assert parse_dovs_option("grid_contact_horizon=5, prediction_growth=0.1") == {
+        "grid_contact_horizon": 5.0, "prediction_growth": 0.1}
+    for text in ("grid_contact_horizon", "=5", "grid_contact_horizon=soon", "grid_contact_horizon=inf"):
+        with pytest.raises(ConfigError, match="--dovs"):
+            parse_dovs_option(text)
 
     config = smoke_config()
     config.scale = 0.001  # 9 episodes
     config.dovs = {"grid_contact_horizon": 5.0}
-    config.replay.compact_states = False
-    Trainer(config, str(tmp_path / "run"), device="cpu", threads=1, progress=False).run()
+    assert config.replay.compact_states  # graded states cannot be compact: the trainer stores them as float32
+    trainer = Trainer(config, str(tmp_path / "run"), device="cpu", threads=1, progress=False)
+    assert trainer.replay.grid_cells == 0
+    trainer.run()
     model = str(tmp_path / "run" / "model.dqnw")
     assert load_weights(model).normalization["grid_contact_horizon_s"] == pytest.approx(5.0)
     assert state_flags(model) == ["--dovs", "grid_contact_horizon=5"]
