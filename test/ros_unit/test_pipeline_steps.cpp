@@ -29,9 +29,9 @@ struct Step {
   VelocitySpace space;
 };
 
-Step build(const Twist2& current, const std::vector<MovingObstacle>& obstacles) {
+/// One dovs_node step at the origin, goal 4 m ahead, with dovs_node's DOVS configured as `config`.
+Step build(const Twist2& current, const std::vector<MovingObstacle>& obstacles, const DovsConfig& config = {}) {
   const RobotLimits limits;
-  const DovsConfig config;
   DovsBuilder builder(limits, config);
   TrackedObstacleArray msg = movingObstaclesToMsg(obstacles, {});
   msg.header.stamp = ros::Time(10.0);
@@ -126,17 +126,9 @@ TEST(PipelineSteps, WithAFreeActionThereIsNoEscapeAndTheNetworkChooses) {
 
 TEST(PipelineSteps, ThePlannerRefusesStatesNormalisedOtherwiseThanItsModel) {
   // dovs_node configured with another obstacle range builds states the network was not trained on.
-  const RobotLimits limits;
   DovsConfig wider;
   wider.obstacle_range_m = 5.0;
-  DovsBuilder builder(limits, wider);
-  TrackedObstacleArray msg = movingObstaclesToMsg({movingDisc(2.5, 1.5, 0.0, 0.3)}, {});
-  msg.header.stamp = ros::Time(10.0);
-  msg.header.frame_id = "odom";
-  Step s;
-  ASSERT_EQ(buildDovsStep(msg, Pose2{}, {0.3, 0.0}, Vec2(4.0, 0.0), limits, stateNormalization(limits, wider),
-                          ActionShieldConfig{}, "base_footprint", builder, s.space, s.step),
-            "");
+  const Step s = build({0.3, 0.0}, {movingDisc(2.5, 1.5, 0.0, 0.3)}, wider);
   const Dovs& d = s.step.msg;
   ASSERT_EQ(d.state_normalization.size(), static_cast<size_t>(StateNormalization::kNumFields));
   EXPECT_FLOAT_EQ(d.state_normalization[7], 5.0f);  // obstacle_clearance_scale_m
@@ -158,17 +150,9 @@ TEST(PipelineSteps, ThePlannerRefusesStatesNormalisedOtherwiseThanItsModel) {
 TEST(PipelineSteps, AGradedGridIsCarriedAndRefusedByAPlusMinusOneModel) {
   // dovs_node configured for the graded grid (dovs/grid_contact_horizon) publishes graded states and says so in
   // state_normalization; the shipped network, trained on the +1 / -1 grid, is not run on them.
-  const RobotLimits limits;
   DovsConfig graded;
   graded.grid_contact_horizon_s = 5.0;
-  DovsBuilder builder(limits, graded);
-  TrackedObstacleArray msg = movingObstaclesToMsg({movingDisc(2.5, 1.5, 0.0, 0.3)}, {});
-  msg.header.stamp = ros::Time(10.0);
-  msg.header.frame_id = "odom";
-  Step s;
-  ASSERT_EQ(buildDovsStep(msg, Pose2{}, {0.3, 0.0}, Vec2(4.0, 0.0), limits, stateNormalization(limits, graded),
-                          ActionShieldConfig{}, "base_footprint", builder, s.space, s.step),
-            "");
+  const Step s = build({0.3, 0.0}, {movingDisc(2.5, 0.2, kPi, 0.5)}, graded);  // coming closer
   const Dovs& d = s.step.msg;
   ASSERT_EQ(d.state_normalization.size(), static_cast<size_t>(StateNormalization::kNumFields) + 1);
   EXPECT_FLOAT_EQ(d.state_normalization.back(), 5.0f);
