@@ -206,6 +206,27 @@ double DovsBuilder::enlargedRadius(double obstacle_radius_m) const {
 
 double DovsBuilder::wallHalfWidth_m() const { return limits_.radius * config_.safety_factor; }
 
+double modelDiscRadius(const RobotLimits& limits, const DovsConfig& config, double obstacle_radius_m,
+                       double distance_m) {
+  const double enlarged = (obstacle_radius_m + limits.radius) * config.safety_factor;
+  const double touching = obstacle_radius_m + limits.radius;
+  // Inside the inflation but not touching: shrink to just inside the current distance so that moving away stays
+  // possible; touching: keep the inflation (everything that moves toward it is unsafe).
+  if (distance_m < enlarged && distance_m > touching) return std::max(touching, distance_m - kContactShrink_m);
+  return enlarged;
+}
+
+double modelWallHalfWidth(const RobotLimits& limits, const DovsConfig& config, double distance_m) {
+  const double band = limits.radius * config.safety_factor;
+  if (distance_m < band && distance_m > limits.radius) return std::max(limits.radius, distance_m - kContactShrink_m);
+  return band;
+}
+
+bool modelAsStatic(const DovsConfig& config, const MovingObstacle& o) {
+  // A floor on the threshold keeps 1 / speed^2 finite in the line model.
+  return o.is_static || std::abs(o.speed) <= std::max(config.static_speed_threshold_mps, 1e-6);
+}
+
 double DovsBuilder::brakingSpeedLimit(double contact_distance_m) const {
   const double room = contact_distance_m - config_.static_margin_m;
   if (!(room > 0.0)) return 0.0;
@@ -561,8 +582,7 @@ void DovsBuilder::build(const Observation& obs, VelocitySpace& out) {
     mo.p0 = pose.toLocal(o.center);
     const double d0 = mo.p0.norm();
     if (d0 > range) continue;
-    // A floor on the threshold keeps 1 / speed^2 finite in the line model.
-    const bool is_static = o.is_static || std::abs(o.speed) <= std::max(config_.static_speed_threshold_mps, 1e-6);
+    const bool is_static = modelAsStatic(config_, o);
     const double heading = normalizeAngle(o.heading - pose.theta);
 
     const double clearance = d0 - o.radius - contact_radius_robot;
@@ -579,10 +599,7 @@ void DovsBuilder::build(const Observation& obs, VelocitySpace& out) {
 
     // Inside the inflation but not touching: shrink to just inside the current distance so that moving away
     // stays possible; touching: keep the inflation (everything that moves toward it is unsafe).
-    const double enlarged = enlargedRadius(o.radius);
-    const double touching = o.radius + limits_.radius;
-    mo.radius = enlarged;
-    if (d0 < enlarged && d0 > touching) mo.radius = std::max(touching, d0 - kContactShrink_m);
+    mo.radius = modelDiscRadius(limits_, config_, o.radius, d0);
 
     if (is_static) {
       mo.kind = Motion::Kind::kStatic;
@@ -621,11 +638,10 @@ void DovsBuilder::build(const Observation& obs, VelocitySpace& out) {
     dynamic_.push_back(mo);
   }
   for (const Segment& s_world : obs.segments) {
-    Wall wall{{pose.toLocal(s_world.a), pose.toLocal(s_world.b)}, wallHalfWidth_m()};
+    Wall wall{{pose.toLocal(s_world.a), pose.toLocal(s_world.b)}, 0.0};
     const double d0 = pointSegmentDistance(Vec2::Zero(), wall.segment);
     if (d0 > range) continue;
-    // Same in-contact rule as for discs.
-    if (d0 < wall.half_width && d0 > limits_.radius) wall.half_width = std::max(limits_.radius, d0 - kContactShrink_m);
+    wall.half_width = modelWallHalfWidth(limits_, config_, d0);  // the same in-contact rule as for discs
     walls_.push_back(wall);
   }
   out.num_in_model_ = static_cast<int>(dynamic_.size() + static_discs_.size() + walls_.size());

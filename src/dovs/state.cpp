@@ -137,13 +137,9 @@ std::vector<float> gradedGrid(const VelocitySpace& dovs, const Observation& obs,
     const Vec2 p0 = pose.toLocal(o.center);
     const double d0 = p0.norm();
     if (!(d0 <= config.obstacle_range_m)) continue;
-    const double enlarged = (o.radius + limits.radius) * config.safety_factor;
-    const double touching = o.radius + limits.radius;
-    double r = enlarged;
-    if (d0 < enlarged && d0 > touching) r = std::max(touching, d0 - 0.01);  // the DOVS's in-contact rule
+    const double r = modelDiscRadius(limits, config, o.radius, d0);
     Disc disc{{}, r * r};
-    const bool is_static = o.is_static || std::abs(o.speed) <= std::max(config.static_speed_threshold_mps, 1e-6);
-    if (is_static) {
+    if (modelAsStatic(config, o)) {
       disc.at.push_back(p0);
     } else {
       const Pose2 start{o.center.x(), o.center.y(), o.heading};
@@ -152,17 +148,11 @@ std::vector<float> gradedGrid(const VelocitySpace& dovs, const Observation& obs,
     }
     discs.push_back(std::move(disc));
   }
-  struct Wall {
-    Segment segment;
-    double half_width;
-  };
-  std::vector<Wall> walls;
+  std::vector<std::pair<Segment, double>> walls;  // robot frame, the band's half-width
   for (const Segment& s_world : obs.segments) {
-    Wall wall{{pose.toLocal(s_world.a), pose.toLocal(s_world.b)}, limits.radius * config.safety_factor};
-    const double d0 = pointSegmentDistance(Vec2::Zero(), wall.segment);
-    if (!(d0 <= config.obstacle_range_m)) continue;
-    if (d0 < wall.half_width && d0 > limits.radius) wall.half_width = std::max(limits.radius, d0 - 0.01);
-    walls.push_back(wall);
+    const Segment segment{pose.toLocal(s_world.a), pose.toLocal(s_world.b)};
+    const double d0 = pointSegmentDistance(Vec2::Zero(), segment);
+    if (d0 <= config.obstacle_range_m) walls.emplace_back(segment, modelWallHalfWidth(limits, config, d0));
   }
   const int n = dovs.gridSize();
   // The robot's position at every step of every cell's velocity depends on the limits only: kept per thread.
@@ -189,24 +179,21 @@ std::vector<float> gradedGrid(const VelocitySpace& dovs, const Observation& obs,
       if (!dovs.isFeasible(cell)) continue;  // -1
       // Free cells too: a velocity heading for a wall is free while it can still brake.
       const bool free = dovs.gridCell(row, col) > 0.0f;
-      double contact = horizon;
-      for (int k = 1; k <= steps && contact == horizon; ++k) {
-        const Vec2& p = paths.at[static_cast<size_t>((row * n + col) * steps + k - 1)];
+      const Vec2* path = &paths.at[static_cast<size_t>((row * n + col) * steps)];
+      auto touches = [&](int k) {  // at step k (1..steps)
+        const Vec2& p = path[k - 1];
         for (const Disc& d : discs) {
-          const Vec2& c = d.at.size() == 1 ? d.at.front() : d.at[static_cast<size_t>(k - 1)];
-          if ((p - c).squaredNorm() < d.r2) {
-            contact = k * kStep;
-            break;
-          }
+          if ((p - (d.at.size() == 1 ? d.at.front() : d.at[static_cast<size_t>(k - 1)])).squaredNorm() < d.r2)
+            return true;
         }
-        if (contact < horizon) break;
-        for (const Wall& w : walls) {
-          if (pointSegmentDistance(p, w.segment) < w.half_width) {
-            contact = k * kStep;
-            break;
-          }
+        for (const auto& [segment, half_width] : walls) {
+          if (pointSegmentDistance(p, segment) < half_width) return true;
         }
-      }
+        return false;
+      };
+      int k = 1;
+      while (k <= steps && !touches(k)) ++k;
+      const double contact = std::min(k, steps) * kStep;  // horizon when nothing is touched
       const float t = static_cast<float>(contact / horizon);
       grid[static_cast<size_t>(row * n + col)] = free ? t : t - 1.0f;
     }

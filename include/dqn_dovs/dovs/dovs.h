@@ -261,6 +261,16 @@ class DovsBuilder {
   std::vector<SpeedInterval> ray_scratch_;
 };
 
+/// How the DOVS models a disc of true radius `obstacle_radius_m` whose centre is `distance_m` from the robot: the
+/// enlarged radius (obstacle + robot radius) * safety_factor, shrunk to just inside the distance when the robot is
+/// inside the inflation but not touching (so that moving away stays possible; docs/dovs.md).
+double modelDiscRadius(const RobotLimits& limits, const DovsConfig& config, double obstacle_radius_m,
+                       double distance_m);
+/// The same for a wall segment `distance_m` from the robot: the band's half-width.
+double modelWallHalfWidth(const RobotLimits& limits, const DovsConfig& config, double distance_m);
+/// True when the DOVS treats `o` as standing still (flagged static, or slower than static_speed_threshold_mps).
+bool modelAsStatic(const DovsConfig& config, const MovingObstacle& o);
+
 /// One-shot convenience: DovsBuilder(limits, config).build(obs).
 VelocitySpace buildDovs(const Observation& obs, const RobotLimits& limits, const DovsConfig& config);
 
