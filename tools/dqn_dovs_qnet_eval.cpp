@@ -1,6 +1,7 @@
 // Evaluates a .dqnw Q-network on a batch of states with the planner's own inference code.
 //
-//   dqn_dovs_qnet_eval WEIGHTS.dqnw STATES.f32 OUT.f32   states: N x 408 float32 (little-endian, row-major)
+//   dqn_dovs_qnet_eval WEIGHTS.dqnw STATES.f32 OUT.f32   states: N x stateSize float32 (408 for one grid channel)
+//   (little-endian, row-major)
 //                                                         out:    N x 8 float32 Q-values
 //   dqn_dovs_qnet_eval --info WEIGHTS.dqnw                prints layers, normalisation and metadata
 //
@@ -39,20 +40,22 @@ int evaluate(const std::string& weights_path, const std::string& states_path, co
     return 1;
   }
   std::vector<char> raw((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  constexpr std::size_t kRowBytes = dqn_dovs::QNetwork::kStateSize * sizeof(float);
+  const std::size_t state_size = static_cast<std::size_t>(net.stateSize());
+  const std::size_t kRowBytes = state_size * sizeof(float);
   if (raw.size() % kRowBytes != 0) {
     std::cerr << "dqn_dovs_qnet_eval: states file '" << states_path << "' has " << raw.size()
-              << " bytes, not a multiple of one state (" << kRowBytes << " bytes = 408 float32)\n";
+              << " bytes, not a multiple of one state (" << kRowBytes << " bytes = " << state_size
+              << " float32 for this model)\n";
     return 1;
   }
   const std::size_t n = raw.size() / kRowBytes;
-  std::vector<float> states(n * dqn_dovs::QNetwork::kStateSize);
+  std::vector<float> states(n * state_size);
   std::copy(raw.begin(), raw.end(), reinterpret_cast<char*>(states.data()));
   std::vector<float> q_all;
   q_all.reserve(n * dqn_dovs::QNetwork::kActionCount);
   for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Map<const Eigen::VectorXf> state(states.data() + i * dqn_dovs::QNetwork::kStateSize,
-                                                  dqn_dovs::QNetwork::kStateSize);
+    const Eigen::Map<const Eigen::VectorXf> state(states.data() + i * state_size,
+                                                  static_cast<Eigen::Index>(state_size));
     try {
       const auto q = net.qValues(state);
       q_all.insert(q_all.end(), q.begin(), q.end());

@@ -92,9 +92,14 @@ def find_eval(explicit: str | None) -> str:
 
 def state_flags(model: str) -> list[str]:
     """dqn_dovs_eval flags that build the state the network in `model` was trained on: its graded grid's
-    horizon (normalisation entry grid_contact_horizon_s, docs/dovs.md "The graded grid"), none for a +1 / -1 grid."""
-    horizon = load_weights(model).normalization.get("grid_contact_horizon_s", 0.0)
-    return ["--dovs", f"grid_contact_horizon={horizon:.9g}"] if horizon else []
+    horizon (normalisation entry grid_contact_horizon_s, docs/dovs.md "The graded grid") and its grid channels
+    (the file's `state layout: grid channels`, docs/dovs.md "Grid channels"); none for the paper's state."""
+    weights = load_weights(model)
+    horizon = weights.normalization.get("grid_contact_horizon_s", 0.0)
+    values = [f"grid_contact_horizon={horizon:.9g}"] if horizon else []
+    if weights.grid_channels != 1:
+        values.append(f"grid_channels={weights.grid_channels}")
+    return ["--dovs", ",".join(values)] if values else []
 
 
 def run_point(exe: str, point: Point, method: str, model: str | None, args, folder: str) -> list[Record]:

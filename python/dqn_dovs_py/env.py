@@ -1,7 +1,7 @@
 """Typed wrapper of the vectorised training environment implemented in C++ (`dqn_dovs_py._core`).
 
 The compiled module runs the same core as the robot: simulator -> LIDAR -> obstacle
-tracker -> DOVS -> 408-float state, with the 8 actions of DESIGN section 6 and the
+tracker -> DOVS -> 408-float state (1,208 with the grid channels of docs/dovs.md), with the 8 actions of DESIGN section 6 and the
 reward of section 7. This module only checks and types what crosses the boundary; it
 holds no simulation of its own.
 
@@ -148,6 +148,9 @@ class VecEnv:
                                         dovs_parameters=dict(dovs_parameters or {}))
         self._core = core
         self._worlds = ROOM_ONLY
+        # Floats per state: 408, or 1,208 with the dynamic window and the goal line as grid channels
+        # (dovs_parameters grid_channels = 3, docs/dovs.md "Grid channels").
+        self.state_dim = int(getattr(core, "state_size", STATE_DIM))
 
     def set_stage(self, settings: StageSettings) -> None:
         if settings.obstacle_type not in OBSTACLE_TYPES:
@@ -250,6 +253,8 @@ class VecEnv:
 
     def _checked(self, where: str, name: str, value: Any) -> np.ndarray:
         dtype, tail = _STEP_FIELDS[name]
+        if name in ("state", "next_state"):
+            tail = (self.state_dim,)
         array = np.asarray(value)
         if array.shape != (self.num_envs, *tail):
             raise EnvContractError(f"VecEnv.{where}: {name} has shape {array.shape}, "

@@ -38,6 +38,16 @@ from .model import DuelingQNet
 
 MAGIC = b"DQNDOVSW"
 FORMAT_VERSION = 1
+# Version 2 adds `state layout: grid channels` (u32) after the grid's columns: a network on a grid of several
+# channels (docs/dovs.md "Grid channels"). A one-channel network is always written as version 1.
+FORMAT_VERSION_CHANNELS = 2
+SUPPORTED_VERSIONS = (FORMAT_VERSION, FORMAT_VERSION_CHANNELS)
+MAX_GRID_CHANNELS = 16
+
+
+def format_version_for(grid_channels: int) -> int:
+    """The version a writer puts in the file of a network reading `grid_channels` grid channels."""
+    return FORMAT_VERSION if grid_channels == 1 else FORMAT_VERSION_CHANNELS
 
 LAYER_CONV2D = 1
 LAYER_LINEAR = 2
@@ -96,6 +106,7 @@ class WeightFile:
     action_count: int
     layers: list[LayerRecord]
     metadata: str
+    grid_channels: int = 1  # version 2 only; version 1 files have one
 
 
 # --------------------------------------------------------------------------------------------- writing
@@ -151,8 +162,10 @@ def _string(data: bytes) -> bytes:
 def serialize(weights: WeightFile, path_for_errors: str = "<memory>") -> bytes:
     """The complete file image of `weights`, checksum included."""
     out = bytearray(MAGIC)
-    out += struct.pack("<IIIII", weights.format_version, weights.grid_rows, weights.grid_cols,
-                       weights.feature_count, len(weights.normalization))
+    out += struct.pack("<III", weights.format_version, weights.grid_rows, weights.grid_cols)
+    if weights.format_version >= FORMAT_VERSION_CHANNELS:
+        out += struct.pack("<I", weights.grid_channels)
+    out += struct.pack("<II", weights.feature_count, len(weights.normalization))
     for name, value in weights.normalization.items():
         encoded = name.encode("utf-8")
         if not 1 <= len(encoded) <= MAX_NAME_LENGTH:
@@ -203,8 +216,8 @@ def weights_from_model(model: DuelingQNet, normalization: Mapping[str, float], m
         for label, tensor in (("weight", layer.weight), ("bias", layer.bias)):
             if tensor is not None and not np.isfinite(tensor).all():
                 raise ValueError(f"layer {i} ({layer.name}) {label} contains NaN or inf: refusing to export")
-    return WeightFile(FORMAT_VERSION, model.grid_rows, model.grid_cols, model.feature_count, norm,
-                      model.action_count, records, metadata)
+    return WeightFile(format_version_for(model.grid_channels), model.grid_rows, model.grid_cols, model.feature_count,
+                      norm, model.action_count, records, metadata, grid_channels=model.grid_channels)
 
 
 def onnx_path_for(path: str | os.PathLike) -> Path:
@@ -266,12 +279,21 @@ def parse(data: bytes, path: str = "<memory>") -> WeightFile:
     if len(data) < 12:
         raise WeightFileError(path, "format version", "truncated: file ends right after the magic")
     version = struct.unpack("<I", data[8:12])[0]
-    if version != FORMAT_VERSION:
-        raise WeightFileError(path, "format version", f"file has version {version}, this reader supports {FORMAT_VERSION}")
+    if version not in SUPPORTED_VERSIONS:
+        raise WeightFileError(path, "format version",
+                              f"file has version {version}, this reader supports versions {FORMAT_VERSION} and "
+                              f"{FORMAT_VERSION_CHANNELS}")
     r = _Reader(data, path)
     r.take(8, "magic")
     r.u32("format version")
-    rows, cols, features = r.u32("state layout: grid rows"), r.u32("state layout: grid cols"), r.u32("state layout: feature count")
+    rows, cols = r.u32("state layout: grid rows"), r.u32("state layout: grid cols")
+    channels = 1
+    if version >= FORMAT_VERSION_CHANNELS:
+        channels = r.u32("state layout: grid channels")
+        if not 1 <= channels <= MAX_GRID_CHANNELS:
+            raise WeightFileError(path, "state layout: grid channels",
+                                  f"{channels} outside [1, {MAX_GRID_CHANNELS}]")
+    features = r.u32("state layout: feature count")
     normalization: dict[str, float] = {}
     for i in range(r.u32("normalization count")):
         length = r.u32(f"normalization entry {i} name length")
@@ -310,7 +332,8 @@ def parse(data: bytes, path: str = "<memory>") -> WeightFile:
     computed = zlib.crc32(data[:-4]) & 0xFFFFFFFF
     if stored != computed:
         raise WeightFileError(path, "checksum", f"CRC-32 stored 0x{stored:08x} but the content gives 0x{computed:08x}")
-    return WeightFile(version, rows, cols, features, normalization, action_count, layers, metadata)
+    return WeightFile(version, rows, cols, features, normalization, action_count, layers, metadata,
+                      grid_channels=channels)
 
 
 def load_weights(path: str | os.PathLike) -> WeightFile:
@@ -334,6 +357,7 @@ def model_from_weights(weights: WeightFile) -> DuelingQNet:
         raise ValueError("the file's layers do not follow the DuelingQNet structure")
     model = DuelingQNet(
         grid_rows=weights.grid_rows, grid_cols=weights.grid_cols, feature_count=weights.feature_count,
+        grid_channels=weights.grid_channels,
         action_count=weights.action_count, conv_channels=[c.shape["out_channels"] for c in convs],
         conv_strides=[c.shape["stride_h"] for c in convs], conv_kernel=convs[0].shape["kernel_h"],
         feature_hidden=feature_linears[0].shape["out_features"],
@@ -350,6 +374,28 @@ def model_from_weights(weights: WeightFile) -> DuelingQNet:
     return model
 
 
+def widen_grid_channels(model: DuelingQNet, grid_channels: int) -> DuelingQNet:
+    """The network `model` (one grid channel) reading `grid_channels` channels: the first convolution gets zero
+    weights for the new channels, every other tensor is copied, so its Q-values are the same on any state whose
+    first channel is the old grid (whatever the new channels hold)."""
+    if model.grid_channels != 1 or grid_channels < 1:
+        raise ValueError(f"widen_grid_channels: widens a network of 1 grid channel to more, not "
+                         f"{model.grid_channels} to {grid_channels}")
+    config = model.config()
+    config["grid_channels"] = int(grid_channels)
+    wide = DuelingQNet(**config)
+    source = model.state_dict()
+    with torch.no_grad():
+        for name, tensor in wide.state_dict().items():
+            old = source[name]
+            if old.shape == tensor.shape:
+                tensor.copy_(old)
+            else:  # the first convolution: [out, 1, k, k] -> [out, C, k, k], zeros beyond channel 0
+                tensor.zero_()
+                tensor[:, :1].copy_(old)
+    return wide
+
+
 # --------------------------------------------------------------------------------------------- ONNX
 
 class OnnxExportError(RuntimeError):
@@ -361,8 +407,10 @@ class OnnxExportError(RuntimeError):
 
 
 def state_layout_name(weights: WeightFile) -> str:
-    """Name of the network input's layout, e.g. `grid20x20+features8` (grid row-major, then the features)."""
-    return f"grid{weights.grid_rows}x{weights.grid_cols}+features{weights.feature_count}"
+    """Name of the network input's layout, e.g. `grid20x20+features8` (grid row-major, then the features), or
+    `grid3x20x20+features8` for a grid of 3 channels (channel-major)."""
+    channels = "" if weights.grid_channels == 1 else f"{weights.grid_channels}x"
+    return f"grid{channels}{weights.grid_rows}x{weights.grid_cols}+features{weights.feature_count}"
 
 
 def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> dict[str, str]:
@@ -376,6 +424,7 @@ def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> 
         "state_layout": state_layout_name(weights),
         "grid_rows": str(weights.grid_rows),
         "grid_cols": str(weights.grid_cols),
+        "grid_channels": str(weights.grid_channels),
         "feature_count": str(weights.feature_count),
         "action_count": str(weights.action_count),
         # Values as the .dqnw stores them (float32), written as the exact double of that float32.

@@ -2,6 +2,8 @@
 
 State layout (DESIGN section 5): 400 grid values (20 x 20, row-major: rows are linear
 speeds v, columns turn rates w; +1 free, -1 unsafe) followed by 8 normalised features.
+With `grid_channels` = 3 (docs/dovs.md "Grid channels") the grid is a 3 x 20 x 20 image, channel-major
+(the DOVS grid, the dynamic window, the goal line: 1,200 values), then the 8 features.
 
     grid (1 x 20 x 20) -> conv3x3 s1 (8) ReLU -> conv3x3 s2 (16) ReLU -> conv3x3 s2 (16) ReLU
                        -> flatten channel-major (16 x 5 x 5 = 400)
@@ -37,6 +39,7 @@ class DuelingQNet(nn.Module):
         conv_kernel: int = 3,
         feature_hidden: int = 64,
         trunk_hidden: Sequence[int] = (256, 128),
+        grid_channels: int = 1,
     ) -> None:
         super().__init__()
         if len(conv_channels) == 0 or len(conv_channels) != len(conv_strides):
@@ -46,12 +49,14 @@ class DuelingQNet(nn.Module):
             )
         if conv_kernel < 1 or conv_kernel % 2 == 0:
             raise ValueError(f"conv_kernel must be odd and positive, got {conv_kernel}")
-        for name, value in (("grid_rows", grid_rows), ("grid_cols", grid_cols), ("feature_count", feature_count),
+        for name, value in (("grid_rows", grid_rows), ("grid_cols", grid_cols), ("grid_channels", grid_channels),
+                            ("feature_count", feature_count),
                             ("action_count", action_count), ("feature_hidden", feature_hidden)):
             if int(value) < 1:
                 raise ValueError(f"{name} must be positive, got {value}")
         self.grid_rows = int(grid_rows)
         self.grid_cols = int(grid_cols)
+        self.grid_channels = int(grid_channels)
         self.feature_count = int(feature_count)
         self.action_count = int(action_count)
         self.conv_channels = tuple(int(c) for c in conv_channels)
@@ -62,7 +67,7 @@ class DuelingQNet(nn.Module):
 
         pad = self.conv_kernel // 2
         layers: list[nn.Module] = []
-        channels, h, w = 1, self.grid_rows, self.grid_cols
+        channels, h, w = self.grid_channels, self.grid_rows, self.grid_cols
         for out_channels, stride in zip(self.conv_channels, self.conv_strides):
             layers += [nn.Conv2d(channels, out_channels, self.conv_kernel, stride=stride, padding=pad), nn.ReLU()]
             channels = out_channels
@@ -85,7 +90,7 @@ class DuelingQNet(nn.Module):
 
     @property
     def state_size(self) -> int:
-        return self.grid_rows * self.grid_cols + self.feature_count
+        return self.grid_channels * self.grid_rows * self.grid_cols + self.feature_count
 
     def config(self) -> dict:
         """Constructor arguments that rebuild this architecture (stored in checkpoints)."""
@@ -99,6 +104,7 @@ class DuelingQNet(nn.Module):
             "conv_kernel": self.conv_kernel,
             "feature_hidden": self.feature_hidden,
             "trunk_hidden": list(self.trunk_hidden),
+            "grid_channels": self.grid_channels,
         }
 
     def embed(self, state: torch.Tensor) -> torch.Tensor:
@@ -106,8 +112,8 @@ class DuelingQNet(nn.Module):
         trainer's auxiliary head, when one is configured)."""
         if state.dim() != 2 or state.shape[1] != self.state_size:
             raise ValueError(f"DuelingQNet expects a state batch of shape [B, {self.state_size}], got {tuple(state.shape)}")
-        n_grid = self.grid_rows * self.grid_cols
-        grid = state[:, :n_grid].reshape(-1, 1, self.grid_rows, self.grid_cols)
+        n_grid = self.grid_channels * self.grid_rows * self.grid_cols
+        grid = state[:, :n_grid].reshape(-1, self.grid_channels, self.grid_rows, self.grid_cols)
         g = self.grid(grid).flatten(1)
         f = self.features(state[:, n_grid:])
         return self.trunk(torch.cat([g, f], dim=1))

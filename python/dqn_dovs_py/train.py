@@ -32,7 +32,7 @@ from .env import (OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIM
                   VecEnv, import_core)
 from .escape import one_action_masks
 from .export import WeightFileError
-from .replay import GRID_CELLS, DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator, PrioritizedReplay
+from .replay import DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator, PrioritizedReplay
 
 TRAIN_LOG = "train_log.csv"
 EVAL_LOG = "eval_log.csv"
@@ -410,10 +410,23 @@ def resolve_device(name: str) -> torch.device:
     return torch.device(name)
 
 
-def default_model_factory() -> torch.nn.Module:
+def default_model_factory(grid_channels: int = 1) -> torch.nn.Module:
     from .model import DuelingQNet  # noqa: PLC0415 - keeps `--help` and config checks free of model imports
 
-    return DuelingQNet()
+    return DuelingQNet(grid_channels=grid_channels)
+
+
+def grid_channels_of(dovs: dict) -> int:
+    """The state's grid channels a `dovs` section gives (its grid_channels, 1 by default; docs/dovs.md "Grid
+    channels")."""
+    value = dovs.get("grid_channels", 1)
+    try:
+        channels = int(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"dovs: grid_channels must be 1 or 3, got {value!r}") from None
+    if channels != float(value) or channels not in (1, 3):
+        raise ConfigError(f"dovs: grid_channels must be 1 or 3, got {value!r}")
+    return channels
 
 
 def _atomic_torch_save(obj: Any, path: str) -> None:
@@ -552,7 +565,8 @@ class Trainer:
         self._env_factory = env_factory or (
             lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
                                             shield_parameters=shield_parameters, dovs_parameters=dovs_parameters))
-        self._model_factory = model_factory or default_model_factory
+        grid_channels = grid_channels_of(config.dovs)
+        self._model_factory = model_factory or (lambda: default_model_factory(grid_channels))
 
         os.makedirs(out_dir, exist_ok=True)
         checkpoint_path = os.path.join(out_dir, CHECKPOINT)
@@ -564,6 +578,12 @@ class Trainer:
 
         self._seed_everything(config.seed)
         model = self._model_factory()
+        if getattr(model, "grid_channels", grid_channels) != grid_channels:
+            raise ConfigError(f"the network reads {model.grid_channels} grid channels but dovs grid_channels is "
+                              f"{grid_channels} (an --init-from network of 1 channel is widened; not one of 3 "
+                              "narrowed)")
+        state_dim = int(getattr(model, "state_size", 408))
+        grid_values = state_dim - 8  # every grid channel (the 8 features follow)
         ac = config.auxiliary
         # The auxiliary head is made after the network, so a run without one draws the same initial weights.
         aux_head = torch.nn.Linear(model.trunk_width, 1) if ac.enabled else None
@@ -572,23 +592,25 @@ class Trainer:
         # A graded grid's cells are not +1 / -1: its states are stored as float32.
         compact = rc.compact_states and not config.dovs.get("grid_contact_horizon")
         self.replay = PrioritizedReplay(rc.capacity, alpha=rc.alpha, priority_eps=rc.priority_eps,
-                                        seed=config.seed + 2, compact_states=compact)
+                                        seed=config.seed + 2, compact_states=compact, state_dim=state_dim,
+                                        grid_cells=grid_values)
         # With the shield, the environment may run its escape instead of the chosen action: the transition
         # then stores the action executed with a one-action mask, and the n-step targets that bootstrap on
         # such a state wait one step for that mask (NStepAccumulator, defer_bootstrap).
-        self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma,
+        self.nstep = NStepAccumulator(config.num_envs, config.n_step, config.gamma, state_dim=state_dim,
                                       defer_bootstrap=config.action_shield)
         tc = config.teacher
-        grid_cells = GRID_CELLS if compact else 0  # the labelled states are stored like the replay's
-        self.demos = DemoBuffer(tc.buffer_capacity, seed=config.seed + 3, grid_cells=grid_cells) if tc.enabled else None
+        grid_cells = grid_values if compact else 0  # the labelled states are stored like the replay's
+        self.demos = DemoBuffer(tc.buffer_capacity, seed=config.seed + 3, state_dim=state_dim,
+                                grid_cells=grid_cells) if tc.enabled else None
         self._teacher_rng = np.random.default_rng(config.seed + 4)
         # Labelled steps, those where the agent's own choice was the teacher's, and those that ran the teacher's.
         self.teacher_counts = {"labels": 0, "agreed": 0, "executed": 0}
         self._demo_loss_sum = 0.0
         self._demo_loss_count = 0
-        self.aux_labels = LabelBuffer(ac.buffer_capacity, seed=config.seed + 5, grid_cells=grid_cells) if ac.enabled \
-            else None
-        self.labeller = HorizonLabeller(config.num_envs, ac.horizon) if ac.enabled else None
+        self.aux_labels = LabelBuffer(ac.buffer_capacity, seed=config.seed + 5, state_dim=state_dim,
+                                      grid_cells=grid_cells) if ac.enabled else None
+        self.labeller = HorizonLabeller(config.num_envs, ac.horizon, state_dim=state_dim) if ac.enabled else None
         self._aux_loss_sum = 0.0
         self._aux_loss_count = 0
 
@@ -1076,12 +1098,20 @@ def parse_dovs_option(text: str) -> dict[str, float]:
     return out
 
 
-def init_from_factory(path: str) -> Callable[[], torch.nn.Module]:
-    """A model factory returning the network stored in the weight file `path` (for --init-from)."""
-    from .export import load_weights, model_from_weights  # noqa: PLC0415
+def init_from_factory(path: str, grid_channels: int = 1) -> Callable[[], torch.nn.Module]:
+    """A model factory returning the network stored in the weight file `path` (for --init-from). A network of one
+    grid channel asked for more (`grid_channels`, dovs grid_channels) is widened: its first convolution reads the
+    new channels with zero weights, so it starts as exactly the function it was (docs/training.md, "Grid
+    channels")."""
+    from .export import load_weights, model_from_weights, widen_grid_channels  # noqa: PLC0415
 
     weights = load_weights(path)  # read (and checked) once, before any training starts
-    return lambda: model_from_weights(weights)
+    if weights.grid_channels != grid_channels and weights.grid_channels != 1:
+        raise ConfigError(f"--init-from {path}: the network reads {weights.grid_channels} grid channels, the "
+                          f"configuration's dovs grid_channels is {grid_channels}")
+    if weights.grid_channels == grid_channels:
+        return lambda: model_from_weights(weights)
+    return lambda: widen_grid_channels(model_from_weights(weights), grid_channels)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -1107,7 +1137,7 @@ def main(argv: list[str] | None = None) -> int:
         message = config.validate()
         if message:
             raise ConfigError(message)
-        model_factory = init_from_factory(args.init_from) if args.init_from else None
+        model_factory = init_from_factory(args.init_from, grid_channels_of(config.dovs)) if args.init_from else None
         trainer = Trainer(config, args.out, device=args.device, threads=args.threads, resume=args.resume,
                           model_factory=model_factory, progress=not args.no_progress,
                           command="python -m dqn_dovs_py.train " + " ".join(shlex.quote(a) for a in argv_list))

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "dqn_dovs/dovs/actions.h"
+
 namespace dqn_dovs {
 
 namespace {
@@ -107,6 +109,10 @@ std::string StateNormalization::validate() const {
   for (int i = 8; i < 12; ++i) {
     const float v = this->*ptrs[static_cast<size_t>(i)];
     if (!(std::isfinite(v) && std::abs(v) <= clip)) return bad(i, v, "far-away value must be finite and within clip");
+  }
+  if (grid_channels != 1 && grid_channels != kWindowGoalGridChannels) {
+    return "state grid_channels = " + std::to_string(grid_channels) +
+           ": must be 1 (the DOVS grid) or 3 (with the dynamic window and the goal line)";
   }
   const float t = grid_contact_horizon_s;
   if (!(std::isfinite(t) && (t == 0.0f || (t >= 0.5f && t <= 30.0f)))) {
@@ -232,14 +238,59 @@ FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs,
   return f;
 }
 
-StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm) {
+namespace {
+
+void requireStateGrid(const VelocitySpace& dovs) {
   if (dovs.gridSize() != kStateGridSize) {
     std::ostringstream os;
     os << "state: DOVS grid_size is " << dovs.gridSize() << ", the network state needs " << kStateGridSize;
     throw StateError(os.str());
   }
-  StateVector s;
+}
+
+}  // namespace
+
+std::vector<float> windowGoalChannels(const VelocitySpace& dovs, const Observation& obs) {
+  requireStateGrid(dovs);
+  const Twist2& now = obs.robot_twist;
+  if (!std::isfinite(now.v) || !std::isfinite(now.w)) throw StateError("state: robot twist must be finite");
+  if (!std::isfinite(obs.goal.x()) || !std::isfinite(obs.goal.y())) throw StateError("state: goal must be finite");
+  const RobotLimits& limits = dovs.limits();
+  const int n = kStateGridSize;
+  const double cell_v = limits.v_max / n, cell_w = 2.0 * limits.w_max / n;
+  // The window the actions are taken from: the rhombus around the current velocity clipped into the triangle.
+  const DynamicWindow window = makeDynamicWindow(limits.clipToFeasible(now), limits);
+  const GoalLine line = goalLine(obs.robot_pose.toLocal(obs.goal));
+  std::vector<float> out(static_cast<size_t>(2 * kStateGridCells), -1.0f);
+  for (int row = 0; row < n; ++row) {
+    const double v_lo = limits.v_max * (n - row - 1) / n, v_hi = v_lo + cell_v;
+    for (int col = 0; col < n; ++col) {
+      const double w_lo = -limits.w_max + col * cell_w, w_hi = w_lo + cell_w;
+      const size_t i = static_cast<size_t>(row * n + col);
+      // The cell meets the rhombus when its point nearest the centre (in the rhombus's separable norm) is inside.
+      const double dv = std::max({v_lo - window.center.v, window.center.v - v_hi, 0.0}) / window.dv;
+      const double dw = std::max({w_lo - window.center.w, window.center.w - w_hi, 0.0}) / window.dw;
+      if (dv + dw <= 1.0) out[i] = 1.0f;
+      bool on_line = false;
+      if (line.kind == GoalLine::Kind::kArc) {
+        // w = k v over the cell's speeds [v_lo, v_hi], boundaries included (straight ahead, w = 0 is the edge
+        // between the two middle columns and both hold the line; 1e-9 absorbs rounding of the goal's bearing).
+        const double a = line.curvature_1pm * v_lo, b = line.curvature_1pm * v_hi;
+        on_line = std::max(a, b) >= w_lo - 1e-9 && std::min(a, b) <= w_hi + 1e-9;
+      } else if (line.kind == GoalLine::Kind::kTurnInPlace) {
+        on_line = row == n - 1 && (line.turn_sign > 0.0 ? w_hi > 0.0 : w_lo < 0.0);
+      }
+      if (on_line) out[static_cast<size_t>(kStateGridCells) + i] = 1.0f;
+    }
+  }
+  return out;
+}
+
+StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm) {
+  requireStateGrid(dovs);
   const FeatureVector f = computeFeatures(dovs, obs, norm);  // validates norm and the robot state first
+  const int grid_values = norm.grid_channels * kStateGridCells;
+  StateVector s(stateSize(norm.grid_channels));
   if (norm.grid_contact_horizon_s > 0.0f) {
     const std::vector<float> grid = gradedGrid(dovs, obs, norm.grid_contact_horizon_s);
     for (int i = 0; i < kStateGridCells; ++i) s(i) = grid[static_cast<size_t>(i)];
@@ -247,7 +298,11 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
     const std::vector<float>& grid = dovs.grid();
     for (int i = 0; i < kStateGridCells; ++i) s(i) = grid[static_cast<size_t>(i)];
   }
-  for (int i = 0; i < kNumFeatures; ++i) s(kStateGridCells + i) = f[static_cast<size_t>(i)];
+  if (norm.grid_channels == kWindowGoalGridChannels) {
+    const std::vector<float> extra = windowGoalChannels(dovs, obs);
+    for (int i = 0; i < 2 * kStateGridCells; ++i) s(kStateGridCells + i) = extra[static_cast<size_t>(i)];
+  }
+  for (int i = 0; i < kNumFeatures; ++i) s(grid_values + i) = f[static_cast<size_t>(i)];
   return s;
 }
 
@@ -257,6 +312,7 @@ StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfi
   n.w_scale_rps = static_cast<float>(limits.w_max);
   n.obstacle_clearance_scale_m = static_cast<float>(dovs.obstacle_range_m);
   n.grid_contact_horizon_s = static_cast<float>(dovs.grid_contact_horizon_s);
+  n.grid_channels = dovs.grid_channels;
   return n;
 }
 

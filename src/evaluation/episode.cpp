@@ -98,7 +98,7 @@ Episode::Episode(const EpisodeConfig& config)
       dovs_builder_(config_.world.robot, config_.dovs),
       normalization_(stateNormalization(config_.world.robot, config_.dovs)),
       route_guide_(config_.route.guide),
-      state_(Eigen::VectorXf::Zero(kStateSize)) {}
+      state_(Eigen::VectorXf::Zero(stateSize(normalization_.grid_channels))) {}
 
 void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   world_.reset(scenario, seed);

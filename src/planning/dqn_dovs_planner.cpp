@@ -27,11 +27,11 @@ std::shared_ptr<const QNetwork> loadNetwork(const DqnDovsConfig& config) {
   } catch (const std::exception& e) {
     throw PlannerError("DQN-DOVS: cannot load the Q-network '" + config.model_path + "': " + e.what());
   }
-  const std::string mismatch =
-      net->normalizationMismatch(config.normalization.fields(), config.normalization_tolerance);
+  std::string mismatch = net->normalizationMismatch(config.normalization.fields(), config.normalization_tolerance);
+  if (mismatch.empty()) mismatch = net->gridChannelsMismatch(config.normalization.grid_channels);
   if (!mismatch.empty()) {
     throw PlannerError("DQN-DOVS: the Q-network '" + config.model_path +
-                       "' was trained with another state normalisation: " + mismatch);
+                       ' was trained with another state normalisation or layout: " + mismatch);
   }
   return net;
 }

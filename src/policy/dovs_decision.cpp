@@ -45,8 +45,15 @@ Twist2 choiceVelocity(const DovsDecision& dovs, int choice) {
 
 int chooseAction(const QNetwork& network, const DovsDecision& dovs, std::string& why) {
   why.clear();
-  if (dovs.state.size() != static_cast<size_t>(QNetwork::kStateSize)) {
-    why = "dovs state has the wrong size";
+  if (dovs.state.size() != static_cast<size_t>(network.stateSize())) {
+    // The usual cause: dovs_node builds states with other grid channels than the model was trained on.
+    const int features = QNetwork::kFeatureCount, cells = QNetwork::kGridRows * QNetwork::kGridCols;
+    const size_t n = dovs.state.size();
+    why = "dovs state has " + std::to_string(n) + " values, the model reads " + std::to_string(network.stateSize()) +
+          " (" + std::to_string(network.gridChannels()) + " grid channels)";
+    if (n >= static_cast<size_t>(features) && (n - features) % cells == 0)
+      why += ": dovs_node builds " + std::to_string((n - features) / cells) +
+             " grid channels (check dovs/grid_channels of dovs_node)";
     return -1;
   }
   // The state must be normalised the way the network was trained (dovs_node builds it from its own robot/* and

@@ -74,6 +74,10 @@ std::string DuelingArchitecture::validate() const {
     return "architecture field 'conv_kernel' = " + std::to_string(conv_kernel) + ": must be odd and positive";
   }
   if (feature_hidden == 0) return "architecture field 'feature_hidden' must be positive";
+  if (grid_channels == 0 || grid_channels > kMaxGridChannels) {
+    return "architecture field 'grid_channels' = " + std::to_string(grid_channels) + ": must be in [1, " +
+           std::to_string(kMaxGridChannels) + "]";
+  }
   for (std::uint32_t h : trunk_hidden)
     if (h == 0) return "architecture field 'trunk_hidden' contains 0";
   return {};
@@ -87,6 +91,8 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
   WeightFileContents c;
   c.grid_rows = QNetwork::kGridRows;
   c.grid_cols = QNetwork::kGridCols;
+  c.grid_channels = arch.grid_channels;
+  c.format_version = weightFormatVersionFor(arch.grid_channels);
   c.feature_count = QNetwork::kFeatureCount;
   c.action_count = QNetwork::kActionCount;
   c.normalization = std::move(normalization);
@@ -115,7 +121,7 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
     c.layers.push_back(std::move(l));
   };
 
-  std::uint32_t channels = 1, h = QNetwork::kGridRows, w = QNetwork::kGridCols;
+  std::uint32_t channels = arch.grid_channels, h = QNetwork::kGridRows, w = QNetwork::kGridCols;
   const std::uint32_t k = arch.conv_kernel, pad = k / 2;
   for (std::size_t i = 0; i < arch.conv_channels.size(); ++i) {
     LayerRecord l;
@@ -162,9 +168,19 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
            "file has " + std::to_string(found) + ", this planner's network input needs " + std::to_string(expected));
     }
   };
-  if (c.format_version != kWeightFormatVersion) {
-    fail("format version", "version " + std::to_string(c.format_version) + " is not supported (reader version " +
-                               std::to_string(kWeightFormatVersion) + ")");
+  if (c.format_version != kWeightFormatVersion && c.format_version != kWeightFormatVersionChannels) {
+    fail("format version", "version " + std::to_string(c.format_version) + " is not supported (reader versions " +
+                               std::to_string(kWeightFormatVersion) + " and " +
+                               std::to_string(kWeightFormatVersionChannels) + ")");
+  }
+  if (c.format_version == kWeightFormatVersion && c.grid_channels != 1) {
+    fail("state layout: grid channels",
+         "a version 1 file has one grid channel, not " + std::to_string(c.grid_channels));
+  }
+  if (c.grid_channels != 1 && c.grid_channels != static_cast<std::uint32_t>(kWindowGoalGridChannels)) {
+    fail("state layout: grid channels", "file has " + std::to_string(c.grid_channels) +
+                                            ", this planner builds 1 (the DOVS grid) or 3 (with the dynamic window "
+                                            "and the goal line)");
   }
   expectEqual("state layout: grid rows", c.grid_rows, kGridRows);
   expectEqual("state layout: grid cols", c.grid_cols, kGridCols);
@@ -239,7 +255,7 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
 
   {  // grid stream
     requireWeighted(streams[0], LayerType::kConv2d, "grid");
-    int ch = 1, h = kGridRows, w = kGridCols;
+    int ch = static_cast<int>(c.grid_channels), h = kGridRows, w = kGridCols;
     for (PlannedLayer& p : streams[0]) {
       const LayerRecord& l = *p.record;
       p.in_c = ch;
@@ -306,7 +322,9 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
     cursor += roundUp16(n);
     return at;
   };
-  const int state_offset = alloc(kStateSize);
+  net.grid_channels_ = static_cast<int>(c.grid_channels);
+  const int grid_size = net.grid_channels_ * kGridRows * kGridCols;
+  const int state_offset = alloc(grid_size + kFeatureCount);
   const int concat_offset = alloc(concat_grid + concat_feature);
   const int col_offset = alloc(max_col);
 
@@ -368,8 +386,8 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
     }
     return offset;
   };
-  emit(streams[0], state_offset, kGridRows * kGridCols, concat_offset);
-  emit(streams[1], state_offset + kGridRows * kGridCols, kFeatureCount, concat_offset + concat_grid);
+  emit(streams[0], state_offset, grid_size, concat_offset);
+  emit(streams[1], state_offset + grid_size, kFeatureCount, concat_offset + concat_grid);
   const int trunk_offset = emit(streams[2], concat_offset, concat_grid + concat_feature, -1);
   // Both heads read the trunk output; emit() never writes in place into a region it did not create.
   net.value_offset_ = emit(streams[3], trunk_offset, trunk_out, -1);
@@ -429,22 +447,24 @@ void QNetwork::runOp(const Op& op, float* scratch) const {
 }
 
 QNetwork::QValues QNetwork::qValues(const Eigen::Ref<const Eigen::VectorXf>& state) const {
-  if (state.size() != kStateSize) {
+  const int state_size = stateSize(), grid_size = state_size - kFeatureCount;
+  if (state.size() != state_size) {
     throw QNetworkInputError("Q-network state has " + std::to_string(state.size()) + " elements, expected " +
-                             std::to_string(kStateSize) + " (20 x 20 grid + 8 features)");
+                             std::to_string(state_size) + " (" + std::to_string(grid_channels_) +
+                             " x 20 x 20 grid + 8 features)");
   }
-  for (int i = 0; i < kStateSize; ++i) {
+  for (int i = 0; i < state_size; ++i) {
     if (!std::isfinite(state[i])) {
-      throw QNetworkInputError(
-          "Q-network state element " + std::to_string(i) + " is " + (std::isnan(state[i]) ? "NaN" : "infinite") + " (" +
-          (i < kGridRows * kGridCols ? "grid" : "feature " + std::to_string(i - kGridRows * kGridCols)) + ")");
+      throw QNetworkInputError("Q-network state element " + std::to_string(i) + " is " +
+                               (std::isnan(state[i]) ? "NaN" : "infinite") + " (" +
+                               (i < grid_size ? "grid" : "feature " + std::to_string(i - grid_size)) + ")");
     }
   }
   // One buffer per thread, shared by every network evaluated on it; it only grows.
   thread_local AlignedFloats scratch;
   if (static_cast<int>(scratch.size()) < scratch_size_) scratch.resize(scratch_size_);
   float* s = scratch.data();
-  std::copy(state.data(), state.data() + kStateSize, s);
+  std::copy(state.data(), state.data() + state_size, s);
   for (const Op& op : ops_) runOp(op, s);
 
   const float value = s[value_offset_];
@@ -502,10 +522,17 @@ std::string QNetwork::normalizationMismatch(const std::vector<std::pair<std::str
   return out;
 }
 
+std::string QNetwork::gridChannelsMismatch(int expected) const {
+  if (expected == grid_channels_) return {};
+  return "state layout of '" + source_ + "' differs: 'state layout: grid channels' is " +
+         std::to_string(grid_channels_) + " in the file but " + std::to_string(expected) +
+         " here (check dovs/grid_channels of dovs_node)";
+}
+
 std::string QNetwork::describe() const {
   std::ostringstream os;
-  os << "Q-network '" << source_ << "': state " << kGridRows << "x" << kGridCols << " grid + " << kFeatureCount
-     << " features, " << kActionCount << " actions\n";
+  os << "Q-network '" << source_ << "': state " << grid_channels_ << "x" << kGridRows << "x" << kGridCols << " grid + "
+     << kFeatureCount << " features, " << kActionCount << " actions\n";
   for (std::size_t i = 0; i < layer_descriptions_.size(); ++i)
     os << "  " << i << ": " << layer_descriptions_[i] << "\n";
   return os.str();

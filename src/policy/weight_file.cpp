@@ -223,12 +223,17 @@ std::uint32_t crc32(const std::uint8_t* data, std::size_t size) {
   return c ^ 0xFFFFFFFFu;
 }
 
+std::uint32_t weightFormatVersionFor(std::uint32_t grid_channels) {
+  return grid_channels == 1 ? kWeightFormatVersion : kWeightFormatVersionChannels;
+}
+
 std::vector<std::uint8_t> serializeWeightFile(const WeightFileContents& c, const std::string& path) {
   ByteWriter w;
   w.raw(kWeightFileMagic, kMagicSize);
   w.u32(c.format_version);
   w.u32(c.grid_rows);
   w.u32(c.grid_cols);
+  if (c.format_version >= kWeightFormatVersionChannels) w.u32(c.grid_channels);
   w.u32(c.feature_count);
   w.u32(static_cast<std::uint32_t>(c.normalization.size()));
   for (const auto& [name, value] : c.normalization) {
@@ -299,14 +304,20 @@ WeightFileContents parseWeightFile(const std::vector<std::uint8_t>& bytes, const
   // The version is judged before anything else is parsed: another version may lay its fields out differently.
   std::uint32_t version = 0;
   for (std::size_t i = 0; i < 4; ++i) version |= static_cast<std::uint32_t>(bytes[kMagicSize + i]) << (8 * i);
-  if (version != kWeightFormatVersion) {
+  if (version != kWeightFormatVersion && version != kWeightFormatVersionChannels) {
     throw WeightFileError(path, "format version",
-                          "file has version " + std::to_string(version) + ", this reader supports version " +
-                              std::to_string(kWeightFormatVersion));
+                          "file has version " + std::to_string(version) + ", this reader supports versions " +
+                              std::to_string(kWeightFormatVersion) + " and " +
+                              std::to_string(kWeightFormatVersionChannels));
   }
   c.format_version = r.u32("format version");
   c.grid_rows = checkedRange(r.u32("state layout: grid rows"), 1, kMaxGridSide, path, "state layout: grid rows");
   c.grid_cols = checkedRange(r.u32("state layout: grid cols"), 1, kMaxGridSide, path, "state layout: grid cols");
+  c.grid_channels = 1;
+  if (version >= kWeightFormatVersionChannels) {
+    c.grid_channels =
+        checkedRange(r.u32("state layout: grid channels"), 1, kMaxGridChannels, path, "state layout: grid channels");
+  }
   c.feature_count =
       checkedRange(r.u32("state layout: feature count"), 0, kMaxFeatures, path, "state layout: feature count");
   const std::uint32_t n_norm =

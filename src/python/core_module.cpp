@@ -72,6 +72,8 @@ class VecEnv {
     if (const std::string e = shield_.validate(); !e.empty()) throw std::invalid_argument("shield_parameters: " + e);
     if (num_envs < 1 || num_envs > 4096) throw std::invalid_argument("num_envs must be in [1, 4096]");
     variants_.push_back(parseWorld(world_options, "world_options", 1.0));
+    // Every world shares the DOVS parameters, so every state has the same grid channels and size.
+    state_size_ = stateSize(variants_.front().config.dovs.grid_channels);
     for (int i = 0; i < num_envs; ++i) {
       envs_.push_back(std::make_unique<Env>());
       envs_.back()->built = {std::make_shared<Episode>(variants_.front().config)};
@@ -129,7 +131,7 @@ class VecEnv {
       py::gil_scoped_release release;
       parallelFor([&](size_t i) { resetEnv(i); });
     }
-    py::array_t<float> state({n, static_cast<size_t>(kStateSize)});
+    py::array_t<float> state({n, static_cast<size_t>(state_size_)});
     py::array_t<bool> mask({n, static_cast<size_t>(kNumActions)});
     for (size_t i = 0; i < n; ++i) {
       copyState(envs_[i]->ep(), state.mutable_data(i, 0));
@@ -150,7 +152,7 @@ class VecEnv {
                                     " is not in [0, 8)");
       }
     }
-    py::array_t<float> next_state({n, static_cast<size_t>(kStateSize)}), state({n, static_cast<size_t>(kStateSize)});
+    py::array_t<float> next_state({n, static_cast<size_t>(state_size_)}), state({n, static_cast<size_t>(state_size_)});
     py::array_t<bool> next_mask({n, static_cast<size_t>(kNumActions)}), mask({n, static_cast<size_t>(kNumActions)});
     const std::vector<py::ssize_t> shape1{static_cast<py::ssize_t>(n)};
     py::array_t<float> reward(shape1);
@@ -193,15 +195,15 @@ class VecEnv {
           oc[i] = static_cast<int8_t>(r.outcome);
           es[i] = ep.steps();
           wd[i] = static_cast<int32_t>(env.variant);
-          copyState(ep, ns + i * kStateSize);
+          copyState(ep, ns + i * state_size_);
           copyMask(env, nm + i * kNumActions);
           if (ep.done()) {
             resetEnv(i);
-            copyState(env.ep(), st + i * kStateSize);
+            copyState(env.ep(), st + i * state_size_);
             copyMask(env, mk + i * kNumActions);
           } else {
             // The episode goes on: what to act on next is the successor just copied (shielded once, not twice).
-            std::memcpy(st + i * kStateSize, ns + i * kStateSize, sizeof(float) * kStateSize);
+            std::memcpy(st + i * state_size_, ns + i * state_size_, sizeof(float) * state_size_);
             std::memcpy(mk + i * kNumActions, nm + i * kNumActions, sizeof(bool) * kNumActions);
           }
         } catch (const std::exception& e) {
@@ -297,6 +299,9 @@ class VecEnv {
     }
     return out;
   }
+
+  int stateSizeOf() const { return state_size_; }
+  int gridChannels() const { return (state_size_ - kNumFeatures) / kStateGridCells; }
 
   py::dict normalization() const {
     py::dict d;
@@ -489,8 +494,8 @@ class VecEnv {
     return best;
   }
 
-  static void copyState(const Episode& ep, float* dst) {
-    std::memcpy(dst, ep.state().data(), sizeof(float) * kStateSize);
+  void copyState(const Episode& ep, float* dst) const {
+    std::memcpy(dst, ep.state().data(), sizeof(float) * static_cast<size_t>(state_size_));
   }
   // The mask the agent chooses under: the validity mask, narrowed by the action shield when it is on (the same
   // function the DQN-DOVS planner applies on the robot and in evaluation), and the shield's escape if boxed in.
@@ -526,6 +531,7 @@ class VecEnv {
   uint64_t seed_ = 0;
   bool perfect_info_ = false;
   std::map<std::string, std::string> dovs_parameters_;  // applied to every world's DovsConfig
+  int state_size_ = kStateSize;                         // floats per state (stateSize of the grid channels)
   int threads_ = 1;
 
  public:
@@ -578,5 +584,10 @@ PYBIND11_MODULE(_core, m) {
            "The evaluation path (dqn_dovs_eval's Episode + planner) on an environment's current episode: "
            "{'actions', 'outcome', 'steps'}.")
       .def_property_readonly("num_envs", &VecEnv::numEnvs)
+      .def_property_readonly("state_size", &VecEnv::stateSizeOf,
+                             "Floats per state: grid channels x 400 grid values, then 8 features.")
+      .def_property_readonly("grid_channels", &VecEnv::gridChannels,
+                             "Channels of the state's grid (dovs_parameters grid_channels: 1, or 3 with the dynamic "
+                             "window and the goal line).")
       .def_property_readonly("threads", &VecEnv::threads);
 }

@@ -141,8 +141,9 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
       row.q_gap = std::isfinite(second) ? q[static_cast<size_t>(row.action)] - second : 1e9;
     }
     for (int i = 0; i < kStateGridCells; ++i) row.free_cells += d.state[static_cast<size_t>(i)] > 0.0f ? 1 : 0;
+    const size_t features_at = d.state.size() - static_cast<size_t>(kNumFeatures);  // after every grid channel
     for (int i = 0; i < kNumFeatures; ++i)
-      row.features[static_cast<size_t>(i)] = d.state[static_cast<size_t>(kStateGridCells + i)];
+      row.features[static_cast<size_t>(i)] = d.state[features_at + static_cast<size_t>(i)];
     result.decisions.push_back(row);
   }
   return result;

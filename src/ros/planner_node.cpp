@@ -95,7 +95,8 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
     if (!goal_fault_.empty()) return goal_fault_;
     if (!last_dovs_) return "dovs is stale or missing";
     if (const std::string other = localGoalFault(*last_dovs_); !other.empty()) return other;
-    if (last_dovs_->state.size() != static_cast<size_t>(QNetwork::kStateSize)) return "dovs state has the wrong size";
+    if (network_ && last_dovs_->state.size() != static_cast<size_t>(network_->stateSize()))
+      return "dovs state has the wrong size";
     return {};
   };
   hooks_.choose = [this](const Pose2& pose) { return choose(pose); };
@@ -122,9 +123,11 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   // At start, against the robot's limits (and any dovs/* given to the planner); each Dovs message carries the
   // normalisation dovs_node really used, checked again before the network runs (chooseAction).
   const StateNormalization expected = stateNormalization(limits_, loadDovsConfig(pnh_));
-  const std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
+  std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
+  if (mismatch.empty()) mismatch = network_->gridChannelsMismatch(expected.grid_channels);
   if (!mismatch.empty()) {
-    throw ParameterError("model '" + model_path + "' was trained with another state normalisation: " + mismatch);
+    throw ParameterError("model '" + model_path +
+                         "' was trained with another state normalisation or layout: " + mismatch);
   }
 
   cmd_pub_ = nh_.advertise<geometry_msgs::Twist>("cmd_vel", 5);

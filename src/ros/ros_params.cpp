@@ -135,6 +135,7 @@ DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
   c.static_margin_m = param<double>(pnh, "dovs/static_margin", c.static_margin_m);
   c.prediction_growth_mps = param<double>(pnh, "dovs/prediction_growth", c.prediction_growth_mps);
   c.grid_contact_horizon_s = param<double>(pnh, "dovs/grid_contact_horizon", c.grid_contact_horizon_s);
+  c.grid_channels = param<int>(pnh, "dovs/grid_channels", c.grid_channels);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
   return c;

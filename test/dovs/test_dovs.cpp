@@ -66,13 +66,19 @@ TEST(DovsConfig, ParametersAreSetByTheirConfigFileNames) {
   const std::string unknown = setDovsParameter(c, "horizon", "3");
   EXPECT_NE(unknown.find("unknown DOVS parameter 'horizon'"), std::string::npos);
   EXPECT_NE(unknown.find("prediction_growth"), std::string::npos);  // the known names are listed
-  EXPECT_EQ(dovsParameterNames().size(), 8u);
+  EXPECT_EQ(dovsParameterNames().size(), 9u);
   for (const std::string& name : dovsParameterNames()) EXPECT_EQ(setDovsParameter(c, name, "1"), "") << name;
   c = DovsConfig{};
   c.prediction_growth_mps = -0.1;
   EXPECT_NE(c.validate().find("prediction_growth_mps"), std::string::npos);
   c.prediction_growth_mps = 2.5;
   EXPECT_NE(c.validate().find("prediction_growth_mps"), std::string::npos);
+  c = DovsConfig{};
+  EXPECT_EQ(setDovsParameter(c, "grid_channels", "3"), "");
+  EXPECT_EQ(c.grid_channels, 3);
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_EQ(setDovsParameter(c, "grid_channels", "2"), "");  // parsed here, refused by validate()
+  EXPECT_NE(c.validate().find("grid_channels"), std::string::npos);
 }
 
 // Enlarged radius of a 0.2 m disc: (0.2 + 0.2) * 1.1 = 0.44 m; t seconds ahead it is 0.44 + g t.

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/state.h"
 
 namespace dqn_dovs {
@@ -85,7 +86,7 @@ TEST(State, LayoutIsGridRowMajorThenFeatures) {
   const Observation obs = knownScene();
   const VelocitySpace d = buildDovs(obs, RobotLimits{}, DovsConfig{});
   const StateVector s = buildState(d, obs, StateNormalization{});
-  static_assert(StateVector::RowsAtCompileTime == 408, "state size");
+  ASSERT_EQ(s.size(), 408);
   for (int r = 0; r < 20; ++r)
     for (int c = 0; c < 20; ++c) EXPECT_EQ(s(r * 20 + c), d.gridCell(r, c));
   const FeatureVector f = computeFeatures(d, obs, StateNormalization{});
@@ -312,6 +313,140 @@ TEST(StateNormalization, GradedGridAddsANamedFourteenthField) {
   EXPECT_EQ(c.validate(), "");
   c.grid_contact_horizon_s = 40.0;
   EXPECT_NE(c.validate().find("grid_contact_horizon_s"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dqn_dovs
+
+namespace dqn_dovs {
+namespace {
+
+// Row and column of the grid cell holding velocity t (the grid's own convention: row 0 = highest v).
+std::pair<int, int> cellOf(const Twist2& t, const RobotLimits& l) {
+  const int row = std::clamp(static_cast<int>(std::floor((l.v_max - t.v) / l.v_max * 20.0)), 0, 19);
+  const int col = std::clamp(static_cast<int>(std::floor((t.w + l.w_max) / (2.0 * l.w_max) * 20.0)), 0, 19);
+  return {row, col};
+}
+
+TEST(GridChannels, TheWindowChannelIsTheCellsTheRhombusReaches) {
+  const RobotLimits limits;
+  for (const Twist2& now : {Twist2{0.35, 0.0}, Twist2{0.0, 0.0}, Twist2{0.6, -0.2}, Twist2{0.2, 2.0}}) {
+    Observation obs = knownScene();
+    obs.robot_twist = now;
+    const VelocitySpace d = buildDovs(obs, limits, DovsConfig{});
+    const std::vector<float> ch = windowGoalChannels(d, obs);
+    ASSERT_EQ(ch.size(), 800u);
+    // Independently: every cell a fine lattice of the rhombus falls in is marked, and nothing else.
+    const DynamicWindow win = makeDynamicWindow(limits.clipToFeasible(now), limits);
+    std::vector<int> hit(400, 0);
+    for (int i = -200; i <= 200; ++i) {
+      for (int j = -200; j <= 200; ++j) {
+        const double a = i / 200.0, b = j / 200.0;
+        if (std::abs(a) + std::abs(b) > 1.0) continue;
+        const Twist2 t{win.center.v + a * win.dv, win.center.w + b * win.dw};
+        if (t.v < 0.0 || t.v > limits.v_max || std::abs(t.w) > limits.w_max) continue;
+        const auto [r, c] = cellOf(t, limits);
+        hit[static_cast<size_t>(r * 20 + c)] = 1;
+      }
+    }
+    int marked = 0;
+    for (int i = 0; i < 400; ++i) {
+      EXPECT_EQ(ch[static_cast<size_t>(i)] > 0.0f, hit[static_cast<size_t>(i)] == 1) << "cell " << i;
+      EXPECT_TRUE(ch[static_cast<size_t>(i)] == 1.0f || ch[static_cast<size_t>(i)] == -1.0f);
+      marked += ch[static_cast<size_t>(i)] > 0.0f;
+    }
+    EXPECT_GE(marked, 2);
+    // The valid actions are all in the window's cells.
+    const ActionSet actions = computeActions(now, obs.robot_pose.toLocal(obs.goal), limits);
+    for (int a = 0; a < kNumActions; ++a) {
+      if (!actions.valid[static_cast<size_t>(a)]) continue;
+      const auto [r, c] = cellOf(actions.velocities[static_cast<size_t>(a)], limits);
+      EXPECT_EQ(ch[static_cast<size_t>(r * 20 + c)], 1.0f) << "action " << a;
+    }
+  }
+}
+
+TEST(GridChannels, TheGoalChannelIsTheLineThroughTheGoal) {
+  const RobotLimits limits;
+  Observation obs = knownScene();  // facing +y from (1, 1)
+  for (const Vec2& goal : {Vec2{0.0, 3.0}, Vec2{2.5, 1.8}, Vec2{1.2, 1.3}, Vec2{-0.4, 4.5}}) {
+    obs.goal = goal;
+    const VelocitySpace d = buildDovs(obs, limits, DovsConfig{});
+    const std::vector<float> ch = windowGoalChannels(d, obs);
+    const GoalLine line = goalLine(obs.robot_pose.toLocal(goal));
+    ASSERT_EQ(line.kind, GoalLine::Kind::kArc);
+    // Sampled along w = k v: the cells the line passes through or touches (the line starts at the corner of the
+    // two middle columns of the bottom row, so both sides of each sample are looked at), and no others.
+    std::vector<int> hit(400, 0);
+    for (int i = 0; i <= 100000; ++i) {
+      const double v = limits.v_max * i / 100000.0, w = line.curvature_1pm * v;
+      if (std::abs(w) > limits.w_max) continue;
+      for (const double side : {-1e-10, 1e-10}) {
+        const auto [r, c] = cellOf({v, w + side}, limits);
+        hit[static_cast<size_t>(r * 20 + c)] = 1;
+      }
+    }
+    int marked = 0, mismatched = 0;
+    for (int i = 0; i < 400; ++i) {
+      marked += ch[static_cast<size_t>(400 + i)] > 0.0f;
+      mismatched += (ch[static_cast<size_t>(400 + i)] > 0.0f) != (hit[static_cast<size_t>(i)] == 1);
+    }
+    EXPECT_EQ(mismatched, 0) << "goal (" << goal.x() << ", " << goal.y() << ")";
+    EXPECT_GE(marked, 1);
+  }
+  // Straight ahead: the middle columns' boundary (w = 0) from bottom to top.
+  obs.goal = {1.0, 4.0};
+  std::vector<float> ch = windowGoalChannels(buildDovs(obs, limits, DovsConfig{}), obs);
+  for (int r = 0; r < 20; ++r) {
+    EXPECT_EQ(ch[static_cast<size_t>(400 + r * 20 + 9)], 1.0f);
+    EXPECT_EQ(ch[static_cast<size_t>(400 + r * 20 + 10)], 1.0f);
+    EXPECT_EQ(ch[static_cast<size_t>(400 + r * 20 + 3)], -1.0f);
+  }
+  // Behind on the right: turning in place to the right, the bottom row's w < 0 half only.
+  obs.goal = {1.5, -1.0};
+  ch = windowGoalChannels(buildDovs(obs, limits, DovsConfig{}), obs);
+  for (int i = 0; i < 400; ++i) {
+    const bool expected = i / 20 == 19 && i % 20 < 10;
+    EXPECT_EQ(ch[static_cast<size_t>(400 + i)] > 0.0f, expected) << i;
+  }
+  // At the goal: no line.
+  obs.goal = obs.robot_pose.position();
+  ch = windowGoalChannels(buildDovs(obs, limits, DovsConfig{}), obs);
+  for (int i = 400; i < 800; ++i) EXPECT_EQ(ch[static_cast<size_t>(i)], -1.0f);
+  obs.goal = {std::nan(""), 0.0};
+  EXPECT_THROW(windowGoalChannels(buildDovs(knownScene(), limits, DovsConfig{}), obs), StateError);
+}
+
+TEST(GridChannels, BuildStateAppendsThemBeforeTheFeatures) {
+  const Observation obs = knownScene();
+  DovsConfig config;
+  const VelocitySpace d = buildDovs(obs, RobotLimits{}, config);
+  const StateVector plain = buildState(d, obs, stateNormalization(RobotLimits{}, config));
+  EXPECT_EQ(setDovsParameter(config, "grid_channels", "3"), "");
+  EXPECT_EQ(config.validate(), "");
+  const StateNormalization norm = stateNormalization(RobotLimits{}, config);
+  EXPECT_EQ(norm.grid_channels, 3);
+  EXPECT_EQ(norm.fields(), StateNormalization{}.fields());  // a layout, not a normalisation entry
+  const StateVector s = buildState(d, obs, norm);
+  ASSERT_EQ(s.size(), stateSize(3));
+  ASSERT_EQ(s.size(), 1208);
+  const std::vector<float> extra = windowGoalChannels(d, obs);
+  for (int i = 0; i < 400; ++i) EXPECT_EQ(s(i), plain(i));
+  for (int i = 0; i < 800; ++i) EXPECT_EQ(s(400 + i), extra[static_cast<size_t>(i)]);
+  for (int i = 0; i < 8; ++i) EXPECT_EQ(s(1200 + i), plain(400 + i));
+  // With the graded grid too: the first channel is graded, the others the same.
+  config.grid_contact_horizon_s = 5.0;
+  const StateVector g = buildState(d, obs, stateNormalization(RobotLimits{}, config));
+  ASSERT_EQ(g.size(), 1208);
+  for (int i = 400; i < 1208; ++i) EXPECT_EQ(g(i), s(i));
+
+  config.grid_channels = 2;
+  EXPECT_NE(config.validate().find("grid_channels"), std::string::npos);
+  StateNormalization bad;
+  bad.grid_channels = 2;
+  EXPECT_NE(bad.validate().find("grid_channels"), std::string::npos);
+  EXPECT_THROW(buildState(d, obs, bad), StateError);
+  EXPECT_NE(setDovsParameter(config, "grid_channels", "three"), "");
 }
 
 }  // namespace

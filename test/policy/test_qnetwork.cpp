@@ -43,20 +43,22 @@ WeightFileContents defaultContents(std::uint64_t seed = 7) {
   return c;
 }
 
-Eigen::VectorXf randomState(std::mt19937& rng) {
+Eigen::VectorXf randomState(std::mt19937& rng, int grid_channels = 1) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  Eigen::VectorXf s(QNetwork::kStateSize);
-  for (int i = 0; i < 400; ++i) s[i] = u(rng) < 0.4f ? -1.0f : 1.0f;
-  for (int i = 400; i < QNetwork::kStateSize; ++i) s[i] = u(rng);
+  const int grid = grid_channels * 400;
+  Eigen::VectorXf s(grid + 8);
+  for (int i = 0; i < grid; ++i) s[i] = u(rng) < 0.4f ? -1.0f : 1.0f;
+  for (int i = grid; i < grid + 8; ++i) s[i] = u(rng);
   return s;
 }
 
 // Straightforward double-precision forward pass over the records, written from the format spec:
 // independent of the im2col/GEMM code under test.
 std::array<double, 8> referenceQ(const WeightFileContents& c, const Eigen::VectorXf& state) {
-  std::vector<double> grid(state.data(), state.data() + 400);
-  int ch = 1, h = 20, w = 20;
-  std::vector<double> feat(state.data() + 400, state.data() + 408);
+  const int grid_values = static_cast<int>(c.grid_channels) * 400;
+  std::vector<double> grid(state.data(), state.data() + grid_values);
+  int ch = static_cast<int>(c.grid_channels), h = 20, w = 20;
+  std::vector<double> feat(state.data() + grid_values, state.data() + grid_values + 8);
   std::vector<double> trunk, value, adv;
   auto linear = [](const LayerRecord& l, const std::vector<double>& x) {
     std::vector<double> y(l.out_features);
@@ -189,6 +191,78 @@ TEST(QNetwork, OtherArchitecturesRunToo) {
   for (int a = 0; a < 8; ++a) EXPECT_NEAR(q[a], ref[a], 1e-4);
   arch.conv_kernel = 4;
   EXPECT_NE(arch.validate().find("conv_kernel"), std::string::npos);
+}
+
+TEST(QNetwork, GridChannelsAreAVersionTwoFileAndTheStateGrows) {
+  DuelingArchitecture arch;
+  arch.grid_channels = 3;
+  WeightFileContents c = makeRandomWeights(arch, 5, kNormalization);
+  EXPECT_EQ(c.format_version, 2u);
+  EXPECT_EQ(c.grid_channels, 3u);
+  // The header gains one u32 (the channel count) and the first convolution 2 x 8 x 9 weights.
+  const std::vector<std::uint8_t> bytes = serializeWeightFile(c);
+  const std::vector<std::uint8_t> one =
+      serializeWeightFile(makeRandomWeights(DuelingArchitecture{}, 5, kNormalization));
+  EXPECT_EQ(bytes.size(), one.size() + 4 + 2 * 8 * 9 * 4);
+  EXPECT_EQ(weightFormatVersionFor(1), 1u);  // one channel: the file every earlier reader wrote and reads
+  const WeightFileContents back = parseWeightFile(bytes, "<v2>");
+  EXPECT_EQ(back.format_version, 2u);
+  EXPECT_EQ(back.grid_channels, 3u);
+  const QNetwork net = QNetwork::fromContents(back, "<v2>");
+  EXPECT_EQ(net.gridChannels(), 3);
+  EXPECT_EQ(net.stateSize(), 1208);
+  std::mt19937 rng(9);
+  for (int n = 0; n < 10; ++n) {
+    const Eigen::VectorXf s = randomState(rng, 3);
+    const auto q = net.qValues(s);
+    const auto ref = referenceQ(back, s);
+    for (int a = 0; a < 8; ++a) EXPECT_NEAR(q[a], ref[a], 1e-4);
+  }
+  // The extra channels are read: changing only the third channel changes the Q-values.
+  Eigen::VectorXf s = randomState(rng, 3);
+  const auto q0 = net.qValues(s);
+  for (int i = 800; i < 1200; ++i) s[i] = -s[i];
+  const auto q1 = net.qValues(s);
+  double moved = 0.0;
+  for (int a = 0; a < 8; ++a) moved = std::max(moved, std::abs(double(q1[a]) - q0[a]));
+  EXPECT_GT(moved, 1e-4);
+  // A one-channel state for it, and the other way round, are named errors.
+  try {
+    net.qValues(randomState(rng, 1));
+    ADD_FAILURE() << "a 408-float state was accepted by a 3-channel network";
+  } catch (const QNetworkInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("expected 1208 (3 x 20 x 20 grid"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(net.gridChannelsMismatch(3), "");
+  const std::string why = net.gridChannelsMismatch(1);
+  EXPECT_NE(why.find("'state layout: grid channels' is 3 in the file but 1 here"), std::string::npos) << why;
+  EXPECT_NE(why.find("dovs/grid_channels"), std::string::npos) << why;
+
+  // Channel counts the planner cannot build, a version 1 file claiming channels, and a first convolution reading
+  // another count are refused, naming the field.
+  WeightFileContents two = back;
+  two.grid_channels = 2;
+  expectLoadError(two, "two.dqnw", "state layout: grid channels");
+  WeightFileContents v1 = back;
+  v1.format_version = 1;
+  try {
+    QNetwork::fromContents(v1, "<v1 with channels>");
+    ADD_FAILURE() << "a version 1 file with 3 grid channels was accepted";
+  } catch (const WeightFileError& e) {
+    EXPECT_EQ(e.field(), "state layout: grid channels");
+  }
+  WeightFileContents zero = back;
+  zero.grid_channels = 0;
+  EXPECT_EQ(loadErrorField(serializeWeightFile(zero), "zero.dqnw"), "state layout: grid channels");
+  WeightFileContents conv_one = back;
+  conv_one.grid_channels = 1;
+  conv_one.format_version = 1;
+  try {
+    QNetwork::fromContents(conv_one, "<conv reads 3>");
+    ADD_FAILURE() << "a first convolution reading 3 channels of a one-channel grid was accepted";
+  } catch (const WeightFileError& e) {
+    EXPECT_NE(std::string(e.field()).find("shape"), std::string::npos) << e.what();
+  }
 }
 
 TEST(QNetwork, RejectsBadStates) {
@@ -333,11 +407,11 @@ TEST(WeightFile, BadMagicVersionChecksumTrailing) {
   bad_magic[0] = 'X';
   EXPECT_EQ(loadErrorField(bad_magic, "magic.dqnw"), "magic");
 
-  WeightFileContents v2 = defaultContents();
-  v2.format_version = 2;
+  WeightFileContents v3 = defaultContents();
+  v3.format_version = 3;
   std::string message;
-  EXPECT_EQ(loadErrorField(serializeWeightFile(v2), "version.dqnw", &message), "format version");
-  EXPECT_NE(message.find("version 2"), std::string::npos) << message;
+  EXPECT_EQ(loadErrorField(serializeWeightFile(v3), "version.dqnw", &message), "format version");
+  EXPECT_NE(message.find("version 3"), std::string::npos) << message;
 
   auto flipped = bytes;
   flipped[bytes.size() / 2] ^= 0x40;

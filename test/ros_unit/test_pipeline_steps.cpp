@@ -15,6 +15,7 @@
 #include "dqn_dovs/planning/dqn_dovs_planner.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/policy/qnetwork.h"
+#include "dqn_dovs/policy/weight_file.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "obstacle_test_helpers.h"
 #include "pipeline_steps.h"
@@ -163,6 +164,48 @@ TEST(PipelineSteps, AGradedGridIsCarriedAndRefusedByAPlusMinusOneModel) {
   EXPECT_EQ(chooseAction(shippedNetwork(), d, why), -1);
   EXPECT_NE(why.find("grid_contact_horizon_s"), std::string::npos) << why;
   EXPECT_NE(why.find("dovs/grid_contact_horizon"), std::string::npos) << why;
+}
+
+TEST(PipelineSteps, GridChannelsAreCarriedAndAModelOfOtherChannelsIsNotRun) {
+  // dovs_node with dovs/grid_channels = 3 publishes 1,208-float states (the DOVS grid, the dynamic window and the
+  // goal line, then the features); the shipped one-channel network is not run on them, and the reason names the
+  // channels on both sides. A 3-channel network (the shipped one widened with zero weights) runs them and chooses
+  // what the shipped network chooses on the one-channel message of the same scene.
+  DovsConfig wide;
+  wide.grid_channels = 3;
+  const Step one = build({0.3, 0.0}, {movingDisc(2.5, 0.2, kPi, 0.5)});
+  const Step three = build({0.3, 0.0}, {movingDisc(2.5, 0.2, kPi, 0.5)}, wide);
+  const Dovs& d = three.step.msg;
+  ASSERT_EQ(d.state.size(), 1208u);
+  EXPECT_EQ(d.state_normalization, one.step.msg.state_normalization);
+  for (int i = 0; i < kStateGridCells; ++i)
+    EXPECT_EQ(d.state[static_cast<size_t>(i)], one.step.msg.state[static_cast<size_t>(i)]);
+  for (int i = 0; i < kNumFeatures; ++i)
+    EXPECT_EQ(d.state[static_cast<size_t>(1200 + i)], one.step.msg.state[static_cast<size_t>(400 + i)]);
+  std::string why;
+  EXPECT_EQ(chooseAction(shippedNetwork(), d, why), -1);
+  EXPECT_NE(why.find("1208 values, the model reads 408 (1 grid channels)"), std::string::npos) << why;
+  EXPECT_NE(why.find("dovs_node builds 3 grid channels"), std::string::npos) << why;
+
+  WeightFileContents c = readWeightFile(std::string(DQN_DOVS_SOURCE_DIR) + "/models/dqn_dovs.dqnw");
+  LayerRecord& first = c.layers.front();  // grid conv2d 1 -> 8: the new channels read with zero weights
+  std::vector<float> widened;
+  const std::uint32_t taps = first.kernel_h * first.kernel_w;
+  for (std::uint32_t o = 0; o < first.out_channels; ++o) {
+    widened.insert(widened.end(), first.weight.begin() + o * taps, first.weight.begin() + (o + 1) * taps);
+    widened.insert(widened.end(), 2 * taps, 0.0f);
+  }
+  first.weight = widened;
+  first.in_channels = 3;
+  c.grid_channels = 3;
+  c.format_version = weightFormatVersionFor(3);
+  const QNetwork net3 = QNetwork::fromContents(c, "<widened shipped network>");
+  const int choice3 = chooseAction(net3, d, why);
+  EXPECT_GE(choice3, 0) << why;
+  std::string why1;
+  EXPECT_EQ(choice3, chooseAction(shippedNetwork(), one.step.msg, why1)) << why1;
+  EXPECT_EQ(chooseAction(net3, one.step.msg, why), -1);
+  EXPECT_NE(why.find("dovs_node builds 1 grid channels"), std::string::npos) << why;
 }
 
 // The decision step through the robot's path (the Dovs message dovs_node builds, then the planner's choice on it)

@@ -57,13 +57,18 @@ struct DovsConfig {
   /// of its constant velocity within T seconds (free cells in (0, 1], unsafe ones in [-1, 0]). The DOVS itself,
   /// its intervals, grid() and the actions' safety do not change. 0 or [0.5, 30] s.
   double grid_contact_horizon_s = 0.0;
+  /// Channels of the network state's grid (StateNormalization::grid_channels, docs/dovs.md "Grid channels"): 1 is
+  /// the grid above alone (the paper's state); 3 adds the dynamic window and the goal line as two more 20 x 20
+  /// images. The DOVS itself does not change. 1 or 3.
+  int grid_channels = 1;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
 };
 
 /// Sets the DovsConfig field named as in config/dovs.yaml's `dovs/` block (obstacle_range, safety_factor,
-/// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth, grid_contact_horizon)
+/// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth, grid_contact_horizon,
+/// grid_channels)
 /// from text. Returns
 /// an empty string, or a message naming the parameter and the reason (unknown name, not a number, not an
 /// integer). The value is not range-checked here: validate() does that for the whole configuration.

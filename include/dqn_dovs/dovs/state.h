@@ -17,9 +17,15 @@ namespace dqn_dovs {
 constexpr int kStateGridSize = 20;
 constexpr int kStateGridCells = kStateGridSize * kStateGridSize;
 constexpr int kNumFeatures = 8;
-constexpr int kStateSize = kStateGridCells + kNumFeatures;  // 408
+constexpr int kStateSize = kStateGridCells + kNumFeatures;  // 408, the one-channel state
+/// Grid channels of the state with the dynamic window and the goal line (DovsConfig::grid_channels).
+constexpr int kWindowGoalGridChannels = 3;
 
-using StateVector = Eigen::Matrix<float, kStateSize, 1>;
+/// Floats in a state with `grid_channels` grid channels: grid_channels x 400 grid values, then the 8 features.
+constexpr int stateSize(int grid_channels) { return grid_channels * kStateGridCells + kNumFeatures; }
+
+/// The network input (stateSize(grid_channels) floats).
+using StateVector = Eigen::VectorXf;
 using FeatureVector = std::array<float, kNumFeatures>;
 
 /// Feature indices in the state, after the grid.
@@ -54,6 +60,10 @@ struct StateNormalization {
   /// The grid's encoding (DovsConfig::grid_contact_horizon_s): 0 is the +1 / -1 grid; T > 0 grades every feasible
   /// cell by the earliest contact of its constant velocity within T seconds (docs/dovs.md, "The graded grid").
   float grid_contact_horizon_s = 0.0f;
+  /// The grid's channels (DovsConfig::grid_channels, docs/dovs.md "Grid channels"): 1 is the DOVS grid alone, 3
+  /// adds the dynamic window and the goal line. Part of the state's layout, not a normalisation entry: the weight
+  /// file stores it in its header (`state layout: grid channels`, format version 2), and fields() leaves it out.
+  int grid_channels = 1;
 
   /// The fields every normalisation has (the first 13, the paper's state).
   static constexpr int kNumFields = 13;
@@ -69,7 +79,8 @@ struct StateNormalization {
   /// them). Returns false with `why` naming the count when it is neither.
   static bool fromValues(const std::vector<float>& values, StateNormalization& out, std::string& why);
   /// Empty when usable, otherwise a message naming the field: scales finite and positive, far values finite
-  /// and within [-clip, clip], clip finite and positive, grid_contact_horizon_s 0 or in [0.5, 30].
+  /// and within [-clip, clip], clip finite and positive, grid_contact_horizon_s 0 or in [0.5, 30], grid_channels 1
+  /// or 3.
   std::string validate() const;
 };
 
@@ -94,11 +105,19 @@ class StateError : public std::runtime_error {
 /// horizon outside [0.5, 30] s.
 std::vector<float> gradedGrid(const VelocitySpace& dovs, const Observation& obs, double horizon_s);
 
+/// The two extra grid channels (docs/dovs.md "Grid channels"), 800 values: the dynamic window, then the goal line,
+/// each 20 x 20 row-major like VelocitySpace::grid(). A cell holds +1 when it meets the rhombus of velocities
+/// reachable from the robot's current (v, w) in one control period (the window of the actions) / the goal line of
+/// the actions (the circle through the goal, or turning in place to face a goal behind), and -1 otherwise.
+/// Throws StateError for a NaN/inf robot twist or goal, or a grid other than 20 x 20.
+std::vector<float> windowGoalChannels(const VelocitySpace& dovs, const Observation& obs);
+
 /// The 8 normalised features of `obs` (robot twist, goal) and the DOVS's closest obstacle.
 FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
 
-/// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), then the 8
-/// features. With norm.grid_contact_horizon_s = T > 0 the grid is graded (gradedGrid). Throws StateError unless
+/// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), with
+/// norm.grid_channels = 3 followed by windowGoalChannels (800 more), then the 8 features. With
+/// norm.grid_contact_horizon_s = T > 0 the DOVS grid is graded (gradedGrid). Throws StateError unless
 /// dovs.gridSize() == 20.
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
 

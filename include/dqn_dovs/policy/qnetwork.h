@@ -36,13 +36,16 @@ struct DuelingArchitecture {
   std::uint32_t feature_hidden = 64;
   /// Widths of the trunk's hidden layers after the concatenation, in order.
   std::vector<std::uint32_t> trunk_hidden = {256, 128};
+  /// Channels of the grid image the first convolution reads (1: the DOVS grid; 3: with the dynamic window and the
+  /// goal line, docs/dovs.md "Grid channels"). A file with more than one is written as format version 2.
+  std::uint32_t grid_channels = 1;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
 };
 
-/// Layer records of `arch` for the standard state (20 x 20 grid, 8 features, 8 actions), weights drawn
-/// like PyTorch's default initialisation (uniform in +-1/sqrt(fan_in)) from a fixed-seed generator.
+/// Layer records of `arch` for the standard state (arch.grid_channels x 20 x 20 grid, 8 features, 8 actions), weights
+/// drawn like PyTorch's default initialisation (uniform in +-1/sqrt(fan_in)) from a fixed-seed generator.
 WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint64_t seed,
                                      std::vector<std::pair<std::string, float>> normalization,
                                      std::string metadata = "random weights");
@@ -52,8 +55,11 @@ class QNetwork {
   static constexpr int kGridRows = 20;
   static constexpr int kGridCols = 20;
   static constexpr int kFeatureCount = 8;
+  /// State size of a network on the one-channel grid (the paper's state); stateSize() is this network's.
   static constexpr int kStateSize = kGridRows * kGridCols + kFeatureCount;  ///< 408
   static constexpr int kActionCount = 8;
+  /// Grid channels of the state with the dynamic window and the goal line (docs/dovs.md "Grid channels").
+  static constexpr int kWindowGoalGridChannels = 3;
 
   using QValues = std::array<float, kActionCount>;
   using ActionMask = std::array<bool, kActionCount>;
@@ -70,7 +76,12 @@ class QNetwork {
   /// Builds the network from parsed contents; `source` names them in error messages (a path).
   static QNetwork fromContents(const WeightFileContents& contents, const std::string& source);
 
-  /// Q-values of one state (kStateSize floats: the grid row-major, then the features).
+  /// Channels of the grid image this network reads (the file's `state layout: grid channels`; 1 for version 1).
+  int gridChannels() const { return grid_channels_; }
+  /// Floats in one state: gridChannels() x 20 x 20 grid values (channel-major, each row-major), then 8 features.
+  int stateSize() const { return grid_channels_ * kGridRows * kGridCols + kFeatureCount; }
+
+  /// Q-values of one state (stateSize() floats: the grid channels row-major, then the features).
   /// Throws QNetworkInputError on a wrong size or a NaN/inf element (naming the index), and when the
   /// result is not finite. Thread-safe: scratch memory is per thread, allocated on a thread's first call
   /// (and when a larger network is evaluated), so steady-state calls do not allocate.
@@ -91,6 +102,10 @@ class QNetwork {
   /// The planner calls it with its own state normaliser's constants before trusting the network.
   std::string normalizationMismatch(const std::vector<std::pair<std::string, float>>& expected,
                                     float rel_tol = 1e-6f) const;
+
+  /// Empty when the network reads `expected` grid channels, otherwise a message naming the file's
+  /// `state layout: grid channels` and the DOVS parameter that sets the states' (dovs/grid_channels).
+  std::string gridChannelsMismatch(int expected) const;
 
   /// Free-text provenance (training command, date, source revision).
   std::string metadata() const { return metadata_; }
@@ -125,6 +140,7 @@ class QNetwork {
   std::vector<RowMatrix> weights_;
   std::vector<Eigen::VectorXf> biases_;
   int scratch_size_ = 0;
+  int grid_channels_ = 1;
   int value_offset_ = 0;
   int advantage_offset_ = 0;
   std::vector<std::string> layer_descriptions_;

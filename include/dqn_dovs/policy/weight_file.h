@@ -15,8 +15,14 @@ namespace dqn_dovs {
 
 /// Eight bytes at offset 0 of every weight file.
 inline constexpr char kWeightFileMagic[9] = "DQNDOVSW";
-/// The only format version this reader understands.
+/// The format version of a network on the paper's one-channel grid (every file written before grid channels
+/// existed). Writers use it whenever grid_channels is 1, so such a file's bytes do not change.
 inline constexpr std::uint32_t kWeightFormatVersion = 1;
+/// Version 2 adds one field, `state layout: grid channels`, after the grid's columns (docs/weight_format.md):
+/// the grid is a C x rows x cols image (the DOVS grid, then the dynamic window and the goal line).
+inline constexpr std::uint32_t kWeightFormatVersionChannels = 2;
+/// Largest grid channel count a file may declare.
+inline constexpr std::uint32_t kMaxGridChannels = 16;
 
 /// A weight file that cannot be used. The message names the file, the field and the reason;
 /// path() and field() give them separately for callers that want to react to one field.
@@ -74,8 +80,11 @@ struct LayerRecord {
 /// Everything a weight file holds, in file order.
 struct WeightFileContents {
   std::uint32_t format_version = kWeightFormatVersion;
-  std::uint32_t grid_rows = 20;     ///< rows of the velocity grid (v axis)
-  std::uint32_t grid_cols = 20;     ///< columns of the velocity grid (w axis)
+  std::uint32_t grid_rows = 20;  ///< rows of the velocity grid (v axis)
+  std::uint32_t grid_cols = 20;  ///< columns of the velocity grid (w axis)
+  /// Channels of the grid image (version 2 only; a version 1 file has 1). The state holds
+  /// grid_channels x grid_rows x grid_cols grid values, channel-major, then the features.
+  std::uint32_t grid_channels = 1;
   std::uint32_t feature_count = 8;  ///< normalised scalar features after the grid
   /// The state normalisation the network was trained with, as named constants (file order kept).
   std::vector<std::pair<std::string, float>> normalization;
@@ -93,6 +102,9 @@ std::string printableBytes(const std::string& bytes);
 /// CRC-32 (IEEE 802.3, reflected, polynomial 0xEDB88320, init and final xor 0xFFFFFFFF), the same
 /// value as Python's zlib.crc32.
 std::uint32_t crc32(const std::uint8_t* data, std::size_t size);
+
+/// The version a writer puts in a file for `grid_channels`: 1 for one channel, 2 otherwise.
+std::uint32_t weightFormatVersionFor(std::uint32_t grid_channels);
 
 /// Serialises `contents` with its checksum. Writes the header fields as given (even a foreign version or
 /// layout, which lets tests produce such files), but throws WeightFileError when a tensor's length does
