@@ -31,7 +31,7 @@ std::shared_ptr<const QNetwork> loadNetwork(const DqnDovsConfig& config) {
   if (mismatch.empty()) mismatch = net->gridChannelsMismatch(config.normalization.grid_channels);
   if (!mismatch.empty()) {
     throw PlannerError("DQN-DOVS: the Q-network '" + config.model_path +
-                       ' was trained with another state normalisation or layout: " + mismatch);
+                       "' was trained with another state normalisation or layout: " + mismatch);
   }
   return net;
 }
