@@ -424,7 +424,6 @@ def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> 
         "state_layout": state_layout_name(weights),
         "grid_rows": str(weights.grid_rows),
         "grid_cols": str(weights.grid_cols),
-        "grid_channels": str(weights.grid_channels),
         "feature_count": str(weights.feature_count),
         "action_count": str(weights.action_count),
         # Values as the .dqnw stores them (float32), written as the exact double of that float32.
@@ -434,6 +433,8 @@ def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> 
                                "network",
         "metadata": weights.metadata,
     }
+    if weights.grid_channels != 1:  # a one-channel model's metadata is what it was before channels existed
+        props["grid_channels"] = str(weights.grid_channels)
     return {ONNX_PROP_PREFIX + k: v for k, v in props.items()}
 
 

@@ -23,7 +23,7 @@ from built_tools import built_tool
 from qnet_samples import random_net, random_states
 from dqn_dovs_py.export import (FORMAT_VERSION, ONNX_OPSET, OnnxExportError, export_model, load_weights, main,
                                 onnx_from_weights, read_onnx_metadata)
-from dqn_dovs_py.model import masked_argmax
+from dqn_dovs_py.model import DuelingQNet, masked_argmax
 
 ROOT = Path(__file__).resolve().parents[2]
 MODELS = ROOT / "models"
@@ -212,3 +212,27 @@ def test_reading_a_corrupt_onnx_names_the_file(tmp_path: Path) -> None:
     onnx.save(foreign, str(tmp_path / "foreign.onnx"))
     with pytest.raises(OnnxExportError, match="no dqn_dovs metadata"):
         read_onnx_metadata(tmp_path / "foreign.onnx")
+
+
+def test_a_network_of_three_grid_channels_exports_and_matches_eigen(tmp_path: Path) -> None:
+    """A version 2 file (docs/dovs.md "Grid channels"): its ONNX model reads [N, 1208] and is the same function as
+    the Eigen network of the .dqnw, which reads the channels the way PyTorch does (channel-major)."""
+    torch.manual_seed(5)
+    net = DuelingQNet(grid_channels=3).eval()
+    with torch.no_grad():
+        for module in net.modules():
+            if isinstance(module, (torch.nn.Conv2d, torch.nn.Linear)):
+                module.bias.add_(0.3 * torch.randn_like(module.bias))
+    export_model(net, tmp_path / "wide.dqnw", NORMALIZATION, "three channels")
+    weights = load_weights(tmp_path / "wide.dqnw")
+    assert (weights.format_version, weights.grid_channels) == (2, 3)
+    props = read_onnx_metadata(tmp_path / "wide.onnx")
+    assert props["dqn_dovs.state_layout"] == "grid3x20x20+features8"
+    assert props["dqn_dovs.grid_channels"] == "3" and props["dqn_dovs.weight_format_version"] == "2"
+    rng = np.random.default_rng(11)
+    states = np.concatenate([np.where(rng.random((300, 1200)) < 0.7, 1.0, -1.0),
+                             rng.uniform(-1.0, 1.0, size=(300, 8))], axis=1).astype(np.float32)
+    _assert_same_function(tmp_path / "wide.onnx", tmp_path / "wide.dqnw", states, tmp_path)
+    with torch.no_grad():
+        q_torch = net(torch.from_numpy(states)).numpy()
+    assert float(np.abs(_onnx_q(tmp_path / "wide.onnx", states) - q_torch).max()) < TOLERANCE
