@@ -147,6 +147,15 @@ TEST(PlannerBadParams, OutOfRangeParametersAreFatalAndNamed) {
   }
 }
 
+// A model whose state layout is not the one the DOVS parameters give is refused at start: the shipped one-channel
+// network with dovs/grid_channels = 3 (docs/dovs.md "Grid channels"), and a channel count that does not exist.
+TEST(PlannerBadParams, AModelOfOtherGridChannelsIsFatalAndNamed) {
+  expectFatal(runPlanner("planner_fatal_channels", "_model_path:=" + modelPath() + " _dovs/grid_channels:=3"),
+              "'state layout: grid channels' is 1 in the file but 3 here", "grid channels of another model");
+  expectFatal(runPlanner("planner_fatal_channels_2", "_model_path:=" + modelPath() + " _dovs/grid_channels:=2"),
+              "grid_channels", "grid channels out of range");
+}
+
 // A robot_description on the parameter server: a footprint larger than robot/radius is a refusal (the planner
 // would plan for a smaller robot than the real one); a smaller one (the Kobuki's 0.176 m collision cylinder
 // under the configured 0.2 m) is a warning that says what to change, and the node runs.
