@@ -71,7 +71,7 @@ void consume(const std::uint8_t* data, std::size_t size) {
   const dqn_dovs::DovsDecision decision = dqn_dovs::dovsDecisionFromMessage(msg);
   std::string why;
   const int a = dqn_dovs::chooseAction(*g_network, decision, why);
-  if (msg.state.size() != static_cast<std::size_t>(dqn_dovs::QNetwork::kStateSize)) {
+  if (msg.state.size() != static_cast<std::size_t>(g_network->stateSize())) {
     require(a == -1 && !why.empty(), "a state of the wrong size gives no action and a reason");
     return;
   }

@@ -183,6 +183,14 @@ int main(int argc, char** argv) {
       bytes.insert(bytes.begin(), static_cast<std::uint8_t>(seed == 1 ? 1 : 0));
       writeFile(out / "weight_file" / ("tiny" + std::to_string(seed) + ".bin"), bytes);
     }
+    {  // format version 2: a grid of 3 channels (the dynamic window and the goal line)
+      DuelingArchitecture wide = tiny;
+      wide.grid_channels = 3;
+      std::vector<std::uint8_t> bytes =
+          serializeWeightFile(makeRandomWeights(wide, 3, {{"v_max", 0.7f}, {"w_max", 3.14159f}}, "fuzz seed"));
+      bytes.insert(bytes.begin(), std::uint8_t{1});
+      writeFile(out / "weight_file" / "tiny3_channels.bin", bytes);
+    }
     for (int i = 2; i < argc; ++i) {
       const std::string path = argv[i];
       const sim::Scenario s = sim::loadDovsScenario(path);

@@ -47,9 +47,10 @@ inline void checkNetwork(const QNetwork& net, ByteStream& in) {
   require(net.source() == kWeightSource, "network source is the given name");
   require(!net.describe().empty(), "describe() says something");
   for (int k = 0; k < 3; ++k) {
-    Eigen::VectorXf state(QNetwork::kStateSize);
+    require(net.stateSize() == net.gridChannels() * 400 + 8, "stateSize() is the grid channels' cells + 8");
+    Eigen::VectorXf state(net.stateSize());
     bool finite_state = true;
-    for (int i = 0; i < QNetwork::kStateSize; ++i) {
+    for (int i = 0; i < net.stateSize(); ++i) {
       state[i] = k == 0 ? 0.0f : (k == 1 ? (i % 3 == 0 ? -1.0f : 1.0f) : in.numberF(-2.0, 2.0));
       finite_state = finite_state && std::isfinite(state[i]);
     }
