@@ -15,3 +15,19 @@ def built_tool(name: str) -> Path:
     if not (tool.is_file() and os.access(tool, os.X_OK)):
         pytest.fail(f"{name} not found or not executable in DQN_DOVS_BIN_DIR={bin_dir}: build the core tools first")
     return tool
+
+
+def check_eval_needs_the_state_flags(model: str, flags: list[str], refusal: str, out_dir: Path) -> None:
+    """dqn_dovs_eval refuses the network `model` on the default state, naming `refusal`, and runs it with `flags`
+    (what compare_models.state_flags gives for it): a network trained on another state encoding or layout is never
+    run on states it was not trained on."""
+    import subprocess  # noqa: PLC0415
+
+    common = [str(built_tool("dqn_dovs_eval")), "--methods", "dqn_dovs", "--generate", "5", "--obstacles", "4",
+              "--episodes", "2", "--threads", "1", "--model", model]
+    refused = subprocess.run(common + ["--out", str(out_dir / "default_state")], capture_output=True, text=True)
+    assert refused.returncode != 0
+    assert refusal in refused.stdout + refused.stderr
+    ran = subprocess.run(common + flags + ["--out", str(out_dir / "its_state")], capture_output=True, text=True)
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+    assert (out_dir / "its_state" / "results.csv").is_file()

@@ -4,13 +4,12 @@ the evaluation runs such a network only with the same encoding (compare_models g
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from built_tools import built_tool
+from built_tools import check_eval_needs_the_state_flags
 from dqn_dovs_py.compare_models import state_flags
 from dqn_dovs_py.export import load_weights
 
@@ -83,14 +82,5 @@ def test_a_graded_run_exports_its_encoding_and_the_evaluation_needs_it(core, tmp
     assert load_weights(model).normalization["grid_contact_horizon_s"] == pytest.approx(5.0)
     assert state_flags(model) == ["--dovs", "grid_contact_horizon=5"]
 
-    tool = str(built_tool("dqn_dovs_eval"))
-    common = [tool, "--methods", "dqn_dovs", "--generate", "5", "--obstacles", "4", "--episodes", "2",
-              "--threads", "1", "--model", model]
-    refused = subprocess.run(common + ["--out", str(tmp_path / "plain")], capture_output=True, text=True)
-    assert refused.returncode != 0
-    assert "grid_contact_horizon_s" in refused.stdout + refused.stderr
-    ran = subprocess.run(common + state_flags(model) + ["--out", str(tmp_path / "graded")], capture_output=True,
-                         text=True)
-    assert ran.returncode == 0, ran.stdout + ran.stderr
-    assert (tmp_path / "graded" / "results.csv").is_file()
+    check_eval_needs_the_state_flags(model, state_flags(model), "grid_contact_horizon_s", tmp_path)
     assert state_flags(str(ROOT / "models" / "dqn_dovs.dqnw")) == []  # a +1 / -1 network needs none

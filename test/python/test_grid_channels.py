@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from built_tools import built_tool
+from built_tools import built_tool, check_eval_needs_the_state_flags
 from dqn_dovs_py.compare_models import state_flags
 from dqn_dovs_py.export import load_weights, model_from_weights, widen_grid_channels
 
@@ -108,16 +108,8 @@ def test_a_channels_run_exports_version_two_and_the_evaluation_needs_the_layout(
     with pytest.raises(ConfigError, match="3 grid channels"):
         init_from_factory(model, 1)
 
-    tool = str(built_tool("dqn_dovs_eval"))
-    common = [tool, "--methods", "dqn_dovs", "--generate", "5", "--obstacles", "4", "--episodes", "2",
-              "--threads", "1", "--model", model]
-    refused = subprocess.run(common + ["--out", str(tmp_path / "plain")], capture_output=True, text=True)
-    assert refused.returncode != 0
-    assert "'state layout: grid channels' is 3 in the file but 1 here" in refused.stdout + refused.stderr
-    ran = subprocess.run(common + state_flags(model) + ["--out", str(tmp_path / "wide")], capture_output=True,
-                         text=True)
-    assert ran.returncode == 0, ran.stdout + ran.stderr
-    assert (tmp_path / "wide" / "results.csv").is_file()
+    check_eval_needs_the_state_flags(model, state_flags(model),
+                                     "'state layout: grid channels' is 3 in the file but 1 here", tmp_path)
 
 
 def test_a_widened_network_evaluates_exactly_like_its_source(tmp_path):
