@@ -423,9 +423,9 @@ def grid_channels_of(dovs: dict) -> int:
     try:
         channels = int(value)
     except (TypeError, ValueError):
-        raise ConfigError(f"dovs: grid_channels must be 1 or 3, got {value!r}") from None
-    if channels != float(value) or channels not in (1, 3):
-        raise ConfigError(f"dovs: grid_channels must be 1 or 3, got {value!r}")
+        raise ConfigError(f"dovs: grid_channels must be 1, 2 or 3, got {value!r}") from None
+    if channels != float(value) or channels not in (1, 2, 3):
+        raise ConfigError(f"dovs: grid_channels must be 1, 2 or 3, got {value!r}")
     return channels
 
 

@@ -110,9 +110,10 @@ std::string StateNormalization::validate() const {
     const float v = this->*ptrs[static_cast<size_t>(i)];
     if (!(std::isfinite(v) && std::abs(v) <= clip)) return bad(i, v, "far-away value must be finite and within clip");
   }
-  if (grid_channels != 1 && grid_channels != kWindowGoalGridChannels) {
+  if (grid_channels < 1 || grid_channels > kWindowGoalGridChannels) {
     return "state grid_channels = " + std::to_string(grid_channels) +
-           ": must be 1 (the DOVS grid) or 3 (with the dynamic window and the goal line)";
+           ": must be 1 (the DOVS grid), 2 (with the previous decision's grid) or 3 (with the dynamic window and "
+           "the goal line)";
   }
   const float t = grid_contact_horizon_s;
   if (!(std::isfinite(t) && (t == 0.0f || (t >= 0.5f && t <= 30.0f)))) {
@@ -286,7 +287,8 @@ std::vector<float> windowGoalChannels(const VelocitySpace& dovs, const Observati
   return out;
 }
 
-StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm) {
+StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
+                       const std::vector<float>* previous_grid) {
   requireStateGrid(dovs);
   const FeatureVector f = computeFeatures(dovs, obs, norm);  // validates norm and the robot state first
   const int grid_values = norm.grid_channels * kStateGridCells;
@@ -301,6 +303,19 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
   if (norm.grid_channels == kWindowGoalGridChannels) {
     const std::vector<float> extra = windowGoalChannels(dovs, obs);
     for (int i = 0; i < 2 * kStateGridCells; ++i) s(kStateGridCells + i) = extra[static_cast<size_t>(i)];
+  } else if (norm.grid_channels == kHistoryGridChannels) {
+    if (previous_grid == nullptr) {
+      for (int i = 0; i < kStateGridCells; ++i) s(kStateGridCells + i) = s(i);  // first decision: no history yet
+    } else {
+      if (previous_grid->size() != static_cast<size_t>(kStateGridCells))
+        throw StateError("state: the previous grid has " + std::to_string(previous_grid->size()) + " values, not " +
+                         std::to_string(kStateGridCells));
+      for (int i = 0; i < kStateGridCells; ++i) {
+        const float v = (*previous_grid)[static_cast<size_t>(i)];
+        if (!std::isfinite(v)) throw StateError("state: the previous grid has a NaN/inf value at " + std::to_string(i));
+        s(kStateGridCells + i) = v;
+      }
+    }
   }
   for (int i = 0; i < kNumFeatures; ++i) s(grid_values + i) = f[static_cast<size_t>(i)];
   return s;

@@ -112,6 +112,7 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   route_guide_.clear();
   guidance_ = RouteGuidance();
   route_error_.clear();
+  previous_grid_.clear();  // the first decision's history channel is its own grid
   // The robot senses, standing still, before it is given the goal: the tracker needs a few scans to
   // confirm tracks and estimate their velocities. Obstacles move meanwhile, the same for every planner.
   const int warmup_scans = static_cast<int>(std::round(config_.sensor_warmup_s / config_.scan_period_s));
@@ -179,7 +180,9 @@ void Episode::buildContext() {
   dovs_builder_.build(observation_, dovs_);
   const Vec2 goal_local = observation_.robot_pose.toLocal(observation_.goal);
   actions_ = computeActions(observation_.robot_twist, goal_local, config_.world.robot);
-  state_ = buildState(dovs_, observation_, normalization_);
+  state_ = buildState(dovs_, observation_, normalization_, previous_grid_.empty() ? nullptr : &previous_grid_);
+  if (normalization_.grid_channels == kHistoryGridChannels)  // one step of history: this decision's first channel
+    previous_grid_.assign(state_.data(), state_.data() + kStateGridCells);
 }
 
 void Episode::planRoute() {

@@ -138,6 +138,11 @@ DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
   c.grid_channels = param<int>(pnh, "dovs/grid_channels", c.grid_channels);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
+  if (c.grid_channels == 2) {
+    throw ParameterError(pnh.resolveName("dovs/grid_channels") +
+                         " = 2 (the previous decision's grid) exists in training and evaluation only: the nodes "
+                         "build 1 or 3");
+  }
   return c;
 }
 

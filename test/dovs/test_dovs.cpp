@@ -77,7 +77,7 @@ TEST(DovsConfig, ParametersAreSetByTheirConfigFileNames) {
   EXPECT_EQ(setDovsParameter(c, "grid_channels", "3"), "");
   EXPECT_EQ(c.grid_channels, 3);
   EXPECT_EQ(c.validate(), "");
-  EXPECT_EQ(setDovsParameter(c, "grid_channels", "2"), "");  // parsed here, refused by validate()
+  EXPECT_EQ(setDovsParameter(c, "grid_channels", "4"), "");  // parsed here, refused by validate()
   EXPECT_NE(c.validate().find("grid_channels"), std::string::npos);
 }
 

@@ -440,13 +440,37 @@ TEST(GridChannels, BuildStateAppendsThemBeforeTheFeatures) {
   ASSERT_EQ(g.size(), 1208);
   for (int i = 400; i < 1208; ++i) EXPECT_EQ(g(i), s(i));
 
-  config.grid_channels = 2;
+  config.grid_channels = 4;
   EXPECT_NE(config.validate().find("grid_channels"), std::string::npos);
   StateNormalization bad;
-  bad.grid_channels = 2;
+  bad.grid_channels = 4;
   EXPECT_NE(bad.validate().find("grid_channels"), std::string::npos);
   EXPECT_THROW(buildState(d, obs, bad), StateError);
   EXPECT_NE(setDovsParameter(config, "grid_channels", "three"), "");
+}
+
+TEST(GridChannels, TheHistoryChannelIsThePreviousGrid) {
+  const Observation obs = knownScene();
+  DovsConfig config;
+  config.grid_channels = kHistoryGridChannels;
+  ASSERT_EQ(config.validate(), "");
+  const VelocitySpace d = buildDovs(obs, RobotLimits{}, config);
+  const StateNormalization norm = stateNormalization(RobotLimits{}, config);
+  const StateVector first = buildState(d, obs, norm);  // no history yet: the grid itself
+  ASSERT_EQ(first.size(), stateSize(2));
+  for (int i = 0; i < 400; ++i) EXPECT_EQ(first(400 + i), first(i));
+  std::vector<float> previous(400);
+  for (int i = 0; i < 400; ++i) previous[static_cast<size_t>(i)] = i % 3 == 0 ? 1.0f : -1.0f;
+  const StateVector s = buildState(d, obs, norm, &previous);
+  for (int i = 0; i < 400; ++i) {
+    EXPECT_EQ(s(i), d.grid()[static_cast<size_t>(i)]);
+    EXPECT_EQ(s(400 + i), previous[static_cast<size_t>(i)]);
+  }
+  for (int i = 0; i < 8; ++i) EXPECT_EQ(s(800 + i), first(800 + i));
+  previous.pop_back();
+  EXPECT_THROW(buildState(d, obs, norm, &previous), StateError);
+  previous.push_back(std::nanf(""));
+  EXPECT_THROW(buildState(d, obs, norm, &previous), StateError);
 }
 
 }  // namespace

@@ -240,9 +240,9 @@ TEST(QNetwork, GridChannelsAreAVersionTwoFileAndTheStateGrows) {
 
   // Channel counts the planner cannot build, a version 1 file claiming channels, and a first convolution reading
   // another count are refused, naming the field.
-  WeightFileContents two = back;
-  two.grid_channels = 2;
-  expectLoadError(two, "two.dqnw", "state layout: grid channels");
+  WeightFileContents four = back;
+  four.grid_channels = 4;
+  expectLoadError(four, "four.dqnw", "state layout: grid channels");
   WeightFileContents v1 = back;
   v1.format_version = 1;
   try {

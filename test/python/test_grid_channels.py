@@ -55,7 +55,32 @@ def test_the_environment_puts_the_window_and_the_goal_line_between_grid_and_feat
     assert env.normalization() == core.VecEnv(1, 1, threads=1).normalization()
 
 
-@pytest.mark.parametrize("value", ["2", "0", "three"])
+def test_the_history_channel_is_the_previous_decisions_grid(core):
+    """grid_channels = 2 (one step of history): each state's second channel is the first channel of the state the
+    agent acted on one step before, its own grid at an episode's first decision; the rest is the one-channel state."""
+    plain = core.VecEnv(3, 43, threads=1)
+    hist = core.VecEnv(3, 43, threads=1, dovs_parameters={"grid_channels": "2"})
+    assert (hist.state_size, hist.grid_channels) == (808, 2)
+    for env in (plain, hist):
+        env.set_stage(2.0, 6.0, 6, 10, "dynamic")
+    p, _ = plain.reset()
+    h, _ = hist.reset()
+    np.testing.assert_array_equal(h[:, GRID:2 * GRID], h[:, :GRID])  # first decision: its own grid
+    changed = 0
+    for action in (0, 3, 4, 1, 2, 4, 0, 0):
+        actions = np.full(3, action, dtype=np.int64)
+        out_p, out_h = plain.step(actions), hist.step(actions)
+        np.testing.assert_array_equal(out_h["next_state"][:, :GRID], out_p["next_state"][:, :GRID])
+        np.testing.assert_array_equal(out_h["next_state"][:, 2 * GRID:], out_p["next_state"][:, GRID:])
+        for i in range(3):
+            if out_h["episode_steps"][i] > 0 and out_h["outcome"][i] == 0:  # the episode goes on
+                np.testing.assert_array_equal(out_h["next_state"][i, GRID:2 * GRID], h[i, :GRID])
+                changed += int(np.any(out_h["next_state"][i, GRID:2 * GRID] != out_h["next_state"][i, :GRID]))
+        h = out_h["state"]
+    assert changed > 3, "the grid never moved between decisions"
+
+
+@pytest.mark.parametrize("value", ["4", "0", "three"])
 def test_bad_channel_counts_are_refused_naming_the_parameter(core, value):
     with pytest.raises(ValueError, match="grid_channels"):
         core.VecEnv(1, 1, threads=1, dovs_parameters={"grid_channels": value})
@@ -86,7 +111,7 @@ def test_a_channels_run_exports_version_two_and_the_evaluation_needs_the_layout(
     from test_train_smoke import smoke_config  # noqa: PLC0415
 
     assert grid_channels_of({}) == 1 and grid_channels_of({"grid_channels": 3}) == 3
-    for bad in (2, "x", 3.5):
+    for bad in (4, "x", 3.5):
         with pytest.raises(ConfigError, match="grid_channels"):
             grid_channels_of({"grid_channels": bad})
 

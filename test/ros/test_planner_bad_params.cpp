@@ -153,6 +153,8 @@ TEST(PlannerBadParams, AModelOfOtherGridChannelsIsFatalAndNamed) {
   expectFatal(runPlanner("planner_fatal_channels", "_model_path:=" + modelPath() + " _dovs/grid_channels:=3"),
               "'state layout: grid channels' is 1 in the file but 3 here", "grid channels of another model");
   expectFatal(runPlanner("planner_fatal_channels_2", "_model_path:=" + modelPath() + " _dovs/grid_channels:=2"),
+              "training and evaluation only", "the history channel on the robot");
+  expectFatal(runPlanner("planner_fatal_channels_4", "_model_path:=" + modelPath() + " _dovs/grid_channels:=4"),
               "grid_channels", "grid channels out of range");
 }
 

@@ -58,8 +58,9 @@ struct DovsConfig {
   /// its intervals, grid() and the actions' safety do not change. 0 or [0.5, 30] s.
   double grid_contact_horizon_s = 0.0;
   /// Channels of the network state's grid (StateNormalization::grid_channels, docs/dovs.md "Grid channels"): 1 is
-  /// the grid above alone (the paper's state); 3 adds the dynamic window and the goal line as two more 20 x 20
-  /// images. The DOVS itself does not change. 1 or 3.
+  /// the grid above alone (the paper's state); 2 adds the previous decision's grid (one step of history; training
+  /// and evaluation only, the nodes refuse it); 3 adds the dynamic window and the goal line as two more 20 x 20
+  /// images. The DOVS itself does not change. 1, 2 or 3.
   int grid_channels = 1;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.

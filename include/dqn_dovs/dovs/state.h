@@ -18,6 +18,9 @@ constexpr int kStateGridSize = 20;
 constexpr int kStateGridCells = kStateGridSize * kStateGridSize;
 constexpr int kNumFeatures = 8;
 constexpr int kStateSize = kStateGridCells + kNumFeatures;  // 408, the one-channel state
+/// Grid channels of the state with the previous decision's grid (DovsConfig::grid_channels; training and
+/// evaluation only: the nodes do not keep it).
+constexpr int kHistoryGridChannels = 2;
 /// Grid channels of the state with the dynamic window and the goal line (DovsConfig::grid_channels).
 constexpr int kWindowGoalGridChannels = 3;
 
@@ -60,9 +63,10 @@ struct StateNormalization {
   /// The grid's encoding (DovsConfig::grid_contact_horizon_s): 0 is the +1 / -1 grid; T > 0 grades every feasible
   /// cell by the earliest contact of its constant velocity within T seconds (docs/dovs.md, "The graded grid").
   float grid_contact_horizon_s = 0.0f;
-  /// The grid's channels (DovsConfig::grid_channels, docs/dovs.md "Grid channels"): 1 is the DOVS grid alone, 3
-  /// adds the dynamic window and the goal line. Part of the state's layout, not a normalisation entry: the weight
-  /// file stores it in its header (`state layout: grid channels`, format version 2), and fields() leaves it out.
+  /// The grid's channels (DovsConfig::grid_channels, docs/dovs.md "Grid channels"): 1 is the DOVS grid alone, 2
+  /// adds the previous decision's grid (one step of history), 3 the dynamic window and the goal line. Part of the
+  /// state's layout, not a normalisation entry: the weight file stores it in its header (`state layout: grid channels`,
+  /// format version 2), and fields() leaves it out.
   int grid_channels = 1;
 
   /// The fields every normalisation has (the first 13, the paper's state).
@@ -79,8 +83,8 @@ struct StateNormalization {
   /// them). Returns false with `why` naming the count when it is neither.
   static bool fromValues(const std::vector<float>& values, StateNormalization& out, std::string& why);
   /// Empty when usable, otherwise a message naming the field: scales finite and positive, far values finite
-  /// and within [-clip, clip], clip finite and positive, grid_contact_horizon_s 0 or in [0.5, 30], grid_channels 1
-  /// or 3.
+  /// and within [-clip, clip], clip finite and positive, grid_contact_horizon_s 0 or in [0.5, 30], grid_channels 1,
+  /// 2 or 3.
   std::string validate() const;
 };
 
@@ -116,9 +120,12 @@ std::vector<float> windowGoalChannels(const VelocitySpace& dovs, const Observati
 FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
 
 /// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), with
-/// norm.grid_channels = 3 followed by windowGoalChannels (800 more), then the 8 features. With
-/// norm.grid_contact_horizon_s = T > 0 the DOVS grid is graded (gradedGrid). Throws StateError unless
-/// dovs.gridSize() == 20.
-StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
+/// norm.grid_channels = 3 followed by windowGoalChannels (800 more), with norm.grid_channels = 2 by
+/// `previous_grid` (the first 400 values of the previous decision's state; the current grid when null, i.e. at an
+/// episode's first decision), then the 8 features. With norm.grid_contact_horizon_s = T > 0 the DOVS grid is graded
+/// (gradedGrid). Throws StateError unless dovs.gridSize() == 20, or when `previous_grid` has another size or
+/// NaN/inf values.
+StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
+                       const std::vector<float>* previous_grid = nullptr);
 
 }  // namespace dqn_dovs

@@ -151,6 +151,7 @@ class Episode {
   VelocitySpace dovs_;
   ActionSet actions_;
   Eigen::VectorXf state_;
+  std::vector<float> previous_grid_;  // the last decision's first grid channel (grid_channels = 2), empty at reset
   Outcome outcome_ = Outcome::kRunning;
   int steps_ = 0;
   double path_length_m_ = 0.0;
