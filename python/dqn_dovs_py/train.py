@@ -32,7 +32,8 @@ from .env import (OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIM
                   VecEnv, import_core)
 from .escape import one_action_masks
 from .export import WeightFileError
-from .replay import DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator, PrioritizedReplay
+from .replay import (GRID_CELLS, STATE_DIM, DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator,
+                     PrioritizedReplay)
 
 TRAIN_LOG = "train_log.csv"
 EVAL_LOG = "eval_log.csv"
@@ -580,10 +581,10 @@ class Trainer:
         model = self._model_factory()
         if getattr(model, "grid_channels", grid_channels) != grid_channels:
             raise ConfigError(f"the network reads {model.grid_channels} grid channels but dovs grid_channels is "
-                              f"{grid_channels} (an --init-from network of 1 channel is widened; not one of 3 "
-                              "narrowed)")
-        state_dim = int(getattr(model, "state_size", 408))
-        grid_values = state_dim - 8  # every grid channel (the 8 features follow)
+                              f"{grid_channels} (an --init-from network of 1 channel is widened; one of more is "
+                              "never narrowed)")
+        state_dim = int(getattr(model, "state_size", STATE_DIM))
+        grid_values = state_dim - int(getattr(model, "feature_count", STATE_DIM - GRID_CELLS))  # every grid channel
         ac = config.auxiliary
         # The auxiliary head is made after the network, so a run without one draws the same initial weights.
         aux_head = torch.nn.Linear(model.trunk_width, 1) if ac.enabled else None

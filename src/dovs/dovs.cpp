@@ -69,10 +69,8 @@ std::string DovsConfig::validate() const {
         (grid_contact_horizon_s == 0.0 || (grid_contact_horizon_s >= 0.5 && grid_contact_horizon_s <= 30.0))))
     return fieldError("grid_contact_horizon_s", grid_contact_horizon_s,
                       "must be 0 (the +1 / -1 grid) or in [0.5, 30] s (the graded grid)");
-  if (grid_channels < 1 || grid_channels > 3)
-    return fieldError("grid_channels", grid_channels,
-                      "must be 1 (the DOVS grid), 2 (with the previous decision's grid) or 3 (with the dynamic window "
-                      "and the goal line)");
+  if (grid_channels < 1 || grid_channels > kMaxStateGridChannels)
+    return fieldError("grid_channels", grid_channels, kGridChannelsRule);
   return {};
 }
 

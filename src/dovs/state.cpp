@@ -110,11 +110,8 @@ std::string StateNormalization::validate() const {
     const float v = this->*ptrs[static_cast<size_t>(i)];
     if (!(std::isfinite(v) && std::abs(v) <= clip)) return bad(i, v, "far-away value must be finite and within clip");
   }
-  if (grid_channels < 1 || grid_channels > kWindowGoalGridChannels) {
-    return "state grid_channels = " + std::to_string(grid_channels) +
-           ": must be 1 (the DOVS grid), 2 (with the previous decision's grid) or 3 (with the dynamic window and "
-           "the goal line)";
-  }
+  if (grid_channels < 1 || grid_channels > kMaxStateGridChannels)
+    return "state grid_channels = " + std::to_string(grid_channels) + ": " + kGridChannelsRule;
   const float t = grid_contact_horizon_s;
   if (!(std::isfinite(t) && (t == 0.0f || (t >= 0.5f && t <= 30.0f)))) {
     std::ostringstream os;

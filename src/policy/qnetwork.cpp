@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "dqn_dovs/common/random.h"
+#include "dqn_dovs/dovs/dovs.h"
 
 namespace dqn_dovs {
 
@@ -177,10 +178,9 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
     fail("state layout: grid channels",
          "a version 1 file has one grid channel, not " + std::to_string(c.grid_channels));
   }
-  if (c.grid_channels < 1 || c.grid_channels > static_cast<std::uint32_t>(kWindowGoalGridChannels)) {
-    fail("state layout: grid channels", "file has " + std::to_string(c.grid_channels) +
-                                            ", the states are built with 1 (the DOVS grid), 2 (with the previous "
-                                            "decision's grid) or 3 (with the dynamic window and the goal line)");
+  if (c.grid_channels < 1 || c.grid_channels > static_cast<std::uint32_t>(kMaxStateGridChannels)) {
+    fail("state layout: grid channels",
+         "file has " + std::to_string(c.grid_channels) + ": the planner's states " + kGridChannelsRule);
   }
   expectEqual("state layout: grid rows", c.grid_rows, kGridRows);
   expectEqual("state layout: grid cols", c.grid_cols, kGridCols);

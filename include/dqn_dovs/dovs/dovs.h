@@ -78,6 +78,13 @@ std::string setDovsParameter(DovsConfig& config, const std::string& name, const 
 /// Every name setDovsParameter accepts, in config-file order.
 const std::vector<std::string>& dovsParameterNames();
 
+/// The most grid channels a network state has (DovsConfig::grid_channels, docs/dovs.md "Grid channels"), and the
+/// rule every check of a channel count states: the DOVS configuration, the state normalisation and the weight file.
+constexpr int kMaxStateGridChannels = 3;
+constexpr const char* kGridChannelsRule =
+    "must be 1 (the DOVS grid), 2 (with the previous decision's grid) or 3 (with the dynamic window and the goal "
+    "line)";
+
 /// A closed interval of linear speeds [lo_mps, hi_mps] along one trajectory.
 struct SpeedInterval {
   double lo_mps = 0.0;

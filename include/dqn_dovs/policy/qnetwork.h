@@ -36,8 +36,8 @@ struct DuelingArchitecture {
   std::uint32_t feature_hidden = 64;
   /// Widths of the trunk's hidden layers after the concatenation, in order.
   std::vector<std::uint32_t> trunk_hidden = {256, 128};
-  /// Channels of the grid image the first convolution reads (1: the DOVS grid; 3: with the dynamic window and the
-  /// goal line, docs/dovs.md "Grid channels"). A file with more than one is written as format version 2.
+  /// Channels of the grid image the first convolution reads (1: the DOVS grid; 2 or 3: docs/dovs.md "Grid
+  /// channels"). A file with more than one is written as format version 2.
   std::uint32_t grid_channels = 1;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
@@ -58,8 +58,6 @@ class QNetwork {
   /// State size of a network on the one-channel grid (the paper's state); stateSize() is this network's.
   static constexpr int kStateSize = kGridRows * kGridCols + kFeatureCount;  ///< 408
   static constexpr int kActionCount = 8;
-  /// Grid channels of the state with the dynamic window and the goal line (docs/dovs.md "Grid channels").
-  static constexpr int kWindowGoalGridChannels = 3;
 
   using QValues = std::array<float, kActionCount>;
   using ActionMask = std::array<bool, kActionCount>;
