@@ -110,6 +110,26 @@ bool CtrvEkf::update(const Vec2& z, const Eigen::Matrix2d& r) {
   return true;
 }
 
+bool CtrvEkf::updateStandingStill(double speed_std, double turn_rate_std) {
+  if (!(speed_std > 0.0 && turn_rate_std > 0.0)) return false;
+  Eigen::Matrix<double, 2, 5> h = Eigen::Matrix<double, 2, 5>::Zero();
+  h(0, kCtrvSpeed) = 1.0;
+  h(1, kCtrvTurnRate) = 1.0;
+  const Eigen::Matrix2d r = Vec2(speed_std * speed_std, turn_rate_std * turn_rate_std).asDiagonal();
+  const Vec2 nu = -h * x_;
+  const Eigen::Matrix2d s = h * p_ * h.transpose() + r;
+  const Eigen::Matrix<double, 5, 2> k = p_ * h.transpose() * s.inverse();
+  const CtrvCovariance i_kh = CtrvCovariance::Identity() - k * h;
+  const CtrvState x_new = x_ + k * nu;
+  const CtrvCovariance p_new = i_kh * p_ * i_kh.transpose() + k * r * k.transpose();
+  if (!x_new.allFinite() || !p_new.allFinite()) return false;
+  x_ = x_new;
+  p_ = 0.5 * (p_new + p_new.transpose());
+  x_(kCtrvHeading) = normalizeAngle(x_(kCtrvHeading));
+  foldNegativeSpeed();
+  return true;
+}
+
 void CtrvEkf::clampTurnRate(double max_turn_rate) {
   x_(kCtrvTurnRate) = std::clamp(x_(kCtrvTurnRate), -max_turn_rate, max_turn_rate);
 }

@@ -99,6 +99,15 @@ std::string TrackerConfig::validate() const {
   if (!positive(max_time_gap_s)) return badField("max_time_gap_s", max_time_gap_s, "must be > 0 (s)");
   if (!nonNegative(static_speed_threshold_mps))
     return badField("static_speed_threshold_mps", static_speed_threshold_mps, "must be >= 0 (m/s)");
+  if (!nonNegative(stationary_window_s))
+    return badField("stationary_window_s", stationary_window_s, "must be >= 0 (s); 0 disables");
+  if (!positive(stationary_radius_m)) return badField("stationary_radius_m", stationary_radius_m, "must be > 0 (m)");
+  if (!(positive(stationary_inlier_fraction) && stationary_inlier_fraction <= 1.0))
+    return badField("stationary_inlier_fraction", stationary_inlier_fraction, "must be in (0, 1]");
+  if (!nonNegative(stationary_speed_std_mps))
+    return badField("stationary_speed_std_mps", stationary_speed_std_mps, "must be >= 0 (m/s); 0 disables");
+  if (!positive(stationary_turn_rate_std_rps))
+    return badField("stationary_turn_rate_std_rps", stationary_turn_rate_std_rps, "must be > 0 (rad/s)");
   return {};
 }
 
@@ -160,6 +169,11 @@ const std::vector<TrackerField>& trackerFields() {
       {"reacquire_speed", &TrackerConfig::reacquire_speed_mps},
       {"max_time_gap", &TrackerConfig::max_time_gap_s},
       {"static_speed_threshold", &TrackerConfig::static_speed_threshold_mps},
+      {"stationary_window", &TrackerConfig::stationary_window_s},
+      {"stationary_radius", &TrackerConfig::stationary_radius_m},
+      {"stationary_inlier_fraction", &TrackerConfig::stationary_inlier_fraction},
+      {"stationary_speed_std", &TrackerConfig::stationary_speed_std_mps},
+      {"stationary_turn_rate_std", &TrackerConfig::stationary_turn_rate_std_rps},
   };
   return fields;
 }
@@ -388,6 +402,7 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   }
   const Vec2 z = measured.circle.center;
   const Eigen::Matrix2d r = measurementCovariance(measured);
+  updateStationarity(track, z, stamp_s);
   if (track.hits == 1) {
     // Second hit: velocity from the two detections (a CTRV filter cannot learn a heading from rest).
     const double dt = stamp_s - track.born_s;
@@ -428,12 +443,49 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   track.hit_velocity = track.ekf.state()(kCtrvSpeed) *
                        Vec2(std::cos(track.ekf.state()(kCtrvHeading)), std::sin(track.ekf.state()(kCtrvHeading)));
   track.updated_this_scan = true;
+  if (track.stationary && config_.stationary_speed_std_mps > 0.0) {
+    // Tell the filter as well, so its speed settles at 0 instead of creeping: a hidden chair stays where it was.
+    track.ekf.updateStandingStill(config_.stationary_speed_std_mps, config_.stationary_turn_rate_std_rps);
+  }
   if (!track.confirmed && track.hits >= config_.confirm_hits) {
     track.confirmed = true;
     takeOverLostTrack(track, stamp_s);
   }
   if (track.ekf.state()(kCtrvSpeed) >= config_.static_speed_threshold_mps) {
     track.reported_heading = track.ekf.state()(kCtrvHeading);
+  }
+}
+
+void ObstacleTracker::updateStationarity(Track& track, const Vec2& z, double stamp_s) const {
+  track.stationary = false;
+  const double window = config_.stationary_window_s;
+  if (window <= 0.0) return;
+  auto& hits = track.recent_hits;
+  hits.emplace_back(stamp_s, z);
+  while (!hits.empty() && hits.front().first < stamp_s - window - 1e-9) hits.pop_front();
+  if (hits.size() < 4 || stamp_s - hits.front().first < 0.75 * window) return;
+  // Component-wise median: a leg passing by, or one bad fit, does not move it.
+  std::vector<double> xs, ys;
+  xs.reserve(hits.size());
+  ys.reserve(hits.size());
+  for (const auto& h : hits) {
+    xs.push_back(h.second.x());
+    ys.push_back(h.second.y());
+  }
+  auto median = [](std::vector<double>& v) {
+    const size_t mid = v.size() / 2;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+    return v[mid];
+  };
+  const Vec2 m(median(xs), median(ys));
+  const double r = config_.stationary_radius_m;
+  size_t inside = 0;
+  for (const auto& h : hits) inside += (h.second - m).norm() <= r ? 1 : 0;
+  const bool last_two_inside = (hits.back().second - m).norm() <= r && (hits[hits.size() - 2].second - m).norm() <= r;
+  if (last_two_inside &&
+      static_cast<double>(inside) >= config_.stationary_inlier_fraction * static_cast<double>(hits.size())) {
+    track.stationary = true;
+    track.stationary_position = m;
   }
 }
 
@@ -548,6 +600,12 @@ TrackedObstacle ObstacleTracker::toTrackedObstacle(const Track& track, double st
   o.radius = track.radius + config_.radius_margin_m;
   o.speed = x(kCtrvSpeed);
   o.turn_rate = x(kCtrvTurnRate);
+  if (track.stationary) {
+    // It stands still (updateStationarity): where its detections were, not where a creeping filter puts it.
+    o.center = track.stationary_position;
+    o.speed = 0.0;
+    o.turn_rate = 0.0;
+  }
   o.is_static = o.speed < config_.static_speed_threshold_mps;
   // Heading of a (nearly) still target is noise: report the last heading it had while moving.
   o.heading = o.is_static ? track.reported_heading : x(kCtrvHeading);

@@ -44,6 +44,10 @@ class CtrvEkf {
   /// Returns false (and leaves the state untouched) when the innovation covariance is singular or NaN.
   bool update(const Vec2& z, const Eigen::Matrix2d& r);
 
+  /// Kalman update with the pseudo-measurement "it stands still": speed 0 and turn rate 0, with standard deviations
+  /// speed_std and turn_rate_std (Joseph form). Returns false (state untouched) when they are not positive.
+  bool updateStandingStill(double speed_std, double turn_rate_std);
+
   /// Clamps |turn_rate| to max_turn_rate (the model's validity range) without touching the covariance.
   void clampTurnRate(double max_turn_rate);
 

@@ -7,6 +7,7 @@
 #include <deque>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dqn_dovs/common/geometry.h"
@@ -178,6 +179,22 @@ struct TrackerConfig {
   // --- output -------------------------------------------------------------------------------------------
   /// Tracks slower than this are flagged static (m/s); their heading is frozen at the last moving value.
   double static_speed_threshold_mps = 0.1;
+  /// Stationarity test (s): a confirmed track whose detections of the last stationary_window_s (at least four,
+  /// spanning three quarters of it) lie within stationary_radius_m of their median, nearly all of them
+  /// (stationary_inlier_fraction) and its last two without exception, stands still: it is reported at that
+  /// median with speed and turn rate 0 and flagged static. Its filter runs on unchanged, so the first detections
+  /// off the median end the test at once. A filter's speed never settles at 0 (range noise, a leg passing by
+  /// pulls the fit); this keeps chairs and corners of furniture from being reported as creeping. 0 disables.
+  double stationary_window_s = 1.0;
+  /// Radius (m) around the median of the window's detections within which a stationary track's detections lie.
+  double stationary_radius_m = 0.05;
+  /// Share of the window's detections that must lie within stationary_radius_m of their median, in (0, 1].
+  double stationary_inlier_fraction = 0.8;
+  /// A stationary track's filter is also given the pseudo-measurement "speed 0, turn rate 0" at each hit, with these
+  /// standard deviations (m/s, rad/s), so its speed settles instead of creeping (and a hidden still object stays
+  /// put). stationary_speed_std_mps = 0 changes the report only.
+  double stationary_speed_std_mps = 0.02;
+  double stationary_turn_rate_std_rps = 0.1;
 
   /// Empty string when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -292,6 +309,11 @@ class ObstacleTracker {
     double radius = 0.0;
     double reported_heading = 0.0;
     bool updated_this_scan = false;
+    /// Detections (stamp, centre) of the last stationary_window_s, oldest first, and the stationarity test's
+    /// result at the last hit: stands still at stationary_position (TrackerConfig::stationary_window_s).
+    std::deque<std::pair<double, Vec2>> recent_hits;
+    bool stationary = false;
+    Vec2 stationary_position = Vec2::Zero();
     /// Its id was taken over by a track that found its object again (see takeOverLostTrack); dropped at pruning.
     bool absorbed = false;
   };
@@ -307,6 +329,8 @@ class ObstacleTracker {
   /// Distance (m) from `z` to where `track` could be after `silent_s` without a hit (its path from standing still
   /// where it was last seen to walking on at its last velocity); infinity beyond its reachable range.
   double reacquireDistance(const Track& track, const Vec2& z, double silent_s) const;
+  /// Records the detection at z and runs the stationarity test (TrackerConfig::stationary_window_s).
+  void updateStationarity(Track& track, const Vec2& z, double stamp_s) const;
   void pruneTracks(double stamp_s);
   void buildScene(double stamp_s);
   /// Squared Mahalanobis distance of a detection from a track (infinity outside the hard distance cap).
