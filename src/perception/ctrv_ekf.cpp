@@ -93,21 +93,10 @@ bool CtrvEkf::update(const Vec2& z, const Eigen::Matrix2d& r) {
   Vec2 nu;
   Eigen::Matrix2d s;
   innovation(z, r, nu, s);
-  const double det = s.determinant();
-  if (!(det > 0.0) || !std::isfinite(det) || !nu.allFinite()) return false;
-  const Eigen::Matrix<double, 5, 2> k = p_.leftCols<2>() * s.inverse();
   Eigen::Matrix<double, 2, 5> h = Eigen::Matrix<double, 2, 5>::Zero();
   h(0, kCtrvX) = 1.0;
   h(1, kCtrvY) = 1.0;
-  const CtrvCovariance i_kh = CtrvCovariance::Identity() - k * h;
-  const CtrvState x_new = x_ + k * nu;
-  const CtrvCovariance p_new = i_kh * p_ * i_kh.transpose() + k * r * k.transpose();
-  if (!x_new.allFinite() || !p_new.allFinite()) return false;
-  x_ = x_new;
-  p_ = 0.5 * (p_new + p_new.transpose());
-  x_(kCtrvHeading) = normalizeAngle(x_(kCtrvHeading));
-  foldNegativeSpeed();
-  return true;
+  return linearUpdate(h, nu, r, s);
 }
 
 bool CtrvEkf::updateStandingStill(double speed_std, double turn_rate_std) {
@@ -116,8 +105,13 @@ bool CtrvEkf::updateStandingStill(double speed_std, double turn_rate_std) {
   h(0, kCtrvSpeed) = 1.0;
   h(1, kCtrvTurnRate) = 1.0;
   const Eigen::Matrix2d r = Vec2(speed_std * speed_std, turn_rate_std * turn_rate_std).asDiagonal();
-  const Vec2 nu = -h * x_;
-  const Eigen::Matrix2d s = h * p_ * h.transpose() + r;
+  return linearUpdate(h, -h * x_, r, h * p_ * h.transpose() + r);
+}
+
+bool CtrvEkf::linearUpdate(const Eigen::Matrix<double, 2, 5>& h, const Vec2& nu, const Eigen::Matrix2d& r,
+                           const Eigen::Matrix2d& s) {
+  const double det = s.determinant();
+  if (!(det > 0.0) || !std::isfinite(det) || !nu.allFinite()) return false;
   const Eigen::Matrix<double, 5, 2> k = p_ * h.transpose() * s.inverse();
   const CtrvCovariance i_kh = CtrvCovariance::Identity() - k * h;
   const CtrvState x_new = x_ + k * nu;

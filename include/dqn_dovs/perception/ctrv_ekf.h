@@ -56,6 +56,9 @@ class CtrvEkf {
   Vec2 position() const { return x_.head<2>(); }
 
  private:
+  /// Joseph-form update with the linear measurement h x, innovation nu, noise r and innovation covariance s.
+  bool linearUpdate(const Eigen::Matrix<double, 2, 5>& h, const Vec2& nu, const Eigen::Matrix2d& r,
+                    const Eigen::Matrix2d& s);
   void foldNegativeSpeed();
 
   CtrvState x_ = CtrvState::Zero();
