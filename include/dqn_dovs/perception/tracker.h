@@ -179,12 +179,12 @@ struct TrackerConfig {
   // --- output -------------------------------------------------------------------------------------------
   /// Tracks slower than this are flagged static (m/s); their heading is frozen at the last moving value.
   double static_speed_threshold_mps = 0.1;
-  /// Stationarity test (s): a confirmed track whose detections of the last stationary_window_s (at least four,
-  /// spanning three quarters of it) lie within stationary_radius_m of their median, nearly all of them
+  /// Stationarity test (s): a track whose detections of the last stationary_window_s (at least four, spanning
+  /// three quarters of it) lie within stationary_radius_m of their median, nearly all of them
   /// (stationary_inlier_fraction) and its last two without exception, stands still: it is reported at that
-  /// median with speed and turn rate 0 and flagged static. Its filter runs on unchanged, so the first detections
-  /// off the median end the test at once. A filter's speed never settles at 0 (range noise, a leg passing by
-  /// pulls the fit); this keeps chairs and corners of furniture from being reported as creeping. 0 disables.
+  /// median with speed and turn rate 0 and flagged static. The first detection off the median ends the test at
+  /// once. A filter's speed never settles at 0 (range noise, a leg passing by pulls the fit); this keeps chairs
+  /// and corners of furniture from being reported as creeping. 0 disables.
   double stationary_window_s = 1.0;
   /// Radius (m) around the median of the window's detections within which a stationary track's detections lie.
   double stationary_radius_m = 0.05;
