@@ -436,6 +436,11 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
     }
     if (!track.ekf.update(z, maneuver ? r : robustCovariance(track, z, r))) return;  // unusable: a miss
   }
+  if (track.stationary && config_.stationary_speed_std_mps > 0.0) {
+    // Tell the filter as well, so its speed settles at 0 instead of creeping: a hidden chair stays where it was
+    // (and, once lost, is remembered standing, not walking off at its creep).
+    track.ekf.updateStandingStill(config_.stationary_speed_std_mps, config_.stationary_turn_rate_std_rps);
+  }
   track.ekf.clampTurnRate(config_.max_turn_rate_rps);
   track.hits += 1;
   track.last_hit_s = stamp_s;
@@ -443,10 +448,6 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   track.hit_velocity = track.ekf.state()(kCtrvSpeed) *
                        Vec2(std::cos(track.ekf.state()(kCtrvHeading)), std::sin(track.ekf.state()(kCtrvHeading)));
   track.updated_this_scan = true;
-  if (track.stationary && config_.stationary_speed_std_mps > 0.0) {
-    // Tell the filter as well, so its speed settles at 0 instead of creeping: a hidden chair stays where it was.
-    track.ekf.updateStandingStill(config_.stationary_speed_std_mps, config_.stationary_turn_rate_std_rps);
-  }
   if (!track.confirmed && track.hits >= config_.confirm_hits) {
     track.confirmed = true;
     takeOverLostTrack(track, stamp_s);
@@ -456,7 +457,7 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   }
 }
 
-void ObstacleTracker::updateStationarity(Track& track, const Vec2& z, double stamp_s) const {
+void ObstacleTracker::updateStationarity(Track& track, const Vec2& z, double stamp_s) {
   track.stationary = false;
   const double window = config_.stationary_window_s;
   if (window <= 0.0) return;
@@ -464,10 +465,12 @@ void ObstacleTracker::updateStationarity(Track& track, const Vec2& z, double sta
   hits.emplace_back(stamp_s, z);
   while (!hits.empty() && hits.front().first < stamp_s - window - 1e-9) hits.pop_front();
   if (hits.size() < 4 || stamp_s - hits.front().first < 0.75 * window) return;
-  // Component-wise median: a leg passing by, or one bad fit, does not move it.
-  std::vector<double> xs, ys;
-  xs.reserve(hits.size());
-  ys.reserve(hits.size());
+  // Component-wise median: a leg passing by, or one bad fit, does not move it. (Scratch buffers of the tracker:
+  // this runs for every track at every hit.)
+  std::vector<double>& xs = median_scratch_x_;
+  std::vector<double>& ys = median_scratch_y_;
+  xs.clear();
+  ys.clear();
   for (const auto& h : hits) {
     xs.push_back(h.second.x());
     ys.push_back(h.second.y());

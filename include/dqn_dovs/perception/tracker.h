@@ -330,7 +330,7 @@ class ObstacleTracker {
   /// where it was last seen to walking on at its last velocity); infinity beyond its reachable range.
   double reacquireDistance(const Track& track, const Vec2& z, double silent_s) const;
   /// Records the detection at z and runs the stationarity test (TrackerConfig::stationary_window_s).
-  void updateStationarity(Track& track, const Vec2& z, double stamp_s) const;
+  void updateStationarity(Track& track, const Vec2& z, double stamp_s);
   void pruneTracks(double stamp_s);
   void buildScene(double stamp_s);
   /// Squared Mahalanobis distance of a detection from a track (infinity outside the hard distance cap).
@@ -348,6 +348,8 @@ class ObstacleTracker {
   ScanDetections detections_;
   /// Walls seen recently (TrackerConfig::structure_*).
   StaticMap structure_;
+  /// Scratch buffers of updateStationarity's median (kept to spare an allocation per track and hit).
+  std::vector<double> median_scratch_x_, median_scratch_y_;
   bool has_stamp_ = false;
   double last_stamp_s_ = 0.0;
   int next_id_ = 0;
