@@ -47,7 +47,8 @@ inline void checkNetwork(const QNetwork& net, ByteStream& in) {
   require(net.source() == kWeightSource, "network source is the given name");
   require(!net.describe().empty(), "describe() says something");
   for (int k = 0; k < 3; ++k) {
-    require(net.stateSize() == net.gridChannels() * 400 + 8, "stateSize() is the grid channels' cells + 8");
+    require(net.stateSize() == net.gridChannels() * 400 + net.featureCount(),
+            "stateSize() is the grid channels' cells + the features");
     Eigen::VectorXf state(net.stateSize());
     bool finite_state = true;
     for (int i = 0; i < net.stateSize(); ++i) {

@@ -24,7 +24,7 @@ import time
 from dataclasses import dataclass
 
 from .benchmark_report import paired_comparison, read_results, sign_test_p
-from .export import load_weights
+from .export import FEATURE_COUNT_WITH_PREVIOUS_CHOICE, load_weights
 from .report import Record
 from .run_info import sha256_of
 from .sweep import find_eval_tool
@@ -92,13 +92,16 @@ def find_eval(explicit: str | None) -> str:
 
 def state_flags(model: str) -> list[str]:
     """dqn_dovs_eval flags that build the state the network in `model` was trained on: its graded grid's
-    horizon (normalisation entry grid_contact_horizon_s, docs/dovs.md "The graded grid") and its grid channels
-    (the file's `state layout: grid channels`, docs/dovs.md "Grid channels"); none for the paper's state."""
+    horizon (normalisation entry grid_contact_horizon_s, docs/dovs.md "The graded grid"), its grid channels
+    (the file's `state layout: grid channels`, docs/dovs.md "Grid channels") and the previous choice (17 feature
+    inputs, docs/dovs.md "The previous action"); none for the paper's state."""
     weights = load_weights(model)
     horizon = weights.normalization.get("grid_contact_horizon_s", 0.0)
     values = [f"grid_contact_horizon={horizon:.9g}"] if horizon else []
     if weights.grid_channels != 1:
         values.append(f"grid_channels={weights.grid_channels}")
+    if weights.feature_count == FEATURE_COUNT_WITH_PREVIOUS_CHOICE:
+        values.append("previous_action=1")
     return ["--dovs", ",".join(values)] if values else []
 
 

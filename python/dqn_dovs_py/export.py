@@ -43,6 +43,10 @@ FORMAT_VERSION = 1
 FORMAT_VERSION_CHANNELS = 2
 SUPPORTED_VERSIONS = (FORMAT_VERSION, FORMAT_VERSION_CHANNELS)
 MAX_GRID_CHANNELS = 16
+# Inputs after the grid: the 8 features, or 17 when the state carries the previous choice after them (the file's
+# `state layout: feature count`; docs/dovs.md "The previous action").
+FEATURE_COUNT = 8
+FEATURE_COUNT_WITH_PREVIOUS_CHOICE = 17
 
 
 def format_version_for(grid_channels: int) -> int:
@@ -381,8 +385,25 @@ def widen_grid_channels(model: DuelingQNet, grid_channels: int) -> DuelingQNet:
     if model.grid_channels != 1 or grid_channels < 1:
         raise ValueError(f"widen_grid_channels: widens a network of 1 grid channel to more, not "
                          f"{model.grid_channels} to {grid_channels}")
+    return _widened(model, grid_channels=int(grid_channels))
+
+
+def widen_previous_action(model: DuelingQNet) -> DuelingQNet:
+    """The network `model` (8 features) reading the previous choice too (17 feature inputs, docs/dovs.md "The
+    previous action"): the feature stream's first layer gets zero weights for the 9 new inputs, every other tensor
+    is copied, so its Q-values are the same on any state whatever the previous choice."""
+    if model.feature_count != FEATURE_COUNT:
+        raise ValueError(f"widen_previous_action: widens a network of {FEATURE_COUNT} features, not "
+                         f"{model.feature_count}")
+    return _widened(model, feature_count=FEATURE_COUNT_WITH_PREVIOUS_CHOICE)
+
+
+def _widened(model: DuelingQNet, **inputs: int) -> DuelingQNet:
+    """`model` with more inputs (grid channels and/or feature inputs): the tensors that read them (the first
+    convolution, the feature stream's first layer) keep their weights for the old inputs and get zeros for the new
+    ones; every other tensor is copied."""
     config = model.config()
-    config["grid_channels"] = int(grid_channels)
+    config.update(inputs)
     wide = DuelingQNet(**config)
     source = model.state_dict()
     with torch.no_grad():
@@ -390,9 +411,9 @@ def widen_grid_channels(model: DuelingQNet, grid_channels: int) -> DuelingQNet:
             old = source[name]
             if old.shape == tensor.shape:
                 tensor.copy_(old)
-            else:  # the first convolution: [out, 1, k, k] -> [out, C, k, k], zeros beyond channel 0
+            else:  # [out, old inputs, ...] -> [out, new inputs, ...], zeros beyond the old inputs
                 tensor.zero_()
-                tensor[:, :1].copy_(old)
+                tensor[:, :old.shape[1]].copy_(old)
     return wide
 
 

@@ -31,7 +31,7 @@ from .decision_config import DecisionConfigError, load_shield_parameters
 from .env import (OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, EnvContractError, StepResult,
                   VecEnv, import_core)
 from .escape import one_action_masks
-from .export import WeightFileError
+from .export import FEATURE_COUNT, FEATURE_COUNT_WITH_PREVIOUS_CHOICE, WeightFileError
 from .replay import (GRID_CELLS, STATE_DIM, DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator,
                      PrioritizedReplay)
 
@@ -411,10 +411,10 @@ def resolve_device(name: str) -> torch.device:
     return torch.device(name)
 
 
-def default_model_factory(grid_channels: int = 1) -> torch.nn.Module:
+def default_model_factory(grid_channels: int = 1, feature_count: int = 8) -> torch.nn.Module:
     from .model import DuelingQNet  # noqa: PLC0415 - keeps `--help` and config checks free of model imports
 
-    return DuelingQNet(grid_channels=grid_channels)
+    return DuelingQNet(grid_channels=grid_channels, feature_count=feature_count)
 
 
 def grid_channels_of(dovs: dict) -> int:
@@ -428,6 +428,19 @@ def grid_channels_of(dovs: dict) -> int:
     if channels != float(value) or channels not in (1, 2, 3):
         raise ConfigError(f"dovs: grid_channels must be 1, 2 or 3, got {value!r}")
     return channels
+
+
+def feature_count_of(dovs: dict) -> int:
+    """The network's feature inputs a `dovs` section gives: 8, or 17 with previous_action = 1 (the previous choice
+    after the features; docs/dovs.md "The previous action")."""
+    value = dovs.get("previous_action", 0)
+    try:
+        on = int(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"dovs: previous_action must be 0 or 1, got {value!r}") from None
+    if on != float(value) or on not in (0, 1):
+        raise ConfigError(f"dovs: previous_action must be 0 or 1, got {value!r}")
+    return FEATURE_COUNT_WITH_PREVIOUS_CHOICE if on else FEATURE_COUNT
 
 
 def _atomic_torch_save(obj: Any, path: str) -> None:
@@ -567,7 +580,8 @@ class Trainer:
             lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
                                             shield_parameters=shield_parameters, dovs_parameters=dovs_parameters))
         grid_channels = grid_channels_of(config.dovs)
-        self._model_factory = model_factory or (lambda: default_model_factory(grid_channels))
+        feature_count = feature_count_of(config.dovs)
+        self._model_factory = model_factory or (lambda: default_model_factory(grid_channels, feature_count))
 
         os.makedirs(out_dir, exist_ok=True)
         checkpoint_path = os.path.join(out_dir, CHECKPOINT)
@@ -583,6 +597,10 @@ class Trainer:
             raise ConfigError(f"the network reads {model.grid_channels} grid channels but dovs grid_channels is "
                               f"{grid_channels} (an --init-from network of 1 channel is widened; one of more is "
                               "never narrowed)")
+        if getattr(model, "feature_count", feature_count) != feature_count:
+            raise ConfigError(f"the network reads {model.feature_count} feature inputs but dovs previous_action "
+                              f"gives {feature_count} (an --init-from network of 8 is widened; one of 17 is never "
+                              "narrowed)")
         state_dim = int(getattr(model, "state_size", STATE_DIM))
         grid_values = state_dim - int(getattr(model, "feature_count", STATE_DIM - GRID_CELLS))  # every grid channel
         ac = config.auxiliary
@@ -1099,20 +1117,32 @@ def parse_dovs_option(text: str) -> dict[str, float]:
     return out
 
 
-def init_from_factory(path: str, grid_channels: int = 1) -> Callable[[], torch.nn.Module]:
+def init_from_factory(path: str, grid_channels: int = 1, feature_count: int = 8) -> Callable[[], torch.nn.Module]:
     """A model factory returning the network stored in the weight file `path` (for --init-from). A network of one
     grid channel asked for more (`grid_channels`, dovs grid_channels) is widened: its first convolution reads the
     new channels with zero weights, so it starts as exactly the function it was (docs/training.md, "Grid
-    channels")."""
-    from .export import load_weights, model_from_weights, widen_grid_channels  # noqa: PLC0415
+    channels"). Likewise a network of 8 features asked for the previous choice (`feature_count` 17, dovs
+    previous_action): its feature stream reads the 9 new inputs with zero weights."""
+    from .export import (load_weights, model_from_weights, widen_grid_channels,  # noqa: PLC0415
+                         widen_previous_action)
 
     weights = load_weights(path)  # read (and checked) once, before any training starts
     if weights.grid_channels != grid_channels and weights.grid_channels != 1:
         raise ConfigError(f"--init-from {path}: the network reads {weights.grid_channels} grid channels, the "
                           f"configuration's dovs grid_channels is {grid_channels}")
-    if weights.grid_channels == grid_channels:
-        return lambda: model_from_weights(weights)
-    return lambda: widen_grid_channels(model_from_weights(weights), grid_channels)
+    if weights.feature_count != feature_count and weights.feature_count != 8:
+        raise ConfigError(f"--init-from {path}: the network reads {weights.feature_count} feature inputs, the "
+                          f"configuration's dovs previous_action gives {feature_count}")
+
+    def make() -> torch.nn.Module:
+        model = model_from_weights(weights)
+        if weights.grid_channels != grid_channels:
+            model = widen_grid_channels(model, grid_channels)
+        if weights.feature_count != feature_count:
+            model = widen_previous_action(model)
+        return model
+
+    return make
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -1138,7 +1168,8 @@ def main(argv: list[str] | None = None) -> int:
         message = config.validate()
         if message:
             raise ConfigError(message)
-        model_factory = init_from_factory(args.init_from, grid_channels_of(config.dovs)) if args.init_from else None
+        model_factory = (init_from_factory(args.init_from, grid_channels_of(config.dovs), feature_count_of(config.dovs))
+                         if args.init_from else None)
         trainer = Trainer(config, args.out, device=args.device, threads=args.threads, resume=args.resume,
                           model_factory=model_factory, progress=not args.no_progress,
                           command="python -m dqn_dovs_py.train " + " ".join(shlex.quote(a) for a in argv_list))

@@ -71,6 +71,8 @@ std::string DovsConfig::validate() const {
                       "must be 0 (the +1 / -1 grid) or in [0.5, 30] s (the graded grid)");
   if (grid_channels < 1 || grid_channels > kMaxStateGridChannels)
     return fieldError("grid_channels", grid_channels, kGridChannelsRule);
+  if (previous_action != 0 && previous_action != 1)
+    return fieldError("previous_action", previous_action, "must be 0 (off) or 1 (the previous choice in the state)");
   return {};
 }
 
@@ -89,6 +91,7 @@ const std::vector<DovsField>& dovsFields() {
       {"prediction_growth", &DovsConfig::prediction_growth_mps},
       {"grid_contact_horizon", &DovsConfig::grid_contact_horizon_s},
       {"grid_channels", nullptr, &DovsConfig::grid_channels},
+      {"previous_action", nullptr, &DovsConfig::previous_action},
   };
   return fields;
 }

@@ -8,6 +8,9 @@
 
 namespace dqn_dovs {
 
+static_assert(kPreviousChoiceInputs == kNumActions + 1 && kPreviousChoiceOther == kNumActions,
+              "one previous-choice input per action, then one for any other command");
+
 namespace {
 
 const char* const kFieldNames[StateNormalization::kNumFields] = {"v_scale_mps",
@@ -112,6 +115,8 @@ std::string StateNormalization::validate() const {
   }
   if (grid_channels < 1 || grid_channels > kMaxStateGridChannels)
     return "state grid_channels = " + std::to_string(grid_channels) + ": " + kGridChannelsRule;
+  if (previous_action != 0 && previous_action != 1)
+    return "state previous_action = " + std::to_string(previous_action) + ": must be 0 (off) or 1 (on)";
   const float t = grid_contact_horizon_s;
   if (!(std::isfinite(t) && (t == 0.0f || (t >= 0.5f && t <= 30.0f)))) {
     std::ostringstream os;
@@ -285,11 +290,14 @@ std::vector<float> windowGoalChannels(const VelocitySpace& dovs, const Observati
 }
 
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
-                       const std::vector<float>* previous_grid) {
+                       const std::vector<float>* previous_grid, int previous_choice) {
   requireStateGrid(dovs);
   const FeatureVector f = computeFeatures(dovs, obs, norm);  // validates norm and the robot state first
+  if (previous_choice < kNoPreviousChoice || previous_choice > kPreviousChoiceOther)
+    throw StateError("state: the previous choice " + std::to_string(previous_choice) + " is not in [-1, " +
+                     std::to_string(kPreviousChoiceOther) + "]");
   const int grid_values = norm.grid_channels * kStateGridCells;
-  StateVector s(stateSize(norm.grid_channels));
+  StateVector s(stateSize(norm.grid_channels, norm.previous_action != 0));
   if (norm.grid_contact_horizon_s > 0.0f) {
     const std::vector<float> grid = gradedGrid(dovs, obs, norm.grid_contact_horizon_s);
     for (int i = 0; i < kStateGridCells; ++i) s(i) = grid[static_cast<size_t>(i)];
@@ -315,6 +323,10 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
     }
   }
   for (int i = 0; i < kNumFeatures; ++i) s(grid_values + i) = f[static_cast<size_t>(i)];
+  if (norm.previous_action != 0) {
+    s.segment(grid_values + kNumFeatures, kPreviousChoiceInputs).setZero();
+    if (previous_choice != kNoPreviousChoice) s(grid_values + kNumFeatures + previous_choice) = 1.0f;
+  }
   return s;
 }
 
@@ -325,6 +337,7 @@ StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfi
   n.obstacle_clearance_scale_m = static_cast<float>(dovs.obstacle_range_m);
   n.grid_contact_horizon_s = static_cast<float>(dovs.grid_contact_horizon_s);
   n.grid_channels = dovs.grid_channels;
+  n.previous_action = dovs.previous_action;
   return n;
 }
 

@@ -98,7 +98,7 @@ Episode::Episode(const EpisodeConfig& config)
       dovs_builder_(config_.world.robot, config_.dovs),
       normalization_(stateNormalization(config_.world.robot, config_.dovs)),
       route_guide_(config_.route.guide),
-      state_(Eigen::VectorXf::Zero(stateSize(normalization_.grid_channels))) {}
+      state_(Eigen::VectorXf::Zero(stateSize(normalization_.grid_channels, normalization_.previous_action != 0))) {}
 
 void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   world_.reset(scenario, seed);
@@ -113,6 +113,7 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   guidance_ = RouteGuidance();
   route_error_.clear();
   previous_grid_.clear();  // the first decision's history channel is its own grid
+  previous_choice_ = kNoPreviousChoice;
   // The robot senses, standing still, before it is given the goal: the tracker needs a few scans to
   // confirm tracks and estimate their velocities. Obstacles move meanwhile, the same for every planner.
   const int warmup_scans = static_cast<int>(std::round(config_.sensor_warmup_s / config_.scan_period_s));
@@ -180,7 +181,8 @@ void Episode::buildContext() {
   dovs_builder_.build(observation_, dovs_);
   const Vec2 goal_local = observation_.robot_pose.toLocal(observation_.goal);
   actions_ = computeActions(observation_.robot_twist, goal_local, config_.world.robot);
-  state_ = buildState(dovs_, observation_, normalization_, previous_grid_.empty() ? nullptr : &previous_grid_);
+  state_ = buildState(dovs_, observation_, normalization_, previous_grid_.empty() ? nullptr : &previous_grid_,
+                      previous_choice_);
   if (normalization_.grid_channels == kHistoryGridChannels)  // one step of history: this decision's first channel
     previous_grid_.assign(state_.data(), state_.data() + kStateGridCells);
 }
@@ -246,13 +248,16 @@ StepResult Episode::stepAction(int a) {
   if (!actions_.valid[static_cast<size_t>(a)]) {
     throw std::invalid_argument("episode: action " + std::to_string(a) + " is masked out in this state");
   }
-  return step(actions_.velocities[static_cast<size_t>(a)]);
+  return stepChoice(actions_.velocities[static_cast<size_t>(a)], a);
 }
 
-StepResult Episode::step(const Twist2& command) {
+StepResult Episode::step(const Twist2& command) { return stepChoice(command, kPreviousChoiceOther); }
+
+StepResult Episode::stepChoice(const Twist2& command, int choice) {
   if (done())
     throw std::logic_error("episode: step() after the episode ended (" + std::string(outcomeName(outcome_)) + ")");
   const Twist2 target = clipToWindow(world_.robotTwist(), command, config_.world.robot);
+  previous_choice_ = choice;  // the next state's previous choice
   return advance([&](double dt_s) { world_.step(target, dt_s); });
 }
 
@@ -261,11 +266,13 @@ StepResult Episode::stepHolonomic(const Vec2& velocity) {
     throw std::logic_error("episode: stepHolonomic() after the episode ended (" + std::string(outcomeName(outcome_)) +
                            ")");
   }
+  previous_choice_ = kPreviousChoiceOther;
   return advance([&](double dt_s) { world_.stepHolonomic(velocity, dt_s); });
 }
 
 StepResult Episode::stepDecision(const PlannerDecision& d) {
-  return d.holonomic_velocity ? stepHolonomic(*d.holonomic_velocity) : step(d.command);
+  if (d.holonomic_velocity) return stepHolonomic(*d.holonomic_velocity);
+  return stepChoice(d.command, d.action >= 0 && d.action < kNumActions ? d.action : kPreviousChoiceOther);
 }
 
 StepResult Episode::advance(const std::function<void(double)>& move_robot) {

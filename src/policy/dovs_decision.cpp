@@ -50,7 +50,8 @@ int chooseAction(const QNetwork& network, const DovsDecision& dovs, std::string&
     const int features = QNetwork::kFeatureCount, cells = QNetwork::kGridRows * QNetwork::kGridCols;
     const size_t n = dovs.state.size();
     why = "dovs state has " + std::to_string(n) + " values, the model reads " + std::to_string(network.stateSize()) +
-          " (" + std::to_string(network.gridChannels()) + " grid channels)";
+          " (" + std::to_string(network.gridChannels()) + " grid channels, " + std::to_string(network.featureCount()) +
+          " features)";
     if (n >= static_cast<size_t>(features) && (n - features) % cells == 0)
       why += ": dovs_node builds " + std::to_string((n - features) / cells) +
              " grid channels (check dovs/grid_channels of dovs_node)";

@@ -81,6 +81,11 @@ std::string DuelingArchitecture::validate() const {
   }
   for (std::uint32_t h : trunk_hidden)
     if (h == 0) return "architecture field 'trunk_hidden' contains 0";
+  if (feature_count != QNetwork::kFeatureCount && feature_count != QNetwork::kFeatureCountWithPreviousChoice) {
+    return "architecture field 'feature_count' = " + std::to_string(feature_count) + ": must be " +
+           std::to_string(QNetwork::kFeatureCount) + " or " +
+           std::to_string(QNetwork::kFeatureCountWithPreviousChoice) + " (with the previous choice)";
+  }
   return {};
 }
 
@@ -94,7 +99,7 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
   c.grid_cols = QNetwork::kGridCols;
   c.grid_channels = arch.grid_channels;
   c.format_version = weightFormatVersionFor(arch.grid_channels);
-  c.feature_count = QNetwork::kFeatureCount;
+  c.feature_count = arch.feature_count;
   c.action_count = QNetwork::kActionCount;
   c.normalization = std::move(normalization);
   c.metadata = std::move(metadata);
@@ -140,7 +145,7 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
     h = (h + 2 * pad - k) / arch.conv_strides[i] + 1;
     w = (w + 2 * pad - k) / arch.conv_strides[i] + 1;
   }
-  linear(LayerStream::kFeature, QNetwork::kFeatureCount, arch.feature_hidden);
+  linear(LayerStream::kFeature, arch.feature_count, arch.feature_hidden);
   relu(LayerStream::kFeature);
   std::uint32_t width = channels * h * w + arch.feature_hidden;
   for (std::uint32_t hidden : arch.trunk_hidden) {
@@ -184,7 +189,13 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   }
   expectEqual("state layout: grid rows", c.grid_rows, kGridRows);
   expectEqual("state layout: grid cols", c.grid_cols, kGridCols);
-  expectEqual("state layout: feature count", c.feature_count, kFeatureCount);
+  if (c.feature_count != static_cast<std::uint32_t>(kFeatureCount) &&
+      c.feature_count != static_cast<std::uint32_t>(kFeatureCountWithPreviousChoice)) {
+    fail("state layout: feature count", "file has " + std::to_string(c.feature_count) +
+                                            ", this planner's network input needs " + std::to_string(kFeatureCount) +
+                                            " (or " + std::to_string(kFeatureCountWithPreviousChoice) +
+                                            " with the previous choice)");
+  }
   expectEqual("action count", c.action_count, kActionCount);
 
   if (c.normalization.empty()) fail("normalization count", "the file carries no normalisation constants");
@@ -296,7 +307,8 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
     concat_grid = ch * h * w;
   }
   requireWeighted(streams[1], LayerType::kLinear, "feature");
-  concat_feature = planVector(streams[1], kFeatureCount, "feature");
+  const int feature_count = static_cast<int>(c.feature_count);
+  concat_feature = planVector(streams[1], feature_count, "feature");
   trunk_out = planVector(streams[2], concat_grid + concat_feature, "trunk");
   requireWeighted(streams[3], LayerType::kLinear, "value");
   if (const int v = planVector(streams[3], trunk_out, "value"); v != 1) {
@@ -324,7 +336,8 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   };
   net.grid_channels_ = static_cast<int>(c.grid_channels);
   const int grid_size = net.grid_channels_ * kGridRows * kGridCols;
-  const int state_offset = alloc(grid_size + kFeatureCount);
+  net.feature_count_ = feature_count;
+  const int state_offset = alloc(grid_size + feature_count);
   const int concat_offset = alloc(concat_grid + concat_feature);
   const int col_offset = alloc(max_col);
 
@@ -387,7 +400,7 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
     return offset;
   };
   emit(streams[0], state_offset, grid_size, concat_offset);
-  emit(streams[1], state_offset + grid_size, kFeatureCount, concat_offset + concat_grid);
+  emit(streams[1], state_offset + grid_size, feature_count, concat_offset + concat_grid);
   const int trunk_offset = emit(streams[2], concat_offset, concat_grid + concat_feature, -1);
   // Both heads read the trunk output; emit() never writes in place into a region it did not create.
   net.value_offset_ = emit(streams[3], trunk_offset, trunk_out, -1);
@@ -447,11 +460,11 @@ void QNetwork::runOp(const Op& op, float* scratch) const {
 }
 
 QNetwork::QValues QNetwork::qValues(const Eigen::Ref<const Eigen::VectorXf>& state) const {
-  const int state_size = stateSize(), grid_size = state_size - kFeatureCount;
+  const int state_size = stateSize(), grid_size = state_size - feature_count_;
   if (state.size() != state_size) {
     throw QNetworkInputError("Q-network state has " + std::to_string(state.size()) + " elements, expected " +
-                             std::to_string(state_size) + " (" + std::to_string(grid_channels_) +
-                             " x 20 x 20 grid + 8 features)");
+                             std::to_string(state_size) + " (" + std::to_string(grid_channels_) + " x 20 x 20 grid + " +
+                             std::to_string(feature_count_) + " features)");
   }
   for (int i = 0; i < state_size; ++i) {
     if (!std::isfinite(state[i])) {
@@ -529,10 +542,18 @@ std::string QNetwork::gridChannelsMismatch(int expected) const {
          " here (check dovs/grid_channels of dovs_node)";
 }
 
+std::string QNetwork::previousActionMismatch(bool expected) const {
+  const int want = expected ? kFeatureCountWithPreviousChoice : kFeatureCount;
+  if (want == feature_count_) return {};
+  return "state layout of '" + source_ + "' differs: 'state layout: feature count' is " +
+         std::to_string(feature_count_) + " in the file but " + std::to_string(want) +
+         " here (check dovs/previous_action: 1 adds the previous choice, in training and evaluation only)";
+}
+
 std::string QNetwork::describe() const {
   std::ostringstream os;
   os << "Q-network '" << source_ << "': state " << grid_channels_ << "x" << kGridRows << "x" << kGridCols << " grid + "
-     << kFeatureCount << " features, " << kActionCount << " actions\n";
+     << feature_count_ << " features, " << kActionCount << " actions\n";
   for (std::size_t i = 0; i < layer_descriptions_.size(); ++i)
     os << "  " << i << ": " << layer_descriptions_[i] << "\n";
   return os.str();

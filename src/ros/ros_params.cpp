@@ -136,12 +136,18 @@ DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
   c.prediction_growth_mps = param<double>(pnh, "dovs/prediction_growth", c.prediction_growth_mps);
   c.grid_contact_horizon_s = param<double>(pnh, "dovs/grid_contact_horizon", c.grid_contact_horizon_s);
   c.grid_channels = param<int>(pnh, "dovs/grid_channels", c.grid_channels);
+  c.previous_action = param<int>(pnh, "dovs/previous_action", c.previous_action);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
   if (c.grid_channels == 2) {
     throw ParameterError(pnh.resolveName("dovs/grid_channels") +
                          " = 2 (the previous decision's grid) exists in training and evaluation only: the nodes "
                          "build 1 or 3");
+  }
+  if (c.previous_action != 0) {
+    throw ParameterError(pnh.resolveName("dovs/previous_action") +
+                         " = 1 (the previous choice in the state) exists in training and evaluation only: the nodes "
+                         "build states without it");
   }
   return c;
 }

@@ -62,6 +62,11 @@ struct DovsConfig {
   /// and evaluation only, the nodes refuse it); 3 adds the dynamic window and the goal line as two more 20 x 20
   /// images. The DOVS itself does not change. 1, 2 or 3.
   int grid_channels = 1;
+  /// The previous action in the network state (StateNormalization::previous_action, docs/dovs.md "The previous
+  /// action"): 1 appends 9 inputs after the features, a one-hot of the previous decision's choice (one of the 8
+  /// actions, or anything else: the shield's escape, another planner's command); all 0 at an episode's first
+  /// decision. Training and evaluation only: the nodes refuse it. The DOVS itself does not change. 0 or 1.
+  int previous_action = 0;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -69,7 +74,7 @@ struct DovsConfig {
 
 /// Sets the DovsConfig field named as in config/dovs.yaml's `dovs/` block (obstacle_range, safety_factor,
 /// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth, grid_contact_horizon,
-/// grid_channels)
+/// grid_channels, previous_action)
 /// from text. Returns
 /// an empty string, or a message naming the parameter and the reason (unknown name, not a number, not an
 /// integer). The value is not range-checked here: validate() does that for the whole configuration.

@@ -24,8 +24,19 @@ constexpr int kHistoryGridChannels = 2;
 /// Grid channels of the state with the dynamic window and the goal line (DovsConfig::grid_channels).
 constexpr int kWindowGoalGridChannels = 3;
 
-/// Floats in a state with `grid_channels` grid channels: grid_channels x 400 grid values, then the 8 features.
-constexpr int stateSize(int grid_channels) { return grid_channels * kStateGridCells + kNumFeatures; }
+/// Inputs after the features that hold the previous choice (DovsConfig::previous_action, docs/dovs.md "The previous
+/// action"): one per action (kNumActions of actions.h, 8), then one for any other command (kPreviousChoiceOther).
+constexpr int kPreviousChoiceInputs = 9;
+/// The previous choice that was not one of the 8 actions: the shield's escape, or a command of another planner.
+constexpr int kPreviousChoiceOther = 8;
+/// The previous choice at an episode's first decision: none (every previous-choice input is 0).
+constexpr int kNoPreviousChoice = -1;
+
+/// Floats in a state with `grid_channels` grid channels: grid_channels x 400 grid values, then the 8 features, then
+/// with `previous_action` the 9 previous-choice inputs.
+constexpr int stateSize(int grid_channels, bool previous_action = false) {
+  return grid_channels * kStateGridCells + kNumFeatures + (previous_action ? kPreviousChoiceInputs : 0);
+}
 
 /// The network input (stateSize(grid_channels) floats).
 using StateVector = Eigen::VectorXf;
@@ -68,6 +79,12 @@ struct StateNormalization {
   /// state's layout, not a normalisation entry: the weight file stores it in its header (`state layout: grid channels`,
   /// format version 2), and fields() leaves it out.
   int grid_channels = 1;
+  /// The previous choice after the features (DovsConfig::previous_action, docs/dovs.md "The previous action"): 0 or
+  /// 1. Part of the state's layout, not a normalisation entry: the weight file's `state layout: feature count` is 17
+  /// with it (8 without), and fields() leaves it out.
+  int previous_action = 0;
+  /// Inputs after the grid: the 8 features, and the 9 previous-choice inputs with previous_action.
+  int featureInputs() const { return kNumFeatures + (previous_action != 0 ? kPreviousChoiceInputs : 0); }
 
   /// The fields every normalisation has (the first 13, the paper's state).
   static constexpr int kNumFields = 13;
@@ -84,7 +101,7 @@ struct StateNormalization {
   static bool fromValues(const std::vector<float>& values, StateNormalization& out, std::string& why);
   /// Empty when usable, otherwise a message naming the field: scales finite and positive, far values finite
   /// and within [-clip, clip], clip finite and positive, grid_contact_horizon_s 0 or in [0.5, 30], grid_channels 1,
-  /// 2 or 3.
+  /// 2 or 3, previous_action 0 or 1.
   std::string validate() const;
 };
 
@@ -122,10 +139,12 @@ FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs,
 /// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), with
 /// norm.grid_channels = 3 followed by windowGoalChannels (800 more), with norm.grid_channels = 2 by
 /// `previous_grid` (the first 400 values of the previous decision's state; the current grid when null, i.e. at an
-/// episode's first decision), then the 8 features. With norm.grid_contact_horizon_s = T > 0 the DOVS grid is graded
-/// (gradedGrid). Throws StateError unless dovs.gridSize() == 20, or when `previous_grid` has another size or
-/// NaN/inf values.
+/// episode's first decision), then the 8 features, then with norm.previous_action the one-hot of `previous_choice`
+/// (an action 0..7 or kPreviousChoiceOther; kNoPreviousChoice leaves the 9 inputs at 0). With
+/// norm.grid_contact_horizon_s = T > 0 the DOVS grid is graded (gradedGrid). Throws StateError unless
+/// dovs.gridSize() == 20, when `previous_grid` has another size or NaN/inf values, or `previous_choice` is none of
+/// those.
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
-                       const std::vector<float>* previous_grid = nullptr);
+                       const std::vector<float>* previous_grid = nullptr, int previous_choice = kNoPreviousChoice);
 
 }  // namespace dqn_dovs

@@ -92,7 +92,8 @@ class Episode {
   /// Sensing, reward and termination are those of step().
   StepResult stepHolonomic(const Vec2& velocity);
   /// Executes a planner's decision: stepHolonomic(*d.holonomic_velocity) when the planner drives a holonomic
-  /// robot, step(d.command) otherwise.
+  /// robot, step(d.command) otherwise. The next state's previous choice (DovsConfig::previous_action) is d.action
+  /// when it is one of the 8 actions, kPreviousChoiceOther otherwise (as after step() and stepHolonomic()).
   StepResult stepDecision(const PlannerDecision& d);
 
   // Decision context for the current step.
@@ -135,6 +136,8 @@ class Episode {
   std::vector<Vec2> routeScanPoints() const;
   // Runs one control period, moving the robot with `move_robot(dt_s)` at each scan, then scores it.
   StepResult advance(const std::function<void(double)>& move_robot);
+  // step() recording `choice` (an action, or kPreviousChoiceOther) as the next state's previous choice.
+  StepResult stepChoice(const Twist2& command, int choice);
 
   EpisodeConfig config_;
   sim::World world_;
@@ -152,6 +155,7 @@ class Episode {
   ActionSet actions_;
   Eigen::VectorXf state_;
   std::vector<float> previous_grid_;  // the last decision's first grid channel (grid_channels = 2), empty at reset
+  int previous_choice_ = kNoPreviousChoice;  // what the last step ran (previous_action = 1), none at reset
   Outcome outcome_ = Outcome::kRunning;
   int steps_ = 0;
   double path_length_m_ = 0.0;

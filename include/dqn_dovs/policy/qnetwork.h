@@ -39,12 +39,16 @@ struct DuelingArchitecture {
   /// Channels of the grid image the first convolution reads (1: the DOVS grid; 2 or 3: docs/dovs.md "Grid
   /// channels"). A file with more than one is written as format version 2.
   std::uint32_t grid_channels = 1;
+  /// Inputs of the feature stream: 8 (the features) or 17 (with the previous choice, docs/dovs.md "The previous
+  /// action"; QNetwork::kFeatureCountWithPreviousChoice).
+  std::uint32_t feature_count = 8;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
 };
 
-/// Layer records of `arch` for the standard state (arch.grid_channels x 20 x 20 grid, 8 features, 8 actions), weights
+/// Layer records of `arch` for the standard state (arch.grid_channels x 20 x 20 grid, arch.feature_count features, 8
+/// actions), weights
 /// drawn like PyTorch's default initialisation (uniform in +-1/sqrt(fan_in)) from a fixed-seed generator.
 WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint64_t seed,
                                      std::vector<std::pair<std::string, float>> normalization,
@@ -55,6 +59,9 @@ class QNetwork {
   static constexpr int kGridRows = 20;
   static constexpr int kGridCols = 20;
   static constexpr int kFeatureCount = 8;
+  /// Feature inputs of a network whose state carries the previous choice after the 8 features (9 more inputs;
+  /// DovsConfig::previous_action, docs/dovs.md "The previous action"): the file's `state layout: feature count`.
+  static constexpr int kFeatureCountWithPreviousChoice = kFeatureCount + 9;
   /// State size of a network on the one-channel grid (the paper's state); stateSize() is this network's.
   static constexpr int kStateSize = kGridRows * kGridCols + kFeatureCount;  ///< 408
   static constexpr int kActionCount = 8;
@@ -76,8 +83,11 @@ class QNetwork {
 
   /// Channels of the grid image this network reads (the file's `state layout: grid channels`; 1 for version 1).
   int gridChannels() const { return grid_channels_; }
-  /// Floats in one state: gridChannels() x 20 x 20 grid values (channel-major, each row-major), then 8 features.
-  int stateSize() const { return grid_channels_ * kGridRows * kGridCols + kFeatureCount; }
+  /// Inputs after the grid (the file's `state layout: feature count`): kFeatureCount, or
+  /// kFeatureCountWithPreviousChoice when the state carries the previous choice.
+  int featureCount() const { return feature_count_; }
+  /// Floats in one state: gridChannels() x 20 x 20 grid values (channel-major, each row-major), then featureCount().
+  int stateSize() const { return grid_channels_ * kGridRows * kGridCols + feature_count_; }
 
   /// Q-values of one state (stateSize() floats: the grid channels row-major, then the features).
   /// Throws QNetworkInputError on a wrong size or a NaN/inf element (naming the index), and when the
@@ -105,6 +115,9 @@ class QNetwork {
   /// `state layout: grid channels` and the DOVS parameter that sets the states' (dovs/grid_channels).
   std::string gridChannelsMismatch(int expected) const;
 
+  /// Empty when the network reads the previous choice exactly when `expected` says the states carry it, otherwise a
+  /// message naming the file's `state layout: feature count` and the DOVS parameter (dovs/previous_action).
+  std::string previousActionMismatch(bool expected) const;
   /// Free-text provenance (training command, date, source revision).
   std::string metadata() const { return metadata_; }
 
@@ -139,6 +152,7 @@ class QNetwork {
   std::vector<Eigen::VectorXf> biases_;
   int scratch_size_ = 0;
   int grid_channels_ = 1;
+  int feature_count_ = kFeatureCount;
   int value_offset_ = 0;
   int advantage_offset_ = 0;
   std::vector<std::string> layer_descriptions_;
