@@ -315,6 +315,39 @@ TEST(StateNormalization, GradedGridAddsANamedFourteenthField) {
   EXPECT_NE(c.validate().find("grid_contact_horizon_s"), std::string::npos);
 }
 
+// The previous action (docs/dovs.md "The previous action"): a one-hot of the previous choice after the features.
+TEST(PreviousAction, TheStateEndsWithAOneHotOfThePreviousChoice) {
+  const Observation obs = knownScene();
+  DovsConfig config;
+  config.previous_action = 1;
+  ASSERT_EQ(config.validate(), "");
+  const VelocitySpace d = buildDovs(obs, RobotLimits{}, config);
+  const StateNormalization norm = stateNormalization(RobotLimits{}, config);
+  EXPECT_EQ(norm.previous_action, 1);
+  EXPECT_EQ(norm.featureInputs(), 17);
+  EXPECT_EQ(norm.fields(), stateNormalization(RobotLimits{}, DovsConfig{}).fields());  // a layout, not an entry
+  const StateVector plain = buildState(d, obs, stateNormalization(RobotLimits{}, DovsConfig{}));
+  const StateVector none = buildState(d, obs, norm);  // an episode's first decision
+  ASSERT_EQ(none.size(), stateSize(1, true));
+  ASSERT_EQ(none.size(), 417);
+  EXPECT_EQ(none.head(408), plain);
+  EXPECT_TRUE(none.tail(9).isZero());
+  for (int choice = 0; choice <= kPreviousChoiceOther; ++choice) {
+    const StateVector s = buildState(d, obs, norm, nullptr, choice);
+    EXPECT_EQ(s.head(408), plain);
+    for (int k = 0; k < 9; ++k) EXPECT_EQ(s(408 + k), k == choice ? 1.0f : 0.0f) << choice << " " << k;
+  }
+  EXPECT_THROW(buildState(d, obs, norm, nullptr, 9), StateError);
+  EXPECT_THROW(buildState(d, obs, norm, nullptr, -2), StateError);
+  // Without the option the choice is ignored, and the state is the paper's.
+  EXPECT_EQ(buildState(d, obs, stateNormalization(RobotLimits{}, DovsConfig{}), nullptr, 3), plain);
+  StateNormalization bad = norm;
+  bad.previous_action = 2;
+  EXPECT_NE(bad.validate().find("previous_action"), std::string::npos);
+  config.previous_action = 2;
+  EXPECT_NE(config.validate().find("previous_action"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dqn_dovs
 

@@ -64,5 +64,47 @@ TEST(EpisodeWorlds, EveryFamilyGivesFiniteStatesWallsAndAnOutcome) {
   EXPECT_FLOAT_EQ(episode.state()[kStateGridCells + kFeatureGoalDistance], episode.normalization().clip);
 }
 
+// The previous action in the state (DovsConfig::previous_action, docs/dovs.md "The previous action"): each state ends
+// with a one-hot of what the step before it ran, whichever way the step was asked for; none after a reset.
+TEST(EpisodeWorlds, EachStateCarriesWhatThePreviousStepRan) {
+  sim::WorldFamilyConfig w;
+  w.family = sim::WorldFamily::kCrowd;
+  w.people = 6;
+  const sim::Scenario scenario = sim::generateWorld(w, 5);
+  EpisodeConfig config;
+  config.tracker.pair_legs = true;
+  config.dovs.previous_action = 1;
+  Episode episode(config);
+  auto slot = [&episode]() {
+    const Eigen::VectorXf tail = episode.state().tail(kPreviousChoiceInputs);
+    if (tail.isZero()) return -1;
+    EXPECT_FLOAT_EQ(tail.sum(), 1.0f);
+    int k = 0;
+    tail.maxCoeff(&k);
+    return k;
+  };
+  for (int round = 0; round < 2; ++round) {
+    episode.reset(scenario, 3);
+    ASSERT_EQ(episode.state().size(), 417);
+    EXPECT_EQ(slot(), -1);  // the first decision has no previous choice
+    ASSERT_TRUE(episode.actions().valid[kActionKeep]);
+    episode.stepAction(kActionKeep);
+    EXPECT_EQ(slot(), kActionKeep);
+    episode.step(Twist2{0.1, 0.0});  // a command that is no action: the shield's escape, another planner's
+    EXPECT_EQ(slot(), kPreviousChoiceOther);
+    PlannerDecision d;
+    for (int a = 0; a < kNumActions; ++a) {
+      if (episode.actions().valid[static_cast<size_t>(a)]) d.action = a;
+    }
+    ASSERT_GE(d.action, 0);
+    d.command = episode.actions().velocities[static_cast<size_t>(d.action)];
+    episode.stepDecision(d);
+    EXPECT_EQ(slot(), d.action);
+    d.action = -1;  // a planner's own velocity
+    episode.stepDecision(d);
+    EXPECT_EQ(slot(), kPreviousChoiceOther);
+  }
+}
+
 }  // namespace
 }  // namespace dqn_dovs

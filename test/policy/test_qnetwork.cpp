@@ -43,12 +43,12 @@ WeightFileContents defaultContents(std::uint64_t seed = 7) {
   return c;
 }
 
-Eigen::VectorXf randomState(std::mt19937& rng, int grid_channels = 1) {
+Eigen::VectorXf randomState(std::mt19937& rng, int grid_channels = 1, int features = 8) {
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   const int grid = grid_channels * 400;
-  Eigen::VectorXf s(grid + 8);
+  Eigen::VectorXf s(grid + features);
   for (int i = 0; i < grid; ++i) s[i] = u(rng) < 0.4f ? -1.0f : 1.0f;
-  for (int i = grid; i < grid + 8; ++i) s[i] = u(rng);
+  for (int i = grid; i < grid + features; ++i) s[i] = u(rng);
   return s;
 }
 
@@ -58,7 +58,7 @@ std::array<double, 8> referenceQ(const WeightFileContents& c, const Eigen::Vecto
   const int grid_values = static_cast<int>(c.grid_channels) * 400;
   std::vector<double> grid(state.data(), state.data() + grid_values);
   int ch = static_cast<int>(c.grid_channels), h = 20, w = 20;
-  std::vector<double> feat(state.data() + grid_values, state.data() + grid_values + 8);
+  std::vector<double> feat(state.data() + grid_values, state.data() + grid_values + c.feature_count);
   std::vector<double> trunk, value, adv;
   auto linear = [](const LayerRecord& l, const std::vector<double>& x) {
     std::vector<double> y(l.out_features);
@@ -262,6 +262,66 @@ TEST(QNetwork, GridChannelsAreAVersionTwoFileAndTheStateGrows) {
     ADD_FAILURE() << "a first convolution reading 3 channels of a one-channel grid was accepted";
   } catch (const WeightFileError& e) {
     EXPECT_NE(std::string(e.field()).find("shape"), std::string::npos) << e.what();
+  }
+}
+
+// The previous choice (docs/dovs.md "The previous action"): 9 more feature inputs, told by the file's feature count.
+TEST(QNetwork, ThePreviousChoiceIsSeventeenFeatureInputs) {
+  DuelingArchitecture arch;
+  arch.feature_count = QNetwork::kFeatureCountWithPreviousChoice;
+  ASSERT_EQ(arch.validate(), "");
+  const WeightFileContents c = makeRandomWeights(arch, 6, kNormalization);
+  EXPECT_EQ(c.format_version, 1u);  // the header's feature count carries the layout
+  EXPECT_EQ(c.feature_count, 17u);
+  const QNetwork net = QNetwork::fromContents(parseWeightFile(serializeWeightFile(c), "<17>"), "<17>");
+  EXPECT_EQ(net.featureCount(), 17);
+  EXPECT_EQ(net.stateSize(), 417);
+  std::mt19937 rng(12);
+  for (int n = 0; n < 10; ++n) {
+    const Eigen::VectorXf s = randomState(rng, 1, 17);
+    const auto q = net.qValues(s);
+    const auto ref = referenceQ(c, s);
+    for (int a = 0; a < 8; ++a) EXPECT_NEAR(q[a], ref[a], 1e-4);
+  }
+  // The last input is read: moving the one-hot from one slot to another changes the Q-values.
+  Eigen::VectorXf s = randomState(rng, 1, 17);
+  s.tail(9).setZero();
+  s[408] = 1.0f;
+  const auto q0 = net.qValues(s);
+  s[408] = 0.0f;
+  s[416] = 1.0f;
+  const auto q1 = net.qValues(s);
+  double moved = 0.0;
+  for (int a = 0; a < 8; ++a) moved = std::max(moved, std::abs(double(q1[a]) - q0[a]));
+  EXPECT_GT(moved, 1e-4);
+  try {
+    net.qValues(randomState(rng));
+    ADD_FAILURE() << "a 408-float state was accepted by a network of 17 feature inputs";
+  } catch (const QNetworkInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("expected 417 (1 x 20 x 20 grid + 17 features)"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(net.previousActionMismatch(true), "");
+  const std::string why = net.previousActionMismatch(false);
+  EXPECT_NE(why.find("'state layout: feature count' is 17 in the file but 8 here"), std::string::npos) << why;
+  EXPECT_NE(why.find("dovs/previous_action"), std::string::npos) << why;
+  const QNetwork plain = QNetwork::fromContents(makeRandomWeights(DuelingArchitecture{}, 6, kNormalization), "<8>");
+  EXPECT_EQ(plain.previousActionMismatch(false), "");
+  EXPECT_NE(plain.previousActionMismatch(true).find("is 8 in the file but 17 here"), std::string::npos);
+  // Other feature counts: the architecture and the file are refused, naming the field.
+  arch.feature_count = 9;
+  EXPECT_NE(arch.validate().find("feature_count"), std::string::npos);
+  WeightFileContents nine = c;
+  nine.feature_count = 9;
+  expectLoadError(nine, "nine.dqnw", "state layout: feature count");
+  // A file claiming 17 features whose feature layer reads 8 is a shape error.
+  WeightFileContents narrow = makeRandomWeights(DuelingArchitecture{}, 6, kNormalization);
+  narrow.feature_count = 17;
+  try {
+    QNetwork::fromContents(narrow, "<17 claimed, 8 read>");
+    ADD_FAILURE() << "a feature layer reading 8 of 17 inputs was accepted";
+  } catch (const WeightFileError& e) {
+    EXPECT_NE(std::string(e.field()).find("feature"), std::string::npos) << e.what();
   }
 }
 

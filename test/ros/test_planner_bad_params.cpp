@@ -156,6 +156,9 @@ TEST(PlannerBadParams, AModelOfOtherGridChannelsIsFatalAndNamed) {
               "training and evaluation only", "the history channel on the robot");
   expectFatal(runPlanner("planner_fatal_channels_4", "_model_path:=" + modelPath() + " _dovs/grid_channels:=4"),
               "grid_channels", "grid channels out of range");
+  // The previous action in the state (docs/dovs.md "The previous action") exists in training and evaluation only.
+  expectFatal(runPlanner("planner_fatal_previous_action", "_model_path:=" + modelPath() + " _dovs/previous_action:=1"),
+              "training and evaluation only", "the previous action on the robot");
 }
 
 // A robot_description on the parameter server: a footprint larger than robot/radius is a refusal (the planner
