@@ -236,3 +236,26 @@ def test_a_network_of_three_grid_channels_exports_and_matches_eigen(tmp_path: Pa
     with torch.no_grad():
         q_torch = net(torch.from_numpy(states)).numpy()
     assert float(np.abs(_onnx_q(tmp_path / "wide.onnx", states) - q_torch).max()) < TOLERANCE
+
+
+def test_a_network_that_reads_the_previous_choice_exports_and_matches_eigen(tmp_path: Path) -> None:
+    """17 feature inputs (docs/dovs.md "The previous action"): its ONNX model reads [N, 417] and is the same function
+    as the Eigen network of the .dqnw, whose feature stream reads the one-hot after the 8 features."""
+    torch.manual_seed(6)
+    net = DuelingQNet(feature_count=17).eval()
+    with torch.no_grad():
+        for module in net.modules():
+            if isinstance(module, (torch.nn.Conv2d, torch.nn.Linear)):
+                module.bias.add_(0.3 * torch.randn_like(module.bias))
+    export_model(net, tmp_path / "prev.dqnw", NORMALIZATION, "previous choice")
+    weights = load_weights(tmp_path / "prev.dqnw")
+    assert (weights.format_version, weights.feature_count) == (1, 17)
+    props = read_onnx_metadata(tmp_path / "prev.onnx")
+    assert props["dqn_dovs.state_layout"] == "grid20x20+features17"
+    rng = np.random.default_rng(12)
+    states = np.concatenate([np.where(rng.random((300, 400)) < 0.7, 1.0, -1.0), rng.uniform(-1.0, 1.0, size=(300, 8)),
+                             np.eye(9)[rng.integers(0, 9, size=300)]], axis=1).astype(np.float32)
+    _assert_same_function(tmp_path / "prev.onnx", tmp_path / "prev.dqnw", states, tmp_path)
+    with torch.no_grad():
+        q_torch = net(torch.from_numpy(states)).numpy()
+    assert float(np.abs(_onnx_q(tmp_path / "prev.onnx", states) - q_torch).max()) < TOLERANCE
