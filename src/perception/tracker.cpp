@@ -77,6 +77,8 @@ std::string TrackerConfig::validate() const {
     return badField("init_turn_rate_std_rps", init_turn_rate_std_rps, "must be > 0 (rad/s)");
   if (!positive(gate_mahalanobis2)) return badField("gate_mahalanobis2", gate_mahalanobis2, "must be > 0");
   if (!positive(gate_max_distance_m)) return badField("gate_max_distance_m", gate_max_distance_m, "must be > 0 (m)");
+  if (!nonNegative(merged_separation_factor))
+    return badField("merged_separation_factor", merged_separation_factor, "must be >= 0; 0 disables");
   if (!nonNegative(maneuver_gate_m))
     return badField("maneuver_gate_m", maneuver_gate_m, "must be >= 0 (m); 0 disables");
   if (!nonNegative(maneuver_speed_std_mps))
@@ -155,6 +157,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"init_turn_rate_std", &TrackerConfig::init_turn_rate_std_rps},
       {"gate_mahalanobis2", &TrackerConfig::gate_mahalanobis2},
       {"gate_max_distance", &TrackerConfig::gate_max_distance_m},
+      {"merged_separation_factor", &TrackerConfig::merged_separation_factor},
       {"maneuver_gate", &TrackerConfig::maneuver_gate_m},
       {"maneuver_max_silence", &TrackerConfig::maneuver_max_silence_s},
       {"maneuver_speed_std", &TrackerConfig::maneuver_speed_std_mps},
@@ -335,7 +338,9 @@ void ObstacleTracker::associateAndUpdate(const ScanDetections& detections, doubl
   for (size_t i = 0; i < nt; ++i) {
     if (track_to_det[i] < 0) continue;
     used[track_to_det[i]] = true;
-    updateTrack(tracks_[i], detections.circles[track_to_det[i]], stamp_s);
+    // Two bodies in one detection: neither track takes it (both coast until they part).
+    if (!mergedWithAnotherTrack(i, detections.circles[track_to_det[i]], track_to_det, stamp_s))
+      updateTrack(tracks_[i], detections.circles[track_to_det[i]], stamp_s);
   }
   // Second chance for recently seen tracks that found nothing in their gate: the obstacle manoeuvred.
   std::vector<size_t> lost_tracks, free_dets;
@@ -375,6 +380,22 @@ void ObstacleTracker::associateAndUpdate(const ScanDetections& detections, doubl
     });
     if (!inside_existing) birthTrack(detections.circles[j], stamp_s);
   }
+}
+
+bool ObstacleTracker::mergedWithAnotherTrack(size_t i, const CircleDetection& detection,
+                                             const std::vector<int>& track_to_det, double stamp_s) const {
+  const Track& t = tracks_[i];
+  if (config_.merged_separation_factor <= 0.0 || config_.pair_legs || t.hits < 2) return false;
+  for (size_t k = 0; k < tracks_.size(); ++k) {
+    const Track& other = tracks_[k];
+    if (k == i || track_to_det[k] >= 0 || !other.confirmed || other.hits < 2) continue;
+    const double separation = (other.ekf.position() - t.ekf.position()).norm();
+    if (separation < config_.merged_separation_factor * (other.radius + t.radius) &&
+        associationCost(other, detection, stamp_s) < config_.gate_mahalanobis2) {
+      return true;
+    }
+  }
+  return false;
 }
 
 void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver) {

@@ -131,6 +131,14 @@ struct TrackerConfig {
   double gate_mahalanobis2 = 13.8;
   /// Hard cap on the Euclidean distance of a pair (m), whatever the covariance says.
   double gate_max_distance_m = 1.0;
+  /// Merged discs (without pair_legs): a detection paired with a track that also lies in the gate of a second
+  /// confirmed track which found nothing this scan, while the two tracks' centres are closer than this factor times
+  /// the sum of their radii, updates neither: two discs seen as one cluster (the paper's discs pass through each
+  /// other) would pull the one track to a centre between them and leave the other to be paired with the wrong disc
+  /// when they part; both coast on their predictions instead until each has its own detection again. Among people
+  /// (pair_legs) it is not applied: measured there, it traded fewer id switches for chairs reported moving
+  /// (docs/tracker.md, "Discs that pass through each other"). 0 disables.
+  double merged_separation_factor = 1.5;
   /// Manoeuvre recovery: a track that was hit within the last maneuver_max_silence_s but finds nothing in
   /// its gate (the obstacle stopped, reversed or turned sharply) is paired, in a second assignment, with a
   /// detection left over within this distance (m); its uncertainty is then re-opened so the filter follows the
@@ -320,6 +328,10 @@ class ObstacleTracker {
 
   void predictTracks(double stamp_s);
   void associateAndUpdate(const ScanDetections& detections, double stamp_s);
+  /// Whether track i's detection of this scan holds a second body too (TrackerConfig::merged_separation_factor): it
+  /// lies in the gate of a nearby confirmed track that found nothing (track_to_det: the first assignment).
+  bool mergedWithAnotherTrack(size_t i, const CircleDetection& detection, const std::vector<int>& track_to_det,
+                              double stamp_s) const;
   /// maneuver: the pair came from the second, manoeuvre assignment (re-open the motion uncertainty first).
   void updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver = false);
   void birthTrack(const CircleDetection& detection, double stamp_s);
