@@ -152,6 +152,16 @@ std::string loadErrorField(const std::vector<std::uint8_t>& bytes, const std::st
   return {};
 }
 
+// The field of the WeightFileError that QNetwork::fromContents throws for `c`, or "(accepted)".
+std::string contentsErrorField(const WeightFileContents& c, const std::string& source) {
+  try {
+    QNetwork::fromContents(c, source);
+  } catch (const WeightFileError& e) {
+    return e.field();
+  }
+  return "(accepted)";
+}
+
 TEST(QNetwork, MatchesReferenceForwardPass) {
   const WeightFileContents c = defaultContents();
   const std::string path = tempPath("good.dqnw");
@@ -245,24 +255,15 @@ TEST(QNetwork, GridChannelsAreAVersionTwoFileAndTheStateGrows) {
   expectLoadError(four, "four.dqnw", "state layout: grid channels");
   WeightFileContents v1 = back;
   v1.format_version = 1;
-  try {
-    QNetwork::fromContents(v1, "<v1 with channels>");
-    ADD_FAILURE() << "a version 1 file with 3 grid channels was accepted";
-  } catch (const WeightFileError& e) {
-    EXPECT_EQ(e.field(), "state layout: grid channels");
-  }
+  EXPECT_EQ(contentsErrorField(v1, "<v1 with channels>"), "state layout: grid channels");
   WeightFileContents zero = back;
   zero.grid_channels = 0;
   EXPECT_EQ(loadErrorField(serializeWeightFile(zero), "zero.dqnw"), "state layout: grid channels");
   WeightFileContents conv_one = back;
   conv_one.grid_channels = 1;
   conv_one.format_version = 1;
-  try {
-    QNetwork::fromContents(conv_one, "<conv reads 3>");
-    ADD_FAILURE() << "a first convolution reading 3 channels of a one-channel grid was accepted";
-  } catch (const WeightFileError& e) {
-    EXPECT_NE(std::string(e.field()).find("shape"), std::string::npos) << e.what();
-  }
+  // A first convolution reading 3 channels of a one-channel grid.
+  EXPECT_NE(contentsErrorField(conv_one, "<conv reads 3>").find("shape"), std::string::npos);
 }
 
 // The previous choice (docs/dovs.md "The previous action"): 9 more feature inputs, told by the file's feature count.
@@ -317,12 +318,7 @@ TEST(QNetwork, ThePreviousChoiceIsSeventeenFeatureInputs) {
   // A file claiming 17 features whose feature layer reads 8 is a shape error.
   WeightFileContents narrow = makeRandomWeights(DuelingArchitecture{}, 6, kNormalization);
   narrow.feature_count = 17;
-  try {
-    QNetwork::fromContents(narrow, "<17 claimed, 8 read>");
-    ADD_FAILURE() << "a feature layer reading 8 of 17 inputs was accepted";
-  } catch (const WeightFileError& e) {
-    EXPECT_NE(std::string(e.field()).find("feature"), std::string::npos) << e.what();
-  }
+  EXPECT_NE(contentsErrorField(narrow, "<17 claimed, 8 read>").find("feature"), std::string::npos);
 }
 
 TEST(QNetwork, RejectsBadStates) {

@@ -6,13 +6,12 @@ it)."""
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from built_tools import built_tool, check_eval_needs_the_state_flags
+from built_tools import check_eval_needs_the_state_flags, check_evaluates_like
 from dqn_dovs_py.compare_models import state_flags
 from dqn_dovs_py.export import load_weights, model_from_weights, widen_grid_channels
 
@@ -146,18 +145,4 @@ def test_a_widened_network_evaluates_exactly_like_its_source(tmp_path):
     wide_path = tmp_path / "wide.dqnw"
     export_model(widen_grid_channels(model_from_weights(weights), 3), wide_path, weights.normalization,
                  "widened shipped network", onnx=False)
-    tool = str(built_tool("dqn_dovs_eval"))
-    common = [tool, "--methods", "dqn_dovs", "--generate", "7", "--obstacles", "6", "--episodes", "6",
-              "--threads", "1", "--no-report"]
-    runs = {}
-    for name, extra in (("shipped", ["--model", str(SHIPPED)]),
-                        ("wide", ["--model", str(wide_path), "--dovs", "grid_channels=3"])):
-        out = tmp_path / name
-        done = subprocess.run(common + extra + ["--out", str(out)], capture_output=True, text=True)
-        assert done.returncode == 0, done.stdout + done.stderr
-        lines = (out / "results.csv").read_text().splitlines()
-        header = lines[0].split(",")
-        keep = [i for i, c in enumerate(header) if not c.endswith("_ms") and c not in ("wall_s", "method")]
-        runs[name] = [[row.split(",")[i] for i in keep] for row in lines[1:]]
-    assert len(runs["shipped"]) == 6
-    assert runs["wide"] == runs["shipped"]
+    check_evaluates_like(str(SHIPPED), str(wide_path), ["--dovs", "grid_channels=3"], tmp_path)

@@ -214,15 +214,31 @@ def test_reading_a_corrupt_onnx_names_the_file(tmp_path: Path) -> None:
         read_onnx_metadata(tmp_path / "foreign.onnx")
 
 
-def test_a_network_of_three_grid_channels_exports_and_matches_eigen(tmp_path: Path) -> None:
-    """A version 2 file (docs/dovs.md "Grid channels"): its ONNX model reads [N, 1208] and is the same function as
-    the Eigen network of the .dqnw, which reads the channels the way PyTorch does (channel-major)."""
-    torch.manual_seed(5)
-    net = DuelingQNet(grid_channels=3).eval()
+def _fresh_network(seed: int, **shape: int) -> DuelingQNet:
+    """A new network of `shape` (DuelingQNet's arguments) with its biases moved off PyTorch's small defaults, so
+    every layer's bias matters in a comparison."""
+    torch.manual_seed(seed)
+    net = DuelingQNet(**shape).eval()
     with torch.no_grad():
         for module in net.modules():
             if isinstance(module, (torch.nn.Conv2d, torch.nn.Linear)):
                 module.bias.add_(0.3 * torch.randn_like(module.bias))
+    return net
+
+
+def _assert_onnx_eigen_and_torch_agree(net: DuelingQNet, stem: Path, states: np.ndarray, tmp_path: Path) -> None:
+    """The exported `stem`.onnx and `stem`.dqnw compute `net`'s function on `states`."""
+    onnx_path, weights_path = stem.with_suffix(".onnx"), stem.with_suffix(".dqnw")
+    _assert_same_function(onnx_path, weights_path, states, tmp_path)
+    with torch.no_grad():
+        q_torch = net(torch.from_numpy(states)).numpy()
+    assert float(np.abs(_onnx_q(onnx_path, states) - q_torch).max()) < TOLERANCE
+
+
+def test_a_network_of_three_grid_channels_exports_and_matches_eigen(tmp_path: Path) -> None:
+    """A version 2 file (docs/dovs.md "Grid channels"): its ONNX model reads [N, 1208] and is the same function as
+    the Eigen network of the .dqnw, which reads the channels the way PyTorch does (channel-major)."""
+    net = _fresh_network(5, grid_channels=3)
     export_model(net, tmp_path / "wide.dqnw", NORMALIZATION, "three channels")
     weights = load_weights(tmp_path / "wide.dqnw")
     assert (weights.format_version, weights.grid_channels) == (2, 3)
@@ -232,21 +248,13 @@ def test_a_network_of_three_grid_channels_exports_and_matches_eigen(tmp_path: Pa
     rng = np.random.default_rng(11)
     states = np.concatenate([np.where(rng.random((300, 1200)) < 0.7, 1.0, -1.0),
                              rng.uniform(-1.0, 1.0, size=(300, 8))], axis=1).astype(np.float32)
-    _assert_same_function(tmp_path / "wide.onnx", tmp_path / "wide.dqnw", states, tmp_path)
-    with torch.no_grad():
-        q_torch = net(torch.from_numpy(states)).numpy()
-    assert float(np.abs(_onnx_q(tmp_path / "wide.onnx", states) - q_torch).max()) < TOLERANCE
+    _assert_onnx_eigen_and_torch_agree(net, tmp_path / "wide", states, tmp_path)
 
 
 def test_a_network_that_reads_the_previous_choice_exports_and_matches_eigen(tmp_path: Path) -> None:
     """17 feature inputs (docs/dovs.md "The previous action"): its ONNX model reads [N, 417] and is the same function
     as the Eigen network of the .dqnw, whose feature stream reads the one-hot after the 8 features."""
-    torch.manual_seed(6)
-    net = DuelingQNet(feature_count=17).eval()
-    with torch.no_grad():
-        for module in net.modules():
-            if isinstance(module, (torch.nn.Conv2d, torch.nn.Linear)):
-                module.bias.add_(0.3 * torch.randn_like(module.bias))
+    net = _fresh_network(6, feature_count=17)
     export_model(net, tmp_path / "prev.dqnw", NORMALIZATION, "previous choice")
     weights = load_weights(tmp_path / "prev.dqnw")
     assert (weights.format_version, weights.feature_count) == (1, 17)
@@ -255,7 +263,4 @@ def test_a_network_that_reads_the_previous_choice_exports_and_matches_eigen(tmp_
     rng = np.random.default_rng(12)
     states = np.concatenate([np.where(rng.random((300, 400)) < 0.7, 1.0, -1.0), rng.uniform(-1.0, 1.0, size=(300, 8)),
                              np.eye(9)[rng.integers(0, 9, size=300)]], axis=1).astype(np.float32)
-    _assert_same_function(tmp_path / "prev.onnx", tmp_path / "prev.dqnw", states, tmp_path)
-    with torch.no_grad():
-        q_torch = net(torch.from_numpy(states)).numpy()
-    assert float(np.abs(_onnx_q(tmp_path / "prev.onnx", states) - q_torch).max()) < TOLERANCE
+    _assert_onnx_eigen_and_torch_agree(net, tmp_path / "prev", states, tmp_path)
