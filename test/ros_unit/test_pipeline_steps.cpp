@@ -184,7 +184,7 @@ TEST(PipelineSteps, GridChannelsAreCarriedAndAModelOfOtherChannelsIsNotRun) {
     EXPECT_EQ(d.state[static_cast<size_t>(1200 + i)], one.step.msg.state[static_cast<size_t>(400 + i)]);
   std::string why;
   EXPECT_EQ(chooseAction(shippedNetwork(), d, why), -1);
-  EXPECT_NE(why.find("1208 values, the model reads 408 (1 grid channels)"), std::string::npos) << why;
+  EXPECT_NE(why.find("1208 values, the model reads 408 (1 grid channels, 8 features)"), std::string::npos) << why;
   EXPECT_NE(why.find("dovs_node builds 3 grid channels"), std::string::npos) << why;
 
   WeightFileContents c = readWeightFile(std::string(DQN_DOVS_SOURCE_DIR) + "/models/dqn_dovs.dqnw");
