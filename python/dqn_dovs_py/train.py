@@ -411,35 +411,35 @@ def resolve_device(name: str) -> torch.device:
     return torch.device(name)
 
 
-def default_model_factory(grid_channels: int = 1, feature_count: int = 8) -> torch.nn.Module:
+def default_model_factory(grid_channels: int = 1, feature_count: int = FEATURE_COUNT) -> torch.nn.Module:
     from .model import DuelingQNet  # noqa: PLC0415 - keeps `--help` and config checks free of model imports
 
     return DuelingQNet(grid_channels=grid_channels, feature_count=feature_count)
 
 
+def _dovs_choice(dovs: dict, name: str, default: int, allowed: tuple[int, ...], rule: str) -> int:
+    """The integer `name` of a `dovs` section (`default` when absent), one of `allowed`; ConfigError stating `rule`
+    otherwise."""
+    value = dovs.get(name, default)
+    try:
+        number = int(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"dovs: {name} must be {rule}, got {value!r}") from None
+    if number != float(value) or number not in allowed:
+        raise ConfigError(f"dovs: {name} must be {rule}, got {value!r}")
+    return number
+
+
 def grid_channels_of(dovs: dict) -> int:
     """The state's grid channels a `dovs` section gives (its grid_channels, 1 by default; docs/dovs.md "Grid
     channels")."""
-    value = dovs.get("grid_channels", 1)
-    try:
-        channels = int(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"dovs: grid_channels must be 1, 2 or 3, got {value!r}") from None
-    if channels != float(value) or channels not in (1, 2, 3):
-        raise ConfigError(f"dovs: grid_channels must be 1, 2 or 3, got {value!r}")
-    return channels
+    return _dovs_choice(dovs, "grid_channels", 1, (1, 2, 3), "1, 2 or 3")
 
 
 def feature_count_of(dovs: dict) -> int:
     """The network's feature inputs a `dovs` section gives: 8, or 17 with previous_action = 1 (the previous choice
     after the features; docs/dovs.md "The previous action")."""
-    value = dovs.get("previous_action", 0)
-    try:
-        on = int(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"dovs: previous_action must be 0 or 1, got {value!r}") from None
-    if on != float(value) or on not in (0, 1):
-        raise ConfigError(f"dovs: previous_action must be 0 or 1, got {value!r}")
+    on = _dovs_choice(dovs, "previous_action", 0, (0, 1), "0 or 1")
     return FEATURE_COUNT_WITH_PREVIOUS_CHOICE if on else FEATURE_COUNT
 
 
@@ -1117,7 +1117,8 @@ def parse_dovs_option(text: str) -> dict[str, float]:
     return out
 
 
-def init_from_factory(path: str, grid_channels: int = 1, feature_count: int = 8) -> Callable[[], torch.nn.Module]:
+def init_from_factory(path: str, grid_channels: int = 1,
+                      feature_count: int = FEATURE_COUNT) -> Callable[[], torch.nn.Module]:
     """A model factory returning the network stored in the weight file `path` (for --init-from). A network of one
     grid channel asked for more (`grid_channels`, dovs grid_channels) is widened: its first convolution reads the
     new channels with zero weights, so it starts as exactly the function it was (docs/training.md, "Grid
@@ -1130,7 +1131,7 @@ def init_from_factory(path: str, grid_channels: int = 1, feature_count: int = 8)
     if weights.grid_channels != grid_channels and weights.grid_channels != 1:
         raise ConfigError(f"--init-from {path}: the network reads {weights.grid_channels} grid channels, the "
                           f"configuration's dovs grid_channels is {grid_channels}")
-    if weights.feature_count != feature_count and weights.feature_count != 8:
+    if weights.feature_count != feature_count and weights.feature_count != FEATURE_COUNT:
         raise ConfigError(f"--init-from {path}: the network reads {weights.feature_count} feature inputs, the "
                           f"configuration's dovs previous_action gives {feature_count}")
 

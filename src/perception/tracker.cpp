@@ -324,8 +324,8 @@ double ObstacleTracker::associationCost(const Track& track, const CircleDetectio
 void ObstacleTracker::associateAndUpdate(const ScanDetections& detections, double stamp_s) {
   const size_t nt = tracks_.size(), nd = detections.circles.size();
   std::vector<int> track_to_det(nt, -1);
+  Eigen::MatrixXd cost(nt, nd);
   if (nt > 0 && nd > 0) {
-    Eigen::MatrixXd cost(nt, nd);
     for (size_t i = 0; i < nt; ++i) {
       for (size_t j = 0; j < nd; ++j) {
         cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
@@ -339,7 +339,7 @@ void ObstacleTracker::associateAndUpdate(const ScanDetections& detections, doubl
     if (track_to_det[i] < 0) continue;
     used[track_to_det[i]] = true;
     // Two bodies in one detection: neither track takes it (both coast until they part).
-    if (!mergedWithAnotherTrack(i, detections.circles[track_to_det[i]], track_to_det, stamp_s))
+    if (!mergedWithAnotherTrack(i, track_to_det, cost))
       updateTrack(tracks_[i], detections.circles[track_to_det[i]], stamp_s);
   }
   // Second chance for recently seen tracks that found nothing in their gate: the obstacle manoeuvred.
@@ -382,16 +382,17 @@ void ObstacleTracker::associateAndUpdate(const ScanDetections& detections, doubl
   }
 }
 
-bool ObstacleTracker::mergedWithAnotherTrack(size_t i, const CircleDetection& detection,
-                                             const std::vector<int>& track_to_det, double stamp_s) const {
+bool ObstacleTracker::mergedWithAnotherTrack(size_t i, const std::vector<int>& track_to_det,
+                                             const Eigen::MatrixXd& cost) const {
   const Track& t = tracks_[i];
+  const auto j = static_cast<Eigen::Index>(track_to_det[i]);
   if (config_.merged_separation_factor <= 0.0 || config_.pair_legs || t.hits < 2) return false;
   for (size_t k = 0; k < tracks_.size(); ++k) {
     const Track& other = tracks_[k];
     if (k == i || track_to_det[k] >= 0 || !other.confirmed || other.hits < 2) continue;
     const double separation = (other.ekf.position() - t.ekf.position()).norm();
     if (separation < config_.merged_separation_factor * (other.radius + t.radius) &&
-        associationCost(other, detection, stamp_s) < config_.gate_mahalanobis2) {
+        cost(static_cast<Eigen::Index>(k), j) < config_.gate_mahalanobis2) {
       return true;
     }
   }

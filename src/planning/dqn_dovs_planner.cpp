@@ -5,6 +5,11 @@
 
 namespace dqn_dovs {
 
+// The network's feature inputs and the state's layout agree (docs/dovs.md "The previous action").
+static_assert(QNetwork::kFeatureCount == kNumFeatures &&
+                  QNetwork::kFeatureCountWithPreviousChoice == kNumFeatures + kPreviousChoiceInputs,
+              "the Q-network reads the state's features, and with the previous choice 9 more");
+
 std::string DqnDovsConfig::validate() const {
   if (model_path.empty()) return "dqn_dovs.model_path is empty";
   if (const std::string e = normalization.validate(); !e.empty()) return "dqn_dovs.normalization: " + e;

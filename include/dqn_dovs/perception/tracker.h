@@ -329,9 +329,9 @@ class ObstacleTracker {
   void predictTracks(double stamp_s);
   void associateAndUpdate(const ScanDetections& detections, double stamp_s);
   /// Whether track i's detection of this scan holds a second body too (TrackerConfig::merged_separation_factor): it
-  /// lies in the gate of a nearby confirmed track that found nothing (track_to_det: the first assignment).
-  bool mergedWithAnotherTrack(size_t i, const CircleDetection& detection, const std::vector<int>& track_to_det,
-                              double stamp_s) const;
+  /// lies in the gate of a nearby confirmed track that found nothing (track_to_det: the first assignment, made on
+  /// `cost`, the association costs of every track and detection before any update of this scan).
+  bool mergedWithAnotherTrack(size_t i, const std::vector<int>& track_to_det, const Eigen::MatrixXd& cost) const;
   /// maneuver: the pair came from the second, manoeuvre assignment (re-open the motion uncertainty first).
   void updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver = false);
   void birthTrack(const CircleDetection& detection, double stamp_s);
