@@ -110,6 +110,8 @@ std::string TrackerConfig::validate() const {
     return badField("stationary_speed_std_mps", stationary_speed_std_mps, "must be >= 0 (m/s); 0 disables");
   if (!positive(stationary_turn_rate_std_rps))
     return badField("stationary_turn_rate_std_rps", stationary_turn_rate_std_rps, "must be > 0 (rad/s)");
+  if (!positive(restart_max_speed_mps))
+    return badField("restart_max_speed_mps", restart_max_speed_mps, "must be > 0 (m/s)");
   return {};
 }
 
@@ -177,6 +179,8 @@ const std::vector<TrackerField>& trackerFields() {
       {"stationary_inlier_fraction", &TrackerConfig::stationary_inlier_fraction},
       {"stationary_speed_std", &TrackerConfig::stationary_speed_std_mps},
       {"stationary_turn_rate_std", &TrackerConfig::stationary_turn_rate_std_rps},
+      {"restart_from_rest", nullptr, nullptr, &TrackerConfig::restart_from_rest},
+      {"restart_max_speed", &TrackerConfig::restart_max_speed_mps},
   };
   return fields;
 }
@@ -424,22 +428,18 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   }
   const Vec2 z = measured.circle.center;
   const Eigen::Matrix2d r = measurementCovariance(measured);
+  const bool stood_still = track.stationary;
+  const Vec2 rest_position = track.stationary_position;
+  const Vec2 previous_z = track.recent_hits.empty() ? z : track.recent_hits.back().second;
   updateStationarity(track, z, stamp_s);
   if (track.hits == 1) {
-    // Second hit: velocity from the two detections (a CTRV filter cannot learn a heading from rest).
-    const double dt = stamp_s - track.born_s;
-    const Vec2 vel = (z - track.first_position) / dt;
-    const double speed = vel.norm();
-    const double speed_var = 2.0 * r(0, 0) / (dt * dt) + std::pow(config_.accel_noise_mps2 * dt, 2);
-    CtrvState x;
-    x << z.x(), z.y(), speed > 1e-9 ? std::atan2(vel.y(), vel.x()) : 0.0, speed, 0.0;
-    CtrvCovariance p = CtrvCovariance::Zero();
-    p(kCtrvX, kCtrvX) = r(0, 0);
-    p(kCtrvY, kCtrvY) = r(1, 1);
-    p(kCtrvHeading, kCtrvHeading) = std::min(kPi * kPi, speed_var / std::max(speed * speed, 1e-12));
-    p(kCtrvSpeed, kCtrvSpeed) = speed_var;
-    p(kCtrvTurnRate, kCtrvTurnRate) = std::pow(config_.init_turn_rate_std_rps, 2);
-    track.ekf = CtrvEkf(x, p);
+    startMotion(track, track.first_position, track.born_s, z, stamp_s, r);
+  } else if (config_.restart_from_rest && !config_.pair_legs && stood_still && !track.stationary &&
+             (z - rest_position).norm() > config_.stationary_radius_m && stamp_s > track.last_hit_s &&
+             (z - previous_z).norm() <= config_.restart_max_speed_mps * (stamp_s - track.last_hit_s)) {
+    // It walks off from rest: its filter, told "speed 0" and pointing where it last went, would lag. (A faster
+    // jump is a passer-by merged into its detection, not it.)
+    startMotion(track, previous_z, track.last_hit_s, z, stamp_s, r);
   } else {
     if (maneuver) {
       // Among people seen by their legs most detections outside the gate only look like a manoeuvre (a person
@@ -477,6 +477,23 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   if (track.ekf.state()(kCtrvSpeed) >= config_.static_speed_threshold_mps) {
     track.reported_heading = track.ekf.state()(kCtrvHeading);
   }
+}
+
+void ObstacleTracker::startMotion(Track& track, const Vec2& from, double from_s, const Vec2& z, double stamp_s,
+                                  const Eigen::Matrix2d& r) const {
+  const double dt = stamp_s - from_s;
+  const Vec2 vel = (z - from) / dt;
+  const double speed = vel.norm();
+  const double speed_var = 2.0 * r(0, 0) / (dt * dt) + std::pow(config_.accel_noise_mps2 * dt, 2);
+  CtrvState x;
+  x << z.x(), z.y(), speed > 1e-9 ? std::atan2(vel.y(), vel.x()) : 0.0, speed, 0.0;
+  CtrvCovariance p = CtrvCovariance::Zero();
+  p(kCtrvX, kCtrvX) = r(0, 0);
+  p(kCtrvY, kCtrvY) = r(1, 1);
+  p(kCtrvHeading, kCtrvHeading) = std::min(kPi * kPi, speed_var / std::max(speed * speed, 1e-12));
+  p(kCtrvSpeed, kCtrvSpeed) = speed_var;
+  p(kCtrvTurnRate, kCtrvTurnRate) = std::pow(config_.init_turn_rate_std_rps, 2);
+  track.ekf = CtrvEkf(x, p);
 }
 
 void ObstacleTracker::updateStationarity(Track& track, const Vec2& z, double stamp_s) {

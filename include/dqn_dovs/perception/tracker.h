@@ -203,6 +203,16 @@ struct TrackerConfig {
   /// put). stationary_speed_std_mps = 0 changes the report only.
   double stationary_speed_std_mps = 0.02;
   double stationary_turn_rate_std_rps = 0.1;
+  /// Restart from rest (without pair_legs): a track that stood still at its last hit and whose new detection lies
+  /// farther than stationary_radius_m from where it stood starts moving again as a new track does at its second
+  /// hit: speed and heading from its last two detections. Its filter had been told "speed 0", and a disc that turned
+  /// around still points along its old heading, so a plain update takes half a second to follow it. Among people
+  /// (pair_legs) it is not applied: a chair's detection that jumps (a leg passing by) would report the chair walking
+  /// off (docs/tracker.md, "Walking off from rest").
+  bool restart_from_rest = true;
+  /// Fastest restart (m/s) from the last two detections: a larger jump is something passing by merged into the
+  /// still track's detection, and the plain update handles it.
+  double restart_max_speed_mps = 1.5;
 
   /// Empty string when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -343,6 +353,10 @@ class ObstacleTracker {
   double reacquireDistance(const Track& track, const Vec2& z, double silent_s) const;
   /// Records the detection at z and runs the stationarity test (TrackerConfig::stationary_window_s).
   void updateStationarity(Track& track, const Vec2& z, double stamp_s);
+  /// Starts the track's motion afresh at detection z (at stamp_s, measurement covariance r) from an earlier one,
+  /// `from` at from_s: position z, speed and heading from the two (a CTRV filter cannot learn a heading from rest).
+  void startMotion(Track& track, const Vec2& from, double from_s, const Vec2& z, double stamp_s,
+                   const Eigen::Matrix2d& r) const;
   void pruneTracks(double stamp_s);
   void buildScene(double stamp_s);
   /// Squared Mahalanobis distance of a detection from a track (infinity outside the hard distance cap).
