@@ -31,6 +31,10 @@ std::string OracleConfig::validate() const {
     os << "oracle grid_cell_m " << grid_cell_m << " must be > 0";
   else if (!(clearance_margin_m >= 0.0 && std::isfinite(clearance_margin_m)))
     os << "oracle clearance_margin_m " << clearance_margin_m << " must be >= 0";
+  else if (true_future_periods < -1)
+    os << "oracle true_future_periods " << true_future_periods << " must be >= 0, or -1 for the whole horizon";
+  else if (!(prediction_growth_mps >= 0.0))
+    os << "oracle prediction_growth_mps " << prediction_growth_mps << " must be >= 0";
   else if (!(scan_period_s > 0.0 && std::isfinite(scan_period_s)))
     os << "oracle scan_period_s " << scan_period_s << " must be > 0";
   else if (!(goal_tolerance_m > 0.0) || !(goal_speed_mps > 0.0))
@@ -52,9 +56,18 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
     config.grid_cell_m = x;
   else if (name == "clearance_margin_m")
     config.clearance_margin_m = x;
+  else if (name == "true_future_periods")
+    config.true_future_periods = static_cast<int>(x);
+  else if (name == "prediction_growth_mps")
+    config.prediction_growth_mps = x;
+  else if (name == "social_prediction" && (x == 0.0 || x == 1.0))
+    config.social_prediction = x == 1.0;
+  else if (name == "social_prediction")
+    return "oracle parameter 'social_prediction' = '" + value + "' is not 0 or 1";
   else
     return "unknown oracle parameter '" + name +
-           "' (horizon_periods, beam_width, window_samples, grid_cell_m, clearance_margin_m)";
+           "' (horizon_periods, beam_width, window_samples, grid_cell_m, clearance_margin_m, true_future_periods, "
+           "social_prediction, prediction_growth_mps)";
   return {};
 }
 
@@ -141,11 +154,50 @@ double OraclePlanner::pathToGoal(const Vec2& p) const {
 void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int substeps) {
   sim::World future = world;  // the robot stands aside; the obstacles ignore it
   future_.resize(static_cast<size_t>(substeps));
-  for (int k = 0; k < substeps; ++k) {
+  const int known =
+      config_.true_future_periods < 0 ? substeps : std::min(substeps, config_.true_future_periods * kSubsteps);
+  for (int k = 0; k < known; ++k) {
     future.step(Twist2{}, sub_dt);
     std::vector<Circle>& bodies = future_[static_cast<size_t>(k)];
     bodies.clear();
     for (const MovingObstacle& o : future.groundTruthObstacles()) bodies.push_back({o.center, o.radius});
+  }
+  if (known == substeps) return;
+  // Beyond what it may read: every body on at its constant (speed, turn rate) of that moment, or the people by the
+  // social force model toward no destination.
+  const std::vector<MovingObstacle> then = future.groundTruthObstacles();
+  const size_t people = config_.social_prediction ? future.crowd().people().size() : 0;
+  sim::Crowd crowd;
+  if (people > 0) {
+    std::vector<sim::PersonSpec> specs;
+    for (const sim::Person& p : future.crowd().people()) {
+      sim::PersonSpec spec;
+      spec.position = p.position;
+      spec.heading_rad = p.velocity.norm() > 1e-6 ? std::atan2(p.velocity.y(), p.velocity.x()) : p.heading_rad;
+      spec.body_radius_m = p.spec.body_radius_m;
+      spec.preferred_speed_mps = std::max(p.velocity.norm(), 1e-3);
+      specs.push_back(spec);
+    }
+    sim::PeopleConfig pc = future.crowd().config();
+    pc.model = sim::PeopleModel::kSocialForce;
+    pc.see_robot = false;
+    crowd = sim::Crowd(specs, pc);
+  }
+  for (int k = known; k < substeps; ++k) {
+    std::vector<Circle>& bodies = future_[static_cast<size_t>(k)];
+    bodies.clear();
+    const double ahead_s = (k + 1 - known) * sub_dt, growth = config_.prediction_growth_mps * ahead_s;
+    if (people > 0) {
+      crowd.step(sub_dt, future.walls(), Circle{}, Vec2::Zero());
+      for (const Circle& b : crowd.bodies()) bodies.push_back({b.center, b.radius + growth});
+    }
+    for (size_t i = 0; i + people < then.size(); ++i) {
+      const MovingObstacle& o = then[i];
+      const double moving = o.is_static ? 0.0 : 1.0;
+      const Pose2 at = integrateUnicycle(Pose2{o.center.x(), o.center.y(), o.heading}, moving * o.speed,
+                                         moving * o.turn_rate, ahead_s);
+      bodies.push_back({at.position(), o.radius + moving * growth});
+    }
   }
 }
 

@@ -105,5 +105,48 @@ TEST(Oracle, SaysWhenEveryTrajectoryCollides) {
   EXPECT_NE(r.last_decision.find("collides"), std::string::npos) << r.last_decision;
 }
 
+TEST(Oracle, ReadsOnlyAsMuchOfTheFutureAsItIsTold) {
+  // Ten walking people who ignore the robot: searched against a constant-velocity prediction from now, the same
+  // search collides where the true future lets it through (generated crowds at seeds 1-8).
+  EvalConfig eval;
+  eval.episode = perfectInformation();
+  sim::WorldFamilyConfig w;
+  w.family = sim::WorldFamily::kCrowd;
+  w.people = 10;
+  const auto successes = [&](const OracleConfig& oracle) {
+    eval.oracle = oracle;
+    int n = 0;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
+      std::unique_ptr<Planner> planner = makeEvalPlanner("oracle", eval);
+      Episode episode(eval.episode);
+      n += runEpisode(*planner, episode, "oracle", scenarioOf(sim::generateWorld(w, seed), seed), false).outcome ==
+           Outcome::kSuccess;
+    }
+    return n;
+  };
+  OracleConfig predicted;
+  predicted.true_future_periods = 0;
+  const int exact = successes(OracleConfig{}), constant_velocity = successes(predicted);
+  EXPECT_GE(exact, 6);
+  EXPECT_LE(constant_velocity, exact - 3);
+}
+
+TEST(Oracle, PredictionParametersAreNamedAndChecked) {
+  OracleConfig c;
+  EXPECT_EQ(setOracleParameter(c, "true_future_periods", "3"), "");
+  EXPECT_EQ(setOracleParameter(c, "social_prediction", "1"), "");
+  EXPECT_EQ(setOracleParameter(c, "prediction_growth_mps", "0.2"), "");
+  EXPECT_EQ(c.true_future_periods, 3);
+  EXPECT_TRUE(c.social_prediction);
+  EXPECT_DOUBLE_EQ(c.prediction_growth_mps, 0.2);
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_NE(setOracleParameter(c, "social_prediction", "2").find("not 0 or 1"), std::string::npos);
+  c.true_future_periods = -2;
+  EXPECT_NE(c.validate().find("true_future_periods"), std::string::npos);
+  c = OracleConfig{};
+  c.prediction_growth_mps = -0.1;
+  EXPECT_NE(c.validate().find("prediction_growth_mps"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dqn_dovs

@@ -33,11 +33,25 @@ struct OracleConfig {
   double scan_period_s = 0.1;        ///< the episode steps the world in chunks of this (a velocity change each)
   double goal_tolerance_m = 0.15;    ///< success as the episode counts it: this close to the goal ...
   double goal_speed_mps = 0.2;       ///< ... and slower than this
+  /// Diagnostic (not the ceiling when set): how many control periods of the simulator's true future the search
+  /// reads; from then on every obstacle and person goes on at the constant (speed, turn rate) it has at that moment,
+  /// as a planner with perfect information could predict it. -1: the whole horizon (the oracle); 0: a constant-
+  /// velocity prediction from now. Tells what the prediction costs and what the search itself finds
+  /// (docs/planners.md, "What the prediction costs").
+  int true_future_periods = -1;
+  /// With true_future_periods >= 0: people (not the discs) go on by the social force model instead, among each
+  /// other and the walls, each toward no destination at its velocity of that moment (a prediction from what a
+  /// tracker and a map give; the destinations, waits and groups stay unknown).
+  bool social_prediction = false;
+  /// With true_future_periods >= 0: every predicted moving body's radius grows by this much per second of
+  /// prediction (m/s), as the DOVS's prediction_growth does.
+  double prediction_growth_mps = 0.0;
   std::string validate() const;
 };
 
 /// Sets one search parameter by name (horizon_periods, beam_width, window_samples, grid_cell_m,
-/// clearance_margin_m); "" on success, otherwise why not (unknown name, not a number). Call validate() after.
+/// clearance_margin_m, true_future_periods, social_prediction: 0 or 1, prediction_growth_mps); "" on success, otherwise
+/// why not (unknown name, not a number). Call validate() after.
 std::string setOracleParameter(OracleConfig& config, const std::string& name, const std::string& value);
 
 class OraclePlanner : public Planner {
