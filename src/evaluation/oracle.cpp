@@ -35,6 +35,8 @@ std::string OracleConfig::validate() const {
     os << "oracle true_future_periods " << true_future_periods << " must be >= 0, or -1 for the whole horizon";
   else if (!(prediction_growth_mps >= 0.0))
     os << "oracle prediction_growth_mps " << prediction_growth_mps << " must be >= 0";
+  else if (!(acceleration_prediction_s >= 0.0))
+    os << "oracle acceleration_prediction_s " << acceleration_prediction_s << " must be >= 0";
   else if (!(scan_period_s > 0.0 && std::isfinite(scan_period_s)))
     os << "oracle scan_period_s " << scan_period_s << " must be > 0";
   else if (!(goal_tolerance_m > 0.0) || !(goal_speed_mps > 0.0))
@@ -60,6 +62,8 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
     config.true_future_periods = static_cast<int>(x);
   else if (name == "prediction_growth_mps")
     config.prediction_growth_mps = x;
+  else if (name == "acceleration_prediction_s")
+    config.acceleration_prediction_s = x;
   else if (name == "social_prediction" && (x == 0.0 || x == 1.0))
     config.social_prediction = x == 1.0;
   else if (name == "social_prediction")
@@ -67,7 +71,7 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
   else
     return "unknown oracle parameter '" + name +
            "' (horizon_periods, beam_width, window_samples, grid_cell_m, clearance_margin_m, true_future_periods, "
-           "social_prediction, prediction_growth_mps)";
+           "social_prediction, prediction_growth_mps, acceleration_prediction_s)";
   return {};
 }
 
@@ -166,6 +170,17 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
   // Beyond what it may read: every body on at its constant (speed, turn rate) of that moment, or the people by the
   // social force model toward no destination.
   const std::vector<MovingObstacle> then = future.groundTruthObstacles();
+  std::vector<Vec2> acceleration(then.size(), Vec2::Zero());
+  if (config_.acceleration_prediction_s > 0.0) {
+    sim::World next = future;
+    next.step(Twist2{}, sub_dt);
+    const std::vector<MovingObstacle> after = next.groundTruthObstacles();
+    for (size_t i = 0; i < then.size(); ++i) {
+      const MovingObstacle &a = then[i], &b = after[i];
+      acceleration[i].x() = (b.speed * std::cos(b.heading) - a.speed * std::cos(a.heading)) / sub_dt;
+      acceleration[i].y() = (b.speed * std::sin(b.heading) - a.speed * std::sin(a.heading)) / sub_dt;
+    }
+  }
   const size_t people = config_.social_prediction ? future.crowd().people().size() : 0;
   sim::Crowd crowd;
   if (people > 0) {
@@ -187,18 +202,30 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
     std::vector<Circle>& bodies = future_[static_cast<size_t>(k)];
     bodies.clear();
     const double ahead_s = (k + 1 - known) * sub_dt, growth = config_.prediction_growth_mps * ahead_s;
+    for (size_t i = 0; i + people < then.size(); ++i) {
+      const MovingObstacle& o = then[i];
+      const double moving = o.is_static ? 0.0 : 1.0;
+      Pose2 at = integrateUnicycle(Pose2{o.center.x(), o.center.y(), o.heading}, moving * o.speed, moving * o.turn_rate,
+                                   ahead_s);
+      if (config_.acceleration_prediction_s > 0.0) {
+        // p += a (t^2 / 2) while accelerating, then a T (t - T / 2).
+        const double t = ahead_s, ta = config_.acceleration_prediction_s;
+        const double shift = t <= ta ? 0.5 * t * t : ta * (t - 0.5 * ta);
+        at.x += moving * acceleration[i].x() * shift;
+        at.y += moving * acceleration[i].y() * shift;
+      }
+      bodies.push_back({at.position(), o.radius + moving * growth});
+    }
     if (people > 0) {
       crowd.step(sub_dt, future.walls(), Circle{}, Vec2::Zero());
       for (const Circle& b : crowd.bodies()) bodies.push_back({b.center, b.radius + growth});
     }
-    for (size_t i = 0; i + people < then.size(); ++i) {
-      const MovingObstacle& o = then[i];
-      const double moving = o.is_static ? 0.0 : 1.0;
-      const Pose2 at = integrateUnicycle(Pose2{o.center.x(), o.center.y(), o.heading}, moving * o.speed,
-                                         moving * o.turn_rate, ahead_s);
-      bodies.push_back({at.position(), o.radius + moving * growth});
-    }
   }
+}
+
+const std::vector<std::vector<Circle>>& OraclePlanner::futureBodies(const sim::World& world) {
+  rollObstacles(world, world.config().robot.dt / kSubsteps, config_.horizon_periods * kSubsteps);
+  return future_;
 }
 
 PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle reads the world itself*/) {
@@ -208,7 +235,7 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
   const RobotLimits& limits = world.config().robot;
   const double dt = limits.dt, sub_dt = dt / kSubsteps;
   const int periods = config_.horizon_periods;
-  rollObstacles(world, sub_dt, periods * kSubsteps);
+  futureBodies(world);
   const double radius = limits.radius + config_.clearance_margin_m;
   const bool ramp = world.config().ramp_velocity;
   const int chunks = std::max(1, static_cast<int>(std::lround(dt / config_.scan_period_s)));

@@ -131,11 +131,75 @@ TEST(Oracle, ReadsOnlyAsMuchOfTheFutureAsItIsTold) {
   EXPECT_LE(constant_velocity, exact - 3);
 }
 
+TEST(Oracle, PredictsFromThePresentWhenToldTo) {
+  // A disc crossing at constant velocity and a person speeding up toward a destination straight ahead of them.
+  sim::Scenario s = emptyRoom({-3.0, -3.0, 0.0}, {3.0, -3.0});
+  MovingObstacle disc;
+  disc.center = Vec2(-2.0, 1.0);
+  disc.speed = 0.5;
+  s.obstacles.push_back(disc);
+  sim::PersonSpec person;
+  person.position = Vec2(0.0, 2.5);
+  person.heading_rad = -kPi / 2;
+  person.preferred_speed_mps = 1.2;
+  person.destinations = {Vec2(0.0, -3.5)};
+  s.people.push_back(person);
+  sim::World world(s, sim::WorldConfig{}, 1);
+  world.step(Twist2{}, 0.2);  // the person is on the way up to their preferred speed
+  const double sub_dt = world.config().robot.dt / 4.0;
+  const Vec2 person_now = world.groundTruthObstacles()[1].center;
+  const Vec2 person_velocity = world.crowd().people()[0].velocity;
+  ASSERT_GT(person_velocity.norm(), 0.1);
+
+  OraclePlanner exact;
+  const std::vector<std::vector<Circle>> truth = exact.futureBodies(world);
+  OracleConfig c;
+  c.true_future_periods = 0;
+  OraclePlanner constant(c);
+  const std::vector<std::vector<Circle>> cv = constant.futureBodies(world);
+  ASSERT_EQ(cv.size(), truth.size());
+  const size_t half_second = 9;  // index k is (k + 1) quarter periods ahead: 0.5 s
+  for (size_t k = 0; k < cv.size(); ++k) {
+    ASSERT_EQ(cv[k].size(), 2u);
+    EXPECT_NEAR((cv[k][0].center - truth[k][0].center).norm(), 0.0, 1e-6) << "the disc keeps its velocity";
+    const Vec2 straight = person_now + (k + 1) * sub_dt * person_velocity;
+    EXPECT_NEAR((cv[k][1].center - straight).norm(), 0.0, 1e-6) << "the person goes on at their present velocity";
+  }
+  // The person speeds up: the truth is ahead of the constant-velocity prediction, the acceleration closes most of it.
+  const double cv_lag = (truth[half_second][1].center - cv[half_second][1].center).norm();
+  EXPECT_GT(cv_lag, 0.03);
+  c.acceleration_prediction_s = 0.5;
+  OraclePlanner accelerating(c);
+  const std::vector<std::vector<Circle>> ca = accelerating.futureBodies(world);
+  EXPECT_LT((truth[half_second][1].center - ca[half_second][1].center).norm(), 0.5 * cv_lag);
+  EXPECT_NEAR((ca[half_second][0].center - truth[half_second][0].center).norm(), 0.0, 1e-6);
+
+  c = OracleConfig{};
+  c.true_future_periods = 0;
+  c.prediction_growth_mps = 0.2;
+  OraclePlanner growing(c);
+  const std::vector<std::vector<Circle>> grown = growing.futureBodies(world);
+  EXPECT_NEAR(grown[half_second][0].radius, disc.radius + 0.2 * 0.5, 1e-9);
+  EXPECT_NEAR(grown[half_second][1].radius, person.body_radius_m + 0.2 * 0.5, 1e-9);
+
+  c = OracleConfig{};
+  c.true_future_periods = 2;
+  c.social_prediction = true;
+  OraclePlanner social(c);
+  const std::vector<std::vector<Circle>> sf = social.futureBodies(world);
+  for (size_t k = 0; k < 8; ++k) EXPECT_EQ((sf[k][1].center - truth[k][1].center).norm(), 0.0) << "true for 0.4 s";
+  // Then the social force model, toward no destination: the person walks on alone, near the straight line.
+  EXPECT_LT((sf[half_second][1].center - truth[half_second][1].center).norm(), 0.1);
+  EXPECT_GT((sf[half_second][1].center - truth[half_second][1].center).norm(), 0.0);
+}
+
 TEST(Oracle, PredictionParametersAreNamedAndChecked) {
   OracleConfig c;
   EXPECT_EQ(setOracleParameter(c, "true_future_periods", "3"), "");
   EXPECT_EQ(setOracleParameter(c, "social_prediction", "1"), "");
   EXPECT_EQ(setOracleParameter(c, "prediction_growth_mps", "0.2"), "");
+  EXPECT_EQ(setOracleParameter(c, "acceleration_prediction_s", "0.5"), "");
+  EXPECT_DOUBLE_EQ(c.acceleration_prediction_s, 0.5);
   EXPECT_EQ(c.true_future_periods, 3);
   EXPECT_TRUE(c.social_prediction);
   EXPECT_DOUBLE_EQ(c.prediction_growth_mps, 0.2);
@@ -146,6 +210,9 @@ TEST(Oracle, PredictionParametersAreNamedAndChecked) {
   c = OracleConfig{};
   c.prediction_growth_mps = -0.1;
   EXPECT_NE(c.validate().find("prediction_growth_mps"), std::string::npos);
+  c = OracleConfig{};
+  c.acceleration_prediction_s = -1.0;
+  EXPECT_NE(c.validate().find("acceleration_prediction_s"), std::string::npos);
 }
 
 }  // namespace

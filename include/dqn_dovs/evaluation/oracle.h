@@ -46,12 +46,16 @@ struct OracleConfig {
   /// With true_future_periods >= 0: every predicted moving body's radius grows by this much per second of
   /// prediction (m/s), as the DOVS's prediction_growth does.
   double prediction_growth_mps = 0.0;
+  /// With true_future_periods >= 0: the people's present acceleration (their velocity's change over the next
+  /// physics sub-step, what an ideal tracker would estimate) is carried on for this long (s), then their velocity
+  /// stays; 0: constant velocity.
+  double acceleration_prediction_s = 0.0;
   std::string validate() const;
 };
 
 /// Sets one search parameter by name (horizon_periods, beam_width, window_samples, grid_cell_m,
-/// clearance_margin_m, true_future_periods, social_prediction: 0 or 1, prediction_growth_mps); "" on success, otherwise
-/// why not (unknown name, not a number). Call validate() after.
+/// clearance_margin_m, true_future_periods, social_prediction: 0 or 1, prediction_growth_mps,
+/// acceleration_prediction_s); "" on success, otherwise why not (unknown name, not a number). Call validate() after.
 std::string setOracleParameter(OracleConfig& config, const std::string& name, const std::string& value);
 
 class OraclePlanner : public Planner {
@@ -63,6 +67,9 @@ class OraclePlanner : public Planner {
   void setWorld(const sim::World* world) { world_ = world; }
   /// Throws PlannerError when no world was set.
   PlannerDecision decide(const PlannerInput& input) override;
+  /// The bodies the search checks against, as decide() computes them from `world`: one list per collision check
+  /// (4 per control period over the horizon; index 0 is a quarter period from now), obstacles then people.
+  const std::vector<std::vector<Circle>>& futureBodies(const sim::World& world);
 
  private:
   struct Node {
