@@ -664,28 +664,38 @@ TEST(Tracker, AChairIsReportedStandingStillWhilePeopleWalkBy) {
   EXPECT_LT(percentile(tested.centre_errors, 0.95), 0.03);
 }
 
+/// Tracks one disc of `radius` at where(t), seen from a fixed laser at `laser`, with a tracker of `config`: a scan
+/// every kScanPeriod from 0 to t_end (noise from `seed`); visit(t, result) after each, until it returns true.
+template <class Where, class Visit>
+void trackOneDisc(const TrackerConfig& config, unsigned seed, const Pose2& laser, double radius, double t_end,
+                  Where where, Visit visit) {
+  ObstacleTracker tracker{config};
+  std::mt19937 rng(seed);
+  SyntheticLidar lidar;
+  for (double t = 0.0; t <= t_end + 1e-9; t += kScanPeriod) {
+    if (visit(t, tracker.update(syntheticScan(lidar, laser, {{where(t), radius}}, {}, t, rng), laser))) return;
+  }
+}
+
 /// A disc standing at (2, 0) for 3 s, then walking off along +y accelerating at 1.5 m/s^2 up to 1 m/s, seen from a
 /// fixed laser: the time (s) from its start until it is reported moving at 0.3 m/s or more.
 double timeToReportMoving(double stationary_window_s) {
   TrackerConfig config;
   config.stationary_window_s = stationary_window_s;
-  ObstacleTracker tracker{config};
-  std::mt19937 rng(8);
-  SyntheticLidar lidar;
   const auto where = [](double t) {
     const double s = std::max(0.0, t - 3.0);
     const double accel = 1.5, top = 1.0, t_top = top / accel;
     const double y = s < t_top ? 0.5 * accel * s * s : 0.5 * top * t_top + top * (s - t_top);
     return Vec2(2.0, y);
   };
-  for (double t = 0.0; t <= 6.0; t += kScanPeriod) {
-    const Pose2 lp{-1.0, 0.0, 0.0};
-    const TrackerResult r = tracker.update(syntheticScan(lidar, lp, {{where(t), 0.2}}, {}, t, rng), lp);
+  double reported = std::numeric_limits<double>::infinity();
+  trackOneDisc(config, 8, Pose2{-1.0, 0.0, 0.0}, 0.2, 6.0, where, [&](double t, const TrackerResult& r) {
     for (const TrackedObstacle& o : r.scene.obstacles) {
-      if (t > 3.0 && (o.center - where(t)).norm() < 0.4 && o.speed >= 0.3) return t - 3.0;
+      if (t > 3.0 && (o.center - where(t)).norm() < 0.4 && o.speed >= 0.3) reported = t - 3.0;
     }
-  }
-  return std::numeric_limits<double>::infinity();
+    return std::isfinite(reported);
+  });
+  return reported;
 }
 
 TEST(Tracker, SomethingThatStoodStillIsReportedMovingAsSoonAsItWalksOff) {
@@ -703,9 +713,6 @@ TEST(Tracker, SomethingThatStoodStillIsReportedMovingAsSoonAsItWalksOff) {
 double speedErrorAfterRestart(bool restart_from_rest) {
   TrackerConfig config;
   config.restart_from_rest = restart_from_rest;
-  ObstacleTracker tracker{config};
-  std::mt19937 rng(21);
-  SyntheticLidar lidar;
   const double speed = 0.8, stop = 2.0, restart = 4.0;
   const auto where = [&](double t) {
     if (t < stop) return Vec2(-0.8 + speed * t, 1.5);
@@ -713,10 +720,8 @@ double speedErrorAfterRestart(bool restart_from_rest) {
   };
   double squared = 0.0;
   int pairs = 0;
-  for (double t = 0.0; t <= restart + 0.5 + 1e-9; t += kScanPeriod) {
-    const Pose2 lp{0.0, -1.0, 0.0};
-    const TrackerResult r = tracker.update(syntheticScan(lidar, lp, {{where(t), 0.25}}, {}, t, rng), lp);
-    if (t <= restart + 1e-9) continue;
+  trackOneDisc(config, 21, Pose2{0.0, -1.0, 0.0}, 0.25, restart + 0.5, where, [&](double t, const TrackerResult& r) {
+    if (t <= restart + 1e-9) return false;
     double best = 0.4, error = speed;  // no track on it: as wrong as standing still
     for (const TrackedObstacle& o : r.scene.obstacles) {
       const double d = (o.center - where(t)).norm();
@@ -727,7 +732,8 @@ double speedErrorAfterRestart(bool restart_from_rest) {
     }
     squared += error * error;
     ++pairs;
-  }
+    return false;
+  });
   return std::sqrt(squared / pairs);
 }
 
