@@ -170,12 +170,13 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
   // Beyond what it may read: every body on at its constant (speed, turn rate) of that moment, or the people by the
   // social force model toward no destination.
   const std::vector<MovingObstacle> then = future.groundTruthObstacles();
+  // The people's present acceleration (the discs' is their turn rate, already in their arcs).
   std::vector<Vec2> acceleration(then.size(), Vec2::Zero());
   if (config_.acceleration_prediction_s > 0.0) {
     sim::World next = future;
     next.step(Twist2{}, sub_dt);
     const std::vector<MovingObstacle> after = next.groundTruthObstacles();
-    for (size_t i = 0; i < then.size(); ++i) {
+    for (size_t i = then.size() - future.crowd().people().size(); i < then.size(); ++i) {
       const MovingObstacle &a = then[i], &b = after[i];
       acceleration[i].x() = (b.speed * std::cos(b.heading) - a.speed * std::cos(a.heading)) / sub_dt;
       acceleration[i].y() = (b.speed * std::sin(b.heading) - a.speed * std::sin(a.heading)) / sub_dt;
