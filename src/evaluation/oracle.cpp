@@ -37,6 +37,8 @@ std::string OracleConfig::validate() const {
     os << "oracle prediction_growth_mps " << prediction_growth_mps << " must be >= 0";
   else if (!(acceleration_prediction_s >= 0.0))
     os << "oracle acceleration_prediction_s " << acceleration_prediction_s << " must be >= 0";
+  else if (acceleration_prediction_s > 0.0 && true_future_periods != 0)
+    os << "oracle acceleration_prediction_s needs true_future_periods = 0 (a prediction from now)";
   else if (!(scan_period_s > 0.0 && std::isfinite(scan_period_s)))
     os << "oracle scan_period_s " << scan_period_s << " must be > 0";
   else if (!(goal_tolerance_m > 0.0) || !(goal_speed_mps > 0.0))
@@ -82,6 +84,7 @@ OraclePlanner::OraclePlanner(const OracleConfig& config) : config_(config) {
 void OraclePlanner::reset() {
   statics_ready_ = false;
   future_.clear();
+  previous_velocities_.clear();
 }
 
 void OraclePlanner::prepareStatics(const sim::World& world) {
@@ -170,17 +173,20 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
   // Beyond what it may read: every body on at its constant (speed, turn rate) of that moment, or the people by the
   // social force model toward no destination.
   const std::vector<MovingObstacle> then = future.groundTruthObstacles();
-  // The people's present acceleration (the discs' is their turn rate, already in their arcs).
+  // The people's acceleration over the last control period (the discs' is their turn rate, already in their arcs).
   std::vector<Vec2> acceleration(then.size(), Vec2::Zero());
   if (config_.acceleration_prediction_s > 0.0) {
-    sim::World next = future;
-    next.step(Twist2{}, sub_dt);
-    const std::vector<MovingObstacle> after = next.groundTruthObstacles();
-    for (size_t i = then.size() - future.crowd().people().size(); i < then.size(); ++i) {
-      const MovingObstacle &a = then[i], &b = after[i];
-      acceleration[i].x() = (b.speed * std::cos(b.heading) - a.speed * std::cos(a.heading)) / sub_dt;
-      acceleration[i].y() = (b.speed * std::sin(b.heading) - a.speed * std::sin(a.heading)) / sub_dt;
+    const std::vector<sim::Person>& persons = world.crowd().people();
+    const size_t first = then.size() - persons.size();
+    const double since = world.time_s() - previous_time_s_;
+    if (previous_velocities_.size() == persons.size() && since > 0.0) {
+      for (size_t i = 0; i < persons.size(); ++i) {
+        acceleration[first + i] = (persons[i].velocity - previous_velocities_[i]) / since;
+      }
     }
+    previous_velocities_.clear();
+    for (const sim::Person& p : persons) previous_velocities_.push_back(p.velocity);
+    previous_time_s_ = world.time_s();
   }
   const size_t people = config_.social_prediction ? future.crowd().people().size() : 0;
   sim::Crowd crowd;

@@ -146,6 +146,12 @@ TEST(Oracle, PredictsFromThePresentWhenToldTo) {
   s.people.push_back(person);
   sim::World world(s, sim::WorldConfig{}, 1);
   world.step(Twist2{}, 0.2);  // the person is on the way up to their preferred speed
+  OracleConfig c;
+  c.true_future_periods = 0;
+  c.acceleration_prediction_s = 0.5;
+  OraclePlanner accelerating(c);
+  accelerating.futureBodies(world);  // it remembers the velocities of this decision ...
+  world.step(Twist2{}, 0.2);         // ... for the next one
   const double sub_dt = world.config().robot.dt / 4.0;
   const Vec2 person_now = world.groundTruthObstacles()[1].center;
   const Vec2 person_velocity = world.crowd().people()[0].velocity;
@@ -153,8 +159,7 @@ TEST(Oracle, PredictsFromThePresentWhenToldTo) {
 
   OraclePlanner exact;
   const std::vector<std::vector<Circle>> truth = exact.futureBodies(world);
-  OracleConfig c;
-  c.true_future_periods = 0;
+  c.acceleration_prediction_s = 0.0;
   OraclePlanner constant(c);
   const std::vector<std::vector<Circle>> cv = constant.futureBodies(world);
   ASSERT_EQ(cv.size(), truth.size());
@@ -165,13 +170,12 @@ TEST(Oracle, PredictsFromThePresentWhenToldTo) {
     const Vec2 straight = person_now + (k + 1) * sub_dt * person_velocity;
     EXPECT_NEAR((cv[k][1].center - straight).norm(), 0.0, 1e-6) << "the person goes on at their present velocity";
   }
-  // The person speeds up: the truth is ahead of the constant-velocity prediction, the acceleration closes most of it.
+  // The person speeds up: the truth is ahead of the constant-velocity prediction; the acceleration of the last
+  // period, carried on, comes closer.
   const double cv_lag = (truth[half_second][1].center - cv[half_second][1].center).norm();
   EXPECT_GT(cv_lag, 0.03);
-  c.acceleration_prediction_s = 0.5;
-  OraclePlanner accelerating(c);
   const std::vector<std::vector<Circle>> ca = accelerating.futureBodies(world);
-  EXPECT_LT((truth[half_second][1].center - ca[half_second][1].center).norm(), 0.5 * cv_lag);
+  EXPECT_LT((truth[half_second][1].center - ca[half_second][1].center).norm(), 0.8 * cv_lag);
   EXPECT_NEAR((ca[half_second][0].center - truth[half_second][0].center).norm(), 0.0, 1e-6);
 
   c = OracleConfig{};
@@ -200,6 +204,8 @@ TEST(Oracle, PredictionParametersAreNamedAndChecked) {
   EXPECT_EQ(setOracleParameter(c, "prediction_growth_mps", "0.2"), "");
   EXPECT_EQ(setOracleParameter(c, "acceleration_prediction_s", "0.5"), "");
   EXPECT_DOUBLE_EQ(c.acceleration_prediction_s, 0.5);
+  EXPECT_NE(c.validate().find("needs true_future_periods = 0"), std::string::npos);
+  c.acceleration_prediction_s = 0.0;
   EXPECT_EQ(c.true_future_periods, 3);
   EXPECT_TRUE(c.social_prediction);
   EXPECT_DOUBLE_EQ(c.prediction_growth_mps, 0.2);

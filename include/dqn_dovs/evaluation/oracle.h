@@ -46,9 +46,9 @@ struct OracleConfig {
   /// With true_future_periods >= 0: every predicted moving body's radius grows by this much per second of
   /// prediction (m/s), as the DOVS's prediction_growth does.
   double prediction_growth_mps = 0.0;
-  /// With true_future_periods >= 0: the people's present acceleration (their velocity's change over the next
-  /// physics sub-step, what an ideal tracker would estimate) is carried on for this long (s), then their velocity
-  /// stays; 0: constant velocity.
+  /// With true_future_periods = 0: the people's acceleration over the last control period (their velocity now
+  /// against at the previous decision, what a tracker could estimate) is carried on for this long (s), then their
+  /// velocity stays; 0: constant velocity.
   double acceleration_prediction_s = 0.0;
   std::string validate() const;
 };
@@ -95,6 +95,9 @@ class OraclePlanner : public Planner {
   std::vector<float> clearance_;             ///< m to the nearest wall, per cell centre
   std::vector<float> to_goal_;               ///< m of free path to the goal, per cell centre (inf: unreachable)
   std::vector<std::vector<Circle>> future_;  ///< bodies per sub-step (index 0 = now + sub_dt)
+  // The people's velocities at the previous decision and its time (acceleration_prediction_s).
+  std::vector<Vec2> previous_velocities_;
+  double previous_time_s_ = 0.0;
 };
 
 }  // namespace dqn_dovs
