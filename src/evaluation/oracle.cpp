@@ -39,6 +39,8 @@ std::string OracleConfig::validate() const {
     os << "oracle acceleration_prediction_s " << acceleration_prediction_s << " must be >= 0";
   else if (acceleration_prediction_s > 0.0 && true_future_periods != 0)
     os << "oracle acceleration_prediction_s needs true_future_periods = 0 (a prediction from now)";
+  else if (acceleration_prediction_s > 0.0 && social_prediction)
+    os << "oracle acceleration_prediction_s and social_prediction are two predictions of the people: choose one";
   else if (!(scan_period_s > 0.0 && std::isfinite(scan_period_s)))
     os << "oracle scan_period_s " << scan_period_s << " must be > 0";
   else if (!(goal_tolerance_m > 0.0) || !(goal_speed_mps > 0.0))

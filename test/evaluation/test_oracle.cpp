@@ -202,13 +202,16 @@ TEST(Oracle, PredictionParametersAreNamedAndChecked) {
   EXPECT_EQ(setOracleParameter(c, "true_future_periods", "3"), "");
   EXPECT_EQ(setOracleParameter(c, "social_prediction", "1"), "");
   EXPECT_EQ(setOracleParameter(c, "prediction_growth_mps", "0.2"), "");
-  EXPECT_EQ(setOracleParameter(c, "acceleration_prediction_s", "0.5"), "");
-  EXPECT_DOUBLE_EQ(c.acceleration_prediction_s, 0.5);
-  EXPECT_NE(c.validate().find("needs true_future_periods = 0"), std::string::npos);
-  c.acceleration_prediction_s = 0.0;
   EXPECT_EQ(c.true_future_periods, 3);
   EXPECT_TRUE(c.social_prediction);
   EXPECT_DOUBLE_EQ(c.prediction_growth_mps, 0.2);
+  EXPECT_EQ(c.validate(), "");
+  EXPECT_EQ(setOracleParameter(c, "acceleration_prediction_s", "0.5"), "");
+  EXPECT_DOUBLE_EQ(c.acceleration_prediction_s, 0.5);
+  EXPECT_NE(c.validate().find("needs true_future_periods = 0"), std::string::npos);
+  c.true_future_periods = 0;
+  EXPECT_NE(c.validate().find("choose one"), std::string::npos);  // social_prediction is on too
+  c.social_prediction = false;
   EXPECT_EQ(c.validate(), "");
   EXPECT_NE(setOracleParameter(c, "social_prediction", "2").find("not 0 or 1"), std::string::npos);
   c.true_future_periods = -2;

@@ -46,9 +46,9 @@ struct OracleConfig {
   /// With true_future_periods >= 0: every predicted moving body's radius grows by this much per second of
   /// prediction (m/s), as the DOVS's prediction_growth does.
   double prediction_growth_mps = 0.0;
-  /// With true_future_periods = 0: the people's acceleration over the last control period (their velocity now
-  /// against at the previous decision, what a tracker could estimate) is carried on for this long (s), then their
-  /// velocity stays; 0: constant velocity.
+  /// With true_future_periods = 0 and no social_prediction: the people's acceleration over the last control period
+  /// (their velocity now against at the previous decision, what a tracker could estimate) is carried on for this
+  /// long (s), then their velocity stays; 0: constant velocity.
   double acceleration_prediction_s = 0.0;
   std::string validate() const;
 };
@@ -68,7 +68,8 @@ class OraclePlanner : public Planner {
   /// Throws PlannerError when no world was set.
   PlannerDecision decide(const PlannerInput& input) override;
   /// The bodies the search checks against, as decide() computes them from `world`: one list per collision check
-  /// (4 per control period over the horizon; index 0 is a quarter period from now), obstacles then people.
+  /// (4 per control period over the horizon; index 0 is a quarter period from now), obstacles then people. With
+  /// acceleration_prediction_s it also remembers the people's velocities, for the next call's acceleration.
   const std::vector<std::vector<Circle>>& futureBodies(const sim::World& world);
 
  private:
