@@ -23,6 +23,11 @@ std::string badField(const char* name, double value, const char* why) {
 bool positive(double x) { return std::isfinite(x) && x > 0.0; }
 bool nonNegative(double x) { return std::isfinite(x) && x >= 0.0; }
 
+/// Velocity vector of a CTRV state.
+Vec2 velocity(const CtrvState& x) {
+  return x(kCtrvSpeed) * Vec2(std::cos(x(kCtrvHeading)), std::sin(x(kCtrvHeading)));
+}
+
 }  // namespace
 
 std::string TrackerConfig::validate() const {
@@ -98,6 +103,10 @@ std::string TrackerConfig::validate() const {
     return badField("reacquire_max_distance_m", reacquire_max_distance_m, "must be > 0 (m)");
   if (!nonNegative(reacquire_speed_mps))
     return badField("reacquire_speed_mps", reacquire_speed_mps, "must be >= 0 (m/s)");
+  if (!nonNegative(duplicate_max_velocity_difference_mps)) {
+    return badField("duplicate_max_velocity_difference_mps", duplicate_max_velocity_difference_mps,
+                    "must be >= 0 (m/s)");
+  }
   if (!positive(max_time_gap_s)) return badField("max_time_gap_s", max_time_gap_s, "must be > 0 (s)");
   if (!nonNegative(static_speed_threshold_mps))
     return badField("static_speed_threshold_mps", static_speed_threshold_mps, "must be >= 0 (m/s)");
@@ -172,6 +181,8 @@ const std::vector<TrackerField>& trackerFields() {
       {"reacquire_window", &TrackerConfig::reacquire_window_s},
       {"reacquire_max_distance", &TrackerConfig::reacquire_max_distance_m},
       {"reacquire_speed", &TrackerConfig::reacquire_speed_mps},
+      {"reacquire_follow_turn", nullptr, nullptr, &TrackerConfig::reacquire_follow_turn},
+      {"duplicate_max_velocity_difference", &TrackerConfig::duplicate_max_velocity_difference_mps},
       {"max_time_gap", &TrackerConfig::max_time_gap_s},
       {"static_speed_threshold", &TrackerConfig::static_speed_threshold_mps},
       {"stationary_window", &TrackerConfig::stationary_window_s},
@@ -467,8 +478,8 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   track.hits += 1;
   track.last_hit_s = stamp_s;
   track.hit_position = track.ekf.position();
-  track.hit_velocity = track.ekf.state()(kCtrvSpeed) *
-                       Vec2(std::cos(track.ekf.state()(kCtrvHeading)), std::sin(track.ekf.state()(kCtrvHeading)));
+  track.hit_velocity = velocity(track.ekf.state());
+  track.hit_turn_rate = track.ekf.state()(kCtrvTurnRate);
   track.updated_this_scan = true;
   if (!track.confirmed && track.hits >= config_.confirm_hits) {
     track.confirmed = true;
@@ -535,7 +546,25 @@ double ObstacleTracker::reacquireDistance(const Track& track, const Vec2& z, dou
   if ((z - track.hit_position).norm() > config_.reacquire_max_distance_m + config_.reacquire_speed_mps * silent_s) {
     return std::numeric_limits<double>::infinity();
   }
-  return pointSegmentDistance(z, Segment{track.hit_position, track.hit_position + silent_s * track.hit_velocity});
+  const double w = track.hit_turn_rate;
+  const double speed = track.hit_velocity.norm();
+  if (!config_.reacquire_follow_turn || config_.pair_legs || std::abs(w) < 1e-3 || speed < 1e-6) {
+    return pointSegmentDistance(z, Segment{track.hit_position, track.hit_position + silent_s * track.hit_velocity});
+  }
+  // The arc its filter would have predicted, as chords of at most 0.25 s.
+  const int pieces = std::clamp(static_cast<int>(std::ceil(silent_s / 0.25)), 1, 64);
+  const double heading = std::atan2(track.hit_velocity.y(), track.hit_velocity.x());
+  const double radius = speed / w;
+  double best = std::numeric_limits<double>::infinity();
+  Vec2 previous = track.hit_position;
+  for (int k = 1; k <= pieces; ++k) {
+    const double turned = w * silent_s * static_cast<double>(k) / static_cast<double>(pieces);
+    const Vec2 next(track.hit_position.x() + radius * (std::sin(heading + turned) - std::sin(heading)),
+                    track.hit_position.y() - radius * (std::cos(heading + turned) - std::cos(heading)));
+    best = std::min(best, pointSegmentDistance(z, Segment{previous, next}));
+    previous = next;
+  }
+  return best;
 }
 
 void ObstacleTracker::takeOverLostTrack(Track& track, double stamp_s) {
@@ -626,6 +655,12 @@ void ObstacleTracker::pruneTracks(double stamp_s) {
       const double overlap = std::max(0.5 * std::max({a.radius, b.radius, config_.fallback_radius_m}),
                                       config_.pair_legs ? config_.person_radius_m : 0.0);
       if ((pa - pb).norm() >= overlap) continue;
+      // Two discs passing through each other (without pair_legs) are two tracks on one spot that move apart.
+      if (!config_.pair_legs && config_.duplicate_max_velocity_difference_mps > 0.0 && a.confirmed && b.confirmed &&
+          stamp_s - a.born_s >= 1.0 && stamp_s - b.born_s >= 1.0 &&
+          (velocity(a.ekf.state()) - velocity(b.ekf.state())).norm() > config_.duplicate_max_velocity_difference_mps) {
+        continue;
+      }
       const bool keep_a = a.confirmed != b.confirmed ? a.confirmed : a.hits >= b.hits;
       drop[keep_a ? j : i] = true;
     }

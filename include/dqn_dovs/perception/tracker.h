@@ -178,6 +178,15 @@ struct TrackerConfig {
   /// Fastest speed of a remembered obstacle (m/s): a new detection farther from its last seen position than
   /// reacquire_max_distance_m + this times the time since it was lost is never it.
   double reacquire_speed_mps = 1.5;
+  /// Without pair_legs, the walking-on end of that path follows the remembered track's last turn rate (the arc its
+  /// CTRV filter predicts) instead of a straight line: a disc turning at 0.4 rad/s that is hidden for 5 s is 2 m off
+  /// the straight line. Among people (pair_legs) a turn rate does not last: the line is kept.
+  bool reacquire_follow_turn = true;
+
+  /// Without pair_legs, two confirmed tracks on one spot (closer than half a radius) whose velocities differ by more
+  /// than this (m/s) are two discs passing through each other, and both are kept; otherwise (and among people) they
+  /// are one object tracked twice and the one with less evidence is dropped. 0 always drops.
+  double duplicate_max_velocity_difference_mps = 0.6;
 
   // --- time ---------------------------------------------------------------------------------------------
   /// A forward jump between scan stamps larger than this resets all tracks (s): their predictions would
@@ -323,6 +332,7 @@ class ObstacleTracker {
     /// Filtered position and velocity at the last hit (where a lost track was last seen, and how it moved).
     Vec2 hit_position = Vec2::Zero();
     Vec2 hit_velocity = Vec2::Zero();
+    double hit_turn_rate = 0.0;
     std::deque<double> radii;
     double radius = 0.0;
     double reported_heading = 0.0;
