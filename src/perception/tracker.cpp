@@ -24,9 +24,7 @@ bool positive(double x) { return std::isfinite(x) && x > 0.0; }
 bool nonNegative(double x) { return std::isfinite(x) && x >= 0.0; }
 
 /// Velocity vector of a CTRV state.
-Vec2 velocity(const CtrvState& x) {
-  return x(kCtrvSpeed) * Vec2(std::cos(x(kCtrvHeading)), std::sin(x(kCtrvHeading)));
-}
+Vec2 velocity(const CtrvState& x) { return x(kCtrvSpeed) * Vec2(std::cos(x(kCtrvHeading)), std::sin(x(kCtrvHeading))); }
 
 }  // namespace
 

@@ -160,9 +160,9 @@ TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
   for (size_t k = 0; k < names.size(); ++k) {
     TrackerConfig* c = fresh(raw);
     // Booleans to the opposite of their default, every number to 7.
-    const char* value = names[k] == "pair_legs"                                                 ? "true"
+    const char* value = names[k] == "pair_legs"                                                  ? "true"
                         : names[k] == "restart_from_rest" || names[k] == "reacquire_follow_turn" ? "false"
-                                                                                                  : "7";
+                                                                                                 : "7";
     ASSERT_EQ(setTrackerParameter(*c, names[k], value), "") << names[k];
     int changed = 0;
     for (size_t b = 0; b < sizeof(TrackerConfig); ++b) {
@@ -374,6 +374,7 @@ TEST(Tracker, DiscsThatPassThroughEachOtherKeepTheirIds) {
   without.merged_separation_factor = 0.0;
   const int off = switchesWhenDiscsPassThroughEachOther(without);
   const int on = switchesWhenDiscsPassThroughEachOther(TrackerConfig{});
+  std::printf("id switches over 48 passes: %d without the merged-bodies rule, %d with it\n", off, on);
   EXPECT_GE(off, 20) << "the passes no longer confuse a tracker without the rule: the test shows nothing";
   EXPECT_LE(2 * on, off) << on << " switches with the rule, " << off << " without";
 }
@@ -410,7 +411,7 @@ struct IdRun {
   size_t most_tracks = 0;
 };
 IdRun runOneDisc(const std::function<std::optional<Vec2>(double)>& where, double duration_s,
-                const TrackerConfig& config = {}) {
+                 const TrackerConfig& config = {}) {
   ObstacleTracker tracker{config};
   std::mt19937 rng(5);
   SyntheticLidar lidar;
