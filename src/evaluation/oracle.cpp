@@ -41,6 +41,9 @@ std::string OracleConfig::validate() const {
     os << "oracle acceleration_prediction_s needs true_future_periods = 0 (a prediction from now)";
   else if (acceleration_prediction_s > 0.0 && social_prediction)
     os << "oracle acceleration_prediction_s and social_prediction are two predictions of the people: choose one";
+  else if (!learned_prediction.empty() &&
+           (true_future_periods != 0 || social_prediction || acceleration_prediction_s > 0.0))
+    os << "oracle learned_prediction needs true_future_periods = 0 and no other prediction of the people";
   else if (!(scan_period_s > 0.0 && std::isfinite(scan_period_s)))
     os << "oracle scan_period_s " << scan_period_s << " must be > 0";
   else if (!(goal_tolerance_m > 0.0) || !(goal_speed_mps > 0.0))
@@ -49,6 +52,11 @@ std::string OracleConfig::validate() const {
 }
 
 std::string setOracleParameter(OracleConfig& config, const std::string& name, const std::string& value) {
+  if (name == "learned_prediction") {
+    if (value.empty()) return "oracle parameter 'learned_prediction' is empty (a people predictor file)";
+    config.learned_prediction = value;
+    return {};
+  }
   const std::optional<double> parsed = parseNumber(value);
   if (!parsed || !std::isfinite(*parsed)) return "oracle parameter '" + name + "' = '" + value + "' is not a number";
   const double x = *parsed;
@@ -75,18 +83,61 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
   else
     return "unknown oracle parameter '" + name +
            "' (horizon_periods, beam_width, window_samples, grid_cell_m, clearance_margin_m, true_future_periods, "
-           "social_prediction, prediction_growth_mps, acceleration_prediction_s)";
+           "social_prediction, prediction_growth_mps, acceleration_prediction_s, learned_prediction)";
   return {};
 }
 
 OraclePlanner::OraclePlanner(const OracleConfig& config) : config_(config) {
   if (const std::string e = config_.validate(); !e.empty()) throw PlannerError(e);
+  if (!config_.learned_prediction.empty()) {
+    try {
+      predictor_ = std::make_shared<const PeoplePredictor>(PeoplePredictor::load(config_.learned_prediction));
+    } catch (const PeoplePredictorError& e) {
+      throw PlannerError(std::string("oracle learned_prediction: ") + e.what());
+    }
+  }
 }
 
 void OraclePlanner::reset() {
   statics_ready_ = false;
   future_.clear();
   previous_velocities_.clear();
+  people_history_.clear();
+  people_history_time_s_ = -1.0;
+}
+
+std::vector<std::vector<Vec2>> OraclePlanner::learnedFuture(const sim::World& world) {
+  const PeoplePredictor& predictor = *predictor_;
+  const double step = predictor.stepSeconds();
+  if (std::abs(world.config().robot.dt - step) > 1e-6) {
+    throw PlannerError("oracle learned_prediction: the predictor steps " + std::to_string(step) +
+                       " s but the control period is " + std::to_string(world.config().robot.dt) + " s");
+  }
+  const std::vector<sim::Person>& persons = world.crowd().people();
+  std::vector<Vec2> now;
+  for (const sim::Person& p : persons) now.push_back(p.position);
+  if (people_history_time_s_ != world.time_s()) {
+    people_history_.push_back(now);
+    people_history_time_s_ = world.time_s();
+  }
+  const size_t steps = static_cast<size_t>(predictor.historySteps()) + 1;
+  while (people_history_.size() > steps) people_history_.pop_front();
+  // Each person's last historySteps() + 1 positions; before the episode's first decisions, walked back at its
+  // velocity of now.
+  std::vector<std::vector<Vec2>> tracks(persons.size());
+  for (size_t i = 0; i < persons.size(); ++i) {
+    for (size_t s = 0; s < steps; ++s) {
+      const size_t back = steps - 1 - s;  // decisions before now
+      tracks[i].push_back(back < people_history_.size() &&
+                                  people_history_[people_history_.size() - 1 - back].size() == persons.size()
+                              ? people_history_[people_history_.size() - 1 - back][i]
+                              : Vec2(now[i] - static_cast<double>(back) * step * persons[i].velocity));
+    }
+  }
+  std::vector<std::vector<Vec2>> future(persons.size());
+  const double h = world.roomHalfSize_m();
+  for (size_t i = 0; i < persons.size(); ++i) future[i] = predictor.predict(tracks, i, h);
+  return future;
 }
 
 void OraclePlanner::prepareStatics(const sim::World& world) {
@@ -190,7 +241,9 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
     for (const sim::Person& p : persons) previous_velocities_.push_back(p.velocity);
     previous_time_s_ = world.time_s();
   }
-  const size_t people = config_.social_prediction ? future.crowd().people().size() : 0;
+  std::vector<std::vector<Vec2>> learned;
+  if (predictor_) learned = learnedFuture(world);
+  const size_t people = config_.social_prediction || predictor_ ? future.crowd().people().size() : 0;
   sim::Crowd crowd;
   if (people > 0) {
     std::vector<sim::PersonSpec> specs;
@@ -225,7 +278,26 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
       }
       bodies.push_back({at.position(), o.radius + moving * growth});
     }
-    if (people > 0) {
+    if (predictor_) {
+      // Linear between the predictor's steps (its step 0 is now), then on at its last step's velocity.
+      const double step = predictor_->stepSeconds();
+      const size_t first = then.size() - people;
+      for (size_t i = 0; i < people; ++i) {
+        const std::vector<Vec2>& path = learned[i];
+        const double u = ahead_s / step;
+        const size_t last = path.size();
+        Vec2 at;
+        if (u >= static_cast<double>(last)) {
+          const Vec2 before = last >= 2 ? path[last - 2] : then[first + i].center;
+          at = path[last - 1] + (u - static_cast<double>(last)) * (path[last - 1] - before);
+        } else {
+          const size_t s = static_cast<size_t>(std::floor(u));
+          const Vec2 a = s == 0 ? then[first + i].center : path[s - 1];
+          at = a + (u - static_cast<double>(s)) * (path[s] - a);
+        }
+        bodies.push_back({at, then[first + i].radius + growth});
+      }
+    } else if (people > 0) {
       crowd.step(sub_dt, future.walls(), Circle{}, Vec2::Zero());
       for (const Circle& b : crowd.bodies()) bodies.push_back({b.center, b.radius + growth});
     }

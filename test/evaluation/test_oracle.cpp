@@ -2,7 +2,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
 
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/evaluation/oracle.h"
@@ -197,6 +203,99 @@ TEST(Oracle, PredictsFromThePresentWhenToldTo) {
   EXPECT_GT((sf[half_second][1].center - truth[half_second][1].center).norm(), 0.0);
 }
 
+/// Writes a people predictor file (people_predictor.h) with one layer: zero weights and `lateral` as the bias of every
+/// step's sideways offset (the person's left), so it predicts constant velocity shifted sideways.
+std::string writeLinearPredictor(const std::string& name, float lateral, uint32_t inputs = 49) {
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream out(path, std::ios::binary);
+  out.write("DQNDPPv1", 8);
+  auto u32 = [&](uint32_t v) { out.write(reinterpret_cast<const char*>(&v), 4); };
+  auto f32 = [&](float v) { out.write(reinterpret_cast<const char*>(&v), 4); };
+  for (uint32_t v : {5u, 10u, 6u, 200u, 1u, 20u, inputs}) u32(v);
+  for (uint32_t k = 0; k < inputs; ++k) f32(0.0f);
+  for (uint32_t k = 0; k < inputs; ++k) f32(1.0f);
+  for (uint32_t k = 0; k < 20 * inputs; ++k) f32(0.0f);
+  for (int step = 0; step < 10; ++step) {
+    f32(0.0f);
+    f32(lateral);
+  }
+  return path;
+}
+
+TEST(Oracle, PredictsPeopleWithALearnedNetwork) {
+  sim::Scenario s = emptyRoom({-3.0, -3.0, 0.0}, {3.0, -3.0});
+  MovingObstacle disc;
+  disc.center = Vec2(-2.0, 1.0);
+  disc.speed = 0.5;
+  s.obstacles.push_back(disc);
+  sim::PersonSpec person;
+  person.position = Vec2(0.0, 2.5);
+  person.heading_rad = -kPi / 2;
+  person.preferred_speed_mps = 1.2;
+  person.destinations = {Vec2(0.0, -3.5)};
+  s.people.push_back(person);
+  sim::World world(s, sim::WorldConfig{}, 1);
+  world.step(Twist2{}, 0.2);
+  OracleConfig c;
+  c.true_future_periods = 0;
+  const std::vector<std::vector<Circle>> cv = OraclePlanner(c).futureBodies(world);
+  // A network that adds nothing predicts constant velocity (at the first decision its past is its velocity of now).
+  c.learned_prediction = writeLinearPredictor("zero.dqnp", 0.0f);
+  const std::vector<std::vector<Circle>> zero = OraclePlanner(c).futureBodies(world);
+  ASSERT_EQ(zero.size(), cv.size());
+  for (size_t k = 0; k < cv.size(); ++k) {
+    ASSERT_EQ(zero[k].size(), 2u);
+    EXPECT_NEAR((zero[k][0].center - cv[k][0].center).norm(), 0.0, 1e-9) << "the disc is not a person";
+    EXPECT_NEAR((zero[k][1].center - cv[k][1].center).norm(), 0.0, 1e-6) << k;
+    EXPECT_DOUBLE_EQ(zero[k][1].radius, person.body_radius_m);
+  }
+  // 0.1 m to the person's left at every step: the person walks south, so 0.1 m east, reached after one step.
+  c.learned_prediction = writeLinearPredictor("left.dqnp", 0.1f);
+  const std::vector<std::vector<Circle>> left = OraclePlanner(c).futureBodies(world);
+  const size_t half_step = 1, half_second = 9, three_seconds = 59;
+  EXPECT_NEAR((left[half_step][1].center - cv[half_step][1].center - Vec2(0.05, 0.0)).norm(), 0.0, 1e-6);
+  EXPECT_NEAR((left[half_second][1].center - cv[half_second][1].center - Vec2(0.1, 0.0)).norm(), 0.0, 1e-6);
+  EXPECT_NEAR((left[three_seconds][1].center - cv[three_seconds][1].center - Vec2(0.1, 0.0)).norm(), 0.0, 1e-6);
+
+  // Bad files are refused, naming the file and what is wrong.
+  auto refusal = [&](const std::string& path) {
+    OracleConfig bad;
+    bad.true_future_periods = 0;
+    bad.learned_prediction = path;
+    try {
+      OraclePlanner planner(bad);
+    } catch (const PlannerError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(refusal(::testing::TempDir() + "missing.dqnp").find("missing.dqnp': cannot be opened"), std::string::npos);
+  const std::string wrong_inputs = writeLinearPredictor("inputs.dqnp", 0.0f, 48);
+  EXPECT_NE(refusal(wrong_inputs).find("takes 48 inputs where 49 come"), std::string::npos) << refusal(wrong_inputs);
+  std::vector<char> bytes;
+  {
+    std::ifstream in(c.learned_prediction, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  auto variant = [&](const std::string& name, std::vector<char> b) {
+    const std::string path = ::testing::TempDir() + name;
+    std::ofstream(path, std::ios::binary).write(b.data(), static_cast<std::streamsize>(b.size()));
+    return refusal(path);
+  };
+  EXPECT_NE(variant("short.dqnp", std::vector<char>(bytes.begin(), bytes.end() - 3)).find("truncated at layer biases"),
+            std::string::npos);
+  std::vector<char> longer = bytes;
+  longer.push_back('x');
+  EXPECT_NE(variant("long.dqnp", longer).find("1 bytes follow the last layer"), std::string::npos);
+  std::vector<char> magic = bytes;
+  magic[0] = 'X';
+  EXPECT_NE(variant("magic.dqnp", magic).find("magic.dqnp': not a people predictor file"), std::string::npos);
+  std::vector<char> nan = bytes;
+  const float not_a_number = std::nanf("");
+  std::memcpy(nan.data() + bytes.size() - 4, &not_a_number, 4);
+  EXPECT_NE(variant("nan.dqnp", nan).find("layer biases holds a non-finite number"), std::string::npos);
+}
+
 TEST(Oracle, PredictionParametersAreNamedAndChecked) {
   OracleConfig c;
   EXPECT_EQ(setOracleParameter(c, "true_future_periods", "3"), "");
@@ -222,6 +321,17 @@ TEST(Oracle, PredictionParametersAreNamedAndChecked) {
   c = OracleConfig{};
   c.acceleration_prediction_s = -1.0;
   EXPECT_NE(c.validate().find("acceleration_prediction_s"), std::string::npos);
+  c = OracleConfig{};
+  EXPECT_EQ(setOracleParameter(c, "learned_prediction", "models/people_predictor.dqnp"), "");
+  EXPECT_EQ(c.learned_prediction, "models/people_predictor.dqnp");
+  EXPECT_NE(c.validate().find("learned_prediction needs true_future_periods = 0"), std::string::npos);
+  c.true_future_periods = 0;
+  EXPECT_EQ(c.validate(), "");
+  c.prediction_growth_mps = 0.1;
+  EXPECT_EQ(c.validate(), "");  // growth applies to any prediction
+  c.social_prediction = true;
+  EXPECT_NE(c.validate().find("no other prediction of the people"), std::string::npos);
+  EXPECT_NE(setOracleParameter(c, "learned_prediction", "").find("is empty"), std::string::npos);
 }
 
 }  // namespace

@@ -15,10 +15,13 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "dqn_dovs/common/geometry.h"
+#include "dqn_dovs/evaluation/people_predictor.h"
 #include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/sim/world.h"
 
@@ -50,12 +53,17 @@ struct OracleConfig {
   /// (their velocity now against at the previous decision, what a tracker could estimate) is carried on for this
   /// long (s), then their velocity stays; 0: constant velocity.
   double acceleration_prediction_s = 0.0;
+  /// With true_future_periods = 0: a people predictor file (PeoplePredictor): the people move as it predicts from
+  /// their last second and their neighbours (linearly between its steps, then on at its last step's velocity); the
+  /// discs at constant velocity. Empty: none.
+  std::string learned_prediction;
   std::string validate() const;
 };
 
 /// Sets one search parameter by name (horizon_periods, beam_width, window_samples, grid_cell_m,
 /// clearance_margin_m, true_future_periods, social_prediction: 0 or 1, prediction_growth_mps,
-/// acceleration_prediction_s); "" on success, otherwise why not (unknown name, not a number). Call validate() after.
+/// acceleration_prediction_s, learned_prediction: a file); "" on success, otherwise why not (unknown name, not a
+/// number). Call validate() after.
 std::string setOracleParameter(OracleConfig& config, const std::string& name, const std::string& value);
 
 class OraclePlanner : public Planner {
@@ -99,6 +107,12 @@ class OraclePlanner : public Planner {
   // The people's velocities at the previous decision and its time (acceleration_prediction_s).
   std::vector<Vec2> previous_velocities_;
   double previous_time_s_ = 0.0;
+  /// OracleConfig::learned_prediction, and the people's positions at the last decisions (newest last).
+  std::shared_ptr<const PeoplePredictor> predictor_;
+  std::deque<std::vector<Vec2>> people_history_;
+  double people_history_time_s_ = -1.0;
+  /// The people's positions at every step of the predictor's future, as it predicts them now.
+  std::vector<std::vector<Vec2>> learnedFuture(const sim::World& world);
 };
 
 }  // namespace dqn_dovs

@@ -1,0 +1,248 @@
+"""A learned prediction of walking people's next seconds, for the oracle's diagnostic.
+
+Trains a small multilayer perceptron that corrects a constant-velocity extrapolation of each person from what can be
+seen now: the person's last second of positions, its nearest neighbours' positions and velocities, and the room's
+walls. Training data are the people's paths that ``dqn_dovs_eval`` writes (paths.json, one position per control
+period); the network is exported in the format ``PeoplePredictor::load`` reads
+(include/dqn_dovs/evaluation/people_predictor.h). The features here and in people_predictor.cpp are the same, item by
+item; test/python/test_people_predictor.py holds them to it through the C++ oracle.
+
+    python -m dqn_dovs_py.people_predictor --train DIR [DIR ...] --valid DIR [DIR ...] --out FILE.dqnp
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import struct
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+MAGIC = b"DQNDPPv1"
+HISTORY = 5  # steps of the past (1 s at 0.2 s)
+FUTURE = 10  # steps predicted (2 s)
+NEIGHBOURS = 6
+FAR = 10.0  # position of a missing neighbour (m, straight ahead)
+
+
+class PredictorDataError(ValueError):
+    """Training data that cannot be used; the message names the file and the reason."""
+
+
+def input_size(history: int = HISTORY, neighbours: int = NEIGHBOURS) -> int:
+    return 2 * history + 1 + 5 * neighbours + 8
+
+
+def _frames(tracks: np.ndarray, step_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity (last step) and unit direction of motion of every person; tracks: people x (history + 1) x 2."""
+    velocity = (tracks[:, -1] - tracks[:, -2]) / step_s
+    speed = np.linalg.norm(velocity, axis=1)
+    walked = tracks[:, -1] - tracks[:, 0]
+    walked_norm = np.linalg.norm(walked, axis=1)
+    along = np.tile(np.array([1.0, 0.0]), (len(tracks), 1))
+    moving = speed > 1e-3
+    along[moving] = velocity[moving] / speed[moving, None]
+    drifted = ~moving & (walked_norm > 1e-6)
+    along[drifted] = walked[drifted] / walked_norm[drifted, None]
+    return velocity, along
+
+
+def _to_frame(along: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """w (... x 2) in the frame whose x axis is `along` (2,)."""
+    return np.stack([along[0] * w[..., 0] + along[1] * w[..., 1], -along[1] * w[..., 0] + along[0] * w[..., 1]], -1)
+
+
+def features(tracks: np.ndarray, room_half_size_m: float, step_s: float,
+             neighbours: int = NEIGHBOURS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Inputs of every person (people x input_size), their velocities and directions of motion."""
+    velocity, along = _frames(tracks, step_s)
+    now = tracks[:, -1]
+    n = len(tracks)
+    rows = []
+    for i in range(n):
+        a = along[i]
+        own = _to_frame(a, tracks[i, :-1] - now[i]).ravel()
+        dist = np.linalg.norm(now - now[i], axis=1)
+        dist[i] = np.inf
+        order = [j for j in np.argsort(dist, kind="stable") if j != i][:neighbours]
+        nb = []
+        for j in order:
+            nb += list(_to_frame(a, now[j] - now[i])) + list(_to_frame(a, velocity[j] - velocity[i])) + [1.0]
+        nb += [FAR, 0.0, 0.0, 0.0, 0.0] * (neighbours - len(order))
+        h = room_half_size_m
+        walls = np.array([[h - now[i, 0], 0.0], [-h - now[i, 0], 0.0], [0.0, h - now[i, 1]], [0.0, -h - now[i, 1]]])
+        rows.append(np.concatenate([own, [np.linalg.norm(velocity[i])], nb, _to_frame(a, walls).ravel()]))
+    return np.array(rows, dtype=np.float64), velocity, along
+
+
+def samples_from_paths(paths: Path, step_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(inputs, targets, constant-velocity targets) of every walking person at every step of every episode of a
+    paths.json with a full history and future; targets are positions at the next FUTURE steps in the person's frame."""
+    try:
+        episodes = json.loads(paths.read_text())["episodes"]
+    except (OSError, ValueError, KeyError) as e:
+        raise PredictorDataError(f"{paths}: not a paths.json of dqn_dovs_eval ({e})") from e
+    xs, ys, cvs = [], [], []
+    steps = np.arange(1, FUTURE + 1) * step_s
+    for e in episodes:
+        walking = [np.asarray(o["path"], dtype=np.float64) for o in e["obstacle_paths"] if not o["static"]]
+        if len(walking) < 1:
+            continue
+        length = min(len(p) for p in walking)
+        if length < HISTORY + FUTURE + 1:
+            continue
+        A = np.stack([p[:length, :2] for p in walking])
+        for t in range(HISTORY, length - FUTURE):
+            x, v, along = features(A[:, t - HISTORY:t + 1], e["room_half_size_m"], step_s)
+            for i in range(len(A)):
+                xs.append(x[i])
+                ys.append(_to_frame(along[i], A[i, t + 1:t + FUTURE + 1] - A[i, t]).ravel())
+                cvs.append(_to_frame(along[i], np.outer(steps, v[i])).ravel())
+    if not xs:
+        raise PredictorDataError(f"{paths}: no person walks long enough ({HISTORY + FUTURE + 1} steps)")
+    return np.array(xs, np.float32), np.array(ys, np.float32), np.array(cvs, np.float32)
+
+
+def load_dirs(dirs: list[Path], step_s: float):
+    parts = [samples_from_paths(Path(d) / "paths.json", step_s) for d in dirs]
+    return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
+
+
+def errors(pred: np.ndarray, target: np.ndarray, step_s: float) -> dict:
+    """Mean displacement errors (m): average over the future, and at 0.6, 1 and 2 s (final)."""
+    e = np.linalg.norm((pred - target).reshape(len(target), -1, 2), axis=2)
+    at = lambda s: float(e[:, min(FUTURE, int(round(s / step_s))) - 1].mean())  # noqa: E731
+    return {"ade": float(e.mean()), "at_0.6s": at(0.6), "at_1s": at(1.0), "at_2s": at(FUTURE * step_s),
+            "p90_at_2s": float(np.quantile(e[:, -1], 0.9))}
+
+
+def train(train_xyc, valid_xyc, hidden=(128, 128, 128), epochs=10, seed=0, log=print):
+    import torch
+
+    torch.manual_seed(seed)
+    Xtr, Ytr, Ctr = (torch.tensor(a) for a in train_xyc)
+    Xva, Yva, Cva = (torch.tensor(a) for a in valid_xyc)
+    mean, scale = Xtr.mean(0), Xtr.std(0) + 1e-3
+    layers, width = [], Xtr.shape[1]
+    for h in hidden:
+        layers += [torch.nn.Linear(width, h), torch.nn.ReLU()]
+        width = h
+    layers.append(torch.nn.Linear(width, Ytr.shape[1]))
+    net = torch.nn.Sequential(*layers)
+    opt = torch.optim.Adam(net.parameters(), 1e-3)
+    n = len(Xtr)
+    history = []
+    for epoch in range(epochs):
+        if epoch == int(0.7 * epochs):
+            for g in opt.param_groups:
+                g["lr"] = 3e-4
+        perm = torch.randperm(n)
+        for b in range(0, n, 512):
+            idx = perm[b:b + 512]
+            out = Ctr[idx] + net((Xtr[idx] - mean) / scale)
+            loss = torch.nn.functional.smooth_l1_loss(out, Ytr[idx], beta=0.1)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+        with torch.no_grad():
+            e = errors((Cva + net((Xva - mean) / scale)).numpy(), Yva.numpy(), 0.2)
+        history.append(e)
+        log(f"epoch {epoch + 1}/{epochs}: validation ADE {e['ade']:.3f} m, at 2 s {e['at_2s']:.3f} m")
+    return net, mean.numpy(), scale.numpy(), history
+
+
+def export(path: Path, net, mean: np.ndarray, scale: np.ndarray, step_s: float) -> None:
+    import torch
+
+    linears = [m for m in net if isinstance(m, torch.nn.Linear)]
+    out = bytearray(MAGIC)
+    out += struct.pack("<5I", HISTORY, FUTURE, NEIGHBOURS, int(round(step_s * 1000)), len(linears))
+    for m in linears:
+        out += struct.pack("<2I", m.out_features, m.in_features)
+    out += np.asarray(mean, "<f4").tobytes() + np.asarray(scale, "<f4").tobytes()
+    for m in linears:
+        out += m.weight.detach().numpy().astype("<f4").tobytes() + m.bias.detach().numpy().astype("<f4").tobytes()
+    Path(path).write_bytes(bytes(out))
+
+
+def load(path: Path) -> dict:
+    """A predictor file as numpy arrays (the format people_predictor.h describes); ValueError naming the file."""
+    b = Path(path).read_bytes()
+    if b[:8] != MAGIC:
+        raise ValueError(f"{path}: not a people predictor file")
+    history, future, neighbours, step_ms, count = struct.unpack_from("<5I", b, 8)
+    off = 28
+    shapes = [struct.unpack_from("<2I", b, off + 8 * k) for k in range(count)]
+    off += 8 * count
+    n_in = shapes[0][1]
+    mean = np.frombuffer(b, "<f4", n_in, off)
+    scale = np.frombuffer(b, "<f4", n_in, off + 4 * n_in)
+    off += 8 * n_in
+    layers = []
+    for outputs, inputs in shapes:
+        w = np.frombuffer(b, "<f4", outputs * inputs, off).reshape(outputs, inputs)
+        off += 4 * outputs * inputs
+        layers.append((w, np.frombuffer(b, "<f4", outputs, off)))
+        off += 4 * outputs
+    if off != len(b):
+        raise ValueError(f"{path}: {len(b) - off} bytes follow the last layer")
+    return {"history": history, "future": future, "neighbours": neighbours, "step_s": step_ms / 1000.0,
+            "mean": mean, "scale": scale, "layers": layers}
+
+
+def predict(model: dict, tracks: np.ndarray, room_half_size_m: float) -> np.ndarray:
+    """Every person's predicted positions (people x future x 2, fixed frame) from tracks (people x (history + 1) x 2),
+    in numpy: the reference the C++ PeoplePredictor is held to."""
+    step = model["step_s"]
+    x, velocity, along = features(tracks, room_half_size_m, step, model["neighbours"])
+    a = (x - model["mean"]) / model["scale"]
+    for k, (w, b) in enumerate(model["layers"]):
+        a = a @ w.T + b
+        if k + 1 < len(model["layers"]):
+            a = np.maximum(a, 0.0)
+    ahead = np.arange(1, model["future"] + 1) * step
+    out = np.zeros((len(tracks), model["future"], 2))
+    for i in range(len(tracks)):
+        f = _to_frame(along[i], np.outer(ahead, velocity[i])) + a[i].reshape(-1, 2)
+        u = along[i]
+        out[i] = tracks[i, -1] + np.stack([u[0] * f[:, 0] - u[1] * f[:, 1], u[1] * f[:, 0] + u[0] * f[:, 1]], 1)
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--train", nargs="+", required=True, help="dqn_dovs_eval output folders (paths.json) to train on")
+    ap.add_argument("--valid", nargs="+", required=True, help="folders to measure on (other seeds)")
+    ap.add_argument("--out", required=True, help="predictor file to write (.dqnp)")
+    ap.add_argument("--epochs", type=int, default=10)
+    ap.add_argument("--hidden", default="128,128,128", help="hidden layer widths")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--step", type=float, default=0.2, help="seconds between the path's positions (control period)")
+    a = ap.parse_args(argv)
+    import torch
+
+    torch.set_num_threads(2)
+    t0 = time.time()
+    try:
+        tr = load_dirs(a.train, a.step)
+        va = load_dirs(a.valid, a.step)
+    except PredictorDataError as e:
+        print(f"people_predictor: {e}", file=sys.stderr)
+        return 2
+    print(f"{len(tr[0])} training and {len(va[0])} validation samples ({time.time() - t0:.0f} s)", flush=True)
+    cv = errors(va[2], va[1], a.step)
+    net, mean, scale, history = train(tr, va, tuple(int(h) for h in a.hidden.split(",")), a.epochs, a.seed,
+                                      log=lambda m: print(m, flush=True))
+    export(Path(a.out), net, mean, scale, a.step)
+    summary = {"constant_velocity": cv, "learned": history[-1], "train_samples": len(tr[0]),
+               "valid_samples": len(va[0]), "seconds": round(time.time() - t0, 1)}
+    Path(a.out).with_suffix(".json").write_text(json.dumps(summary, indent=2) + "\n")
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,199 @@
+#include "dqn_dovs/evaluation/people_predictor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <numeric>
+
+namespace dqn_dovs {
+namespace {
+
+constexpr char kMagic[8] = {'D', 'Q', 'N', 'D', 'P', 'P', 'v', '1'};
+
+/// Reads the file's bytes in order; every shortfall is an error naming the file and the field.
+class Reader {
+ public:
+  Reader(std::string path, std::vector<char> bytes) : path_(std::move(path)), bytes_(std::move(bytes)) {}
+  uint32_t u32(const char* field) {
+    uint32_t v = 0;
+    take(&v, sizeof v, field);
+    return v;
+  }
+  void floats(float* out, size_t n, const char* field) {
+    take(out, n * sizeof(float), field);
+    for (size_t k = 0; k < n; ++k) {
+      if (!std::isfinite(out[k])) fail(std::string(field) + " holds a non-finite number");
+    }
+  }
+  void magic() {
+    char m[8];
+    take(m, sizeof m, "magic");
+    if (std::memcmp(m, kMagic, sizeof m) != 0) fail("not a people predictor file (magic is not DQNDPPv1)");
+  }
+  void end() const {
+    if (at_ != bytes_.size()) fail(std::to_string(bytes_.size() - at_) + " bytes follow the last layer");
+  }
+  [[noreturn]] void fail(const std::string& why) const {
+    throw PeoplePredictorError("people predictor '" + path_ + "': " + why);
+  }
+
+ private:
+  void take(void* out, size_t n, const char* field) {
+    if (bytes_.size() - at_ < n) fail(std::string("truncated at ") + field);
+    std::memcpy(out, bytes_.data() + at_, n);
+    at_ += n;
+  }
+  std::string path_;
+  std::vector<char> bytes_;
+  size_t at_ = 0;
+};
+
+/// Coordinates of w in the frame whose x axis is the unit vector `along`.
+Vec2 toFrame(const Vec2& along, const Vec2& w) {
+  return {along.x() * w.x() + along.y() * w.y(), -along.y() * w.x() + along.x() * w.y()};
+}
+Vec2 fromFrame(const Vec2& along, const Vec2& f) {
+  return {along.x() * f.x() - along.y() * f.y(), along.y() * f.x() + along.x() * f.y()};
+}
+
+}  // namespace
+
+PeoplePredictor PeoplePredictor::load(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw PeoplePredictorError("people predictor '" + path + "': cannot be opened");
+  Reader r(path, std::vector<char>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
+  r.magic();
+  PeoplePredictor p;
+  const uint32_t history = r.u32("history_steps"), future = r.u32("future_steps"), neighbours = r.u32("neighbours"),
+                 step_ms = r.u32("step_ms");
+  if (history < 1 || history > 50) r.fail("history_steps " + std::to_string(history) + " not in [1, 50]");
+  if (future < 1 || future > 100) r.fail("future_steps " + std::to_string(future) + " not in [1, 100]");
+  if (neighbours > 50) r.fail("neighbours " + std::to_string(neighbours) + " not in [0, 50]");
+  if (step_ms < 10 || step_ms > 2000) r.fail("step_ms " + std::to_string(step_ms) + " not in [10, 2000]");
+  p.history_steps_ = static_cast<int>(history);
+  p.future_steps_ = static_cast<int>(future);
+  p.neighbours_ = static_cast<int>(neighbours);
+  p.step_s_ = 1e-3 * step_ms;
+  const uint32_t count = r.u32("layer count");
+  if (count < 1 || count > 16) r.fail("layer count " + std::to_string(count) + " not in [1, 16]");
+  std::vector<std::pair<uint32_t, uint32_t>> shapes;
+  uint32_t expected_inputs = static_cast<uint32_t>(p.inputSize());
+  for (uint32_t k = 0; k < count; ++k) {
+    const uint32_t outputs = r.u32("layer outputs"), inputs = r.u32("layer inputs");
+    if (inputs != expected_inputs) {
+      r.fail("layer " + std::to_string(k) + " takes " + std::to_string(inputs) + " inputs where " +
+             std::to_string(expected_inputs) + " come");
+    }
+    if (outputs < 1 || outputs > 4096)
+      r.fail("layer " + std::to_string(k) + " has " + std::to_string(outputs) + " outputs");
+    shapes.emplace_back(outputs, inputs);
+    expected_inputs = outputs;
+  }
+  if (expected_inputs != 2 * future) {
+    r.fail("the last layer gives " + std::to_string(expected_inputs) + " outputs where future_steps needs " +
+           std::to_string(2 * future));
+  }
+  p.mean_.resize(p.inputSize());
+  p.scale_.resize(p.inputSize());
+  r.floats(p.mean_.data(), p.mean_.size(), "input mean");
+  r.floats(p.scale_.data(), p.scale_.size(), "input scale");
+  if ((p.scale_.array() <= 0.0f).any()) r.fail("input scale holds a value <= 0");
+  for (const auto& [outputs, inputs] : shapes) {
+    Layer layer;
+    Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> w(outputs, inputs);
+    r.floats(w.data(), w.size(), "layer weights");
+    layer.w = w;
+    layer.b.resize(outputs);
+    r.floats(layer.b.data(), layer.b.size(), "layer biases");
+    p.layers_.push_back(std::move(layer));
+  }
+  r.end();
+  return p;
+}
+
+void PeoplePredictor::frameOf(const std::vector<Vec2>& track, Vec2& velocity, Vec2& along) const {
+  const Vec2& now = track.back();
+  velocity = (now - track[track.size() - 2]) / step_s_;
+  const double speed = velocity.norm();
+  const Vec2 walked = now - track.front();
+  if (speed > 1e-3) {
+    along = velocity / speed;
+  } else if (walked.norm() > 1e-6) {
+    along = walked / walked.norm();
+  } else {
+    along = Vec2(1.0, 0.0);
+  }
+}
+
+Eigen::VectorXf PeoplePredictor::features(const std::vector<std::vector<Vec2>>& tracks, size_t i,
+                                          double room_half_size_m) const {
+  const size_t steps = static_cast<size_t>(history_steps_) + 1;
+  for (const auto& t : tracks) {
+    if (t.size() != steps) {
+      throw PeoplePredictorError("people predictor: a track of " + std::to_string(t.size()) + " positions where " +
+                                 std::to_string(steps) + " are needed");
+    }
+  }
+  Eigen::VectorXf x(inputSize());
+  int k = 0;
+  Vec2 v, along;
+  frameOf(tracks[i], v, along);
+  const Vec2 now = tracks[i].back();
+  for (size_t s = 0; s + 1 < steps; ++s) {
+    const Vec2 f = toFrame(along, tracks[i][s] - now);
+    x(k++) = static_cast<float>(f.x());
+    x(k++) = static_cast<float>(f.y());
+  }
+  x(k++) = static_cast<float>(v.norm());
+  std::vector<size_t> others;
+  for (size_t j = 0; j < tracks.size(); ++j) {
+    if (j != i) others.push_back(j);
+  }
+  std::stable_sort(others.begin(), others.end(), [&](size_t a, size_t b) {
+    return (tracks[a].back() - now).norm() < (tracks[b].back() - now).norm();
+  });
+  for (int n = 0; n < neighbours_; ++n) {
+    if (n < static_cast<int>(others.size())) {
+      Vec2 vj, unused;
+      frameOf(tracks[others[n]], vj, unused);
+      const Vec2 rel = toFrame(along, tracks[others[n]].back() - now), dv = toFrame(along, vj - v);
+      x.segment<5>(k) << static_cast<float>(rel.x()), static_cast<float>(rel.y()), static_cast<float>(dv.x()),
+          static_cast<float>(dv.y()), 1.0f;
+    } else {
+      x.segment<5>(k) << 10.0f, 0.0f, 0.0f, 0.0f, 0.0f;
+    }
+    k += 5;
+  }
+  const double h = room_half_size_m;
+  const Vec2 walls[4] = {{h - now.x(), 0.0}, {-h - now.x(), 0.0}, {0.0, h - now.y()}, {0.0, -h - now.y()}};
+  for (const Vec2& w : walls) {
+    const Vec2 f = toFrame(along, w);
+    x(k++) = static_cast<float>(f.x());
+    x(k++) = static_cast<float>(f.y());
+  }
+  return x;
+}
+
+std::vector<Vec2> PeoplePredictor::predict(const std::vector<std::vector<Vec2>>& tracks, size_t i,
+                                           double room_half_size_m) const {
+  Eigen::VectorXf a = (features(tracks, i, room_half_size_m) - mean_).cwiseQuotient(scale_);
+  for (size_t l = 0; l < layers_.size(); ++l) {
+    Eigen::VectorXf z = layers_[l].w * a + layers_[l].b;
+    a = l + 1 < layers_.size() ? Eigen::VectorXf(z.cwiseMax(0.0f)) : z;
+  }
+  Vec2 v, along;
+  frameOf(tracks[i], v, along);
+  const Vec2 vf = toFrame(along, v);
+  std::vector<Vec2> out;
+  for (int s = 0; s < future_steps_; ++s) {
+    const double ahead = step_s_ * (s + 1);
+    const Vec2 f(vf.x() * ahead + a(2 * s), vf.y() * ahead + a(2 * s + 1));
+    out.push_back(tracks[i].back() + fromFrame(along, f));
+  }
+  return out;
+}
+
+}  // namespace dqn_dovs

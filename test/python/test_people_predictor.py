@@ -1,0 +1,123 @@
+"""The learned people predictor: features and export against the C++ inference, a short training run on paths that
+dqn_dovs_eval wrote, the oracle running on its file, and bad inputs named."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from built_tools import built_tool  # noqa: E402
+from dqn_dovs_py import people_predictor as pp  # noqa: E402
+
+
+def _random_network(path, hidden=(16, 12), seed=3):
+    torch.manual_seed(seed)
+    layers, width = [], pp.input_size()
+    for h in hidden:
+        layers += [torch.nn.Linear(width, h), torch.nn.ReLU()]
+        width = h
+    layers.append(torch.nn.Linear(width, 2 * pp.FUTURE))
+    net = torch.nn.Sequential(*layers)
+    rng = np.random.default_rng(seed)
+    mean = rng.normal(0.0, 0.3, pp.input_size()).astype(np.float32)
+    scale = rng.uniform(0.5, 2.0, pp.input_size()).astype(np.float32)
+    pp.export(path, net, mean, scale, 0.2)
+    return net, mean, scale
+
+
+def _scenes(rng):
+    """Walking people (straight, turning, standing, fewer than NEIGHBOURS or more) in an 8 x 8 m room."""
+    scenes = []
+    for people in (1, 3, 9):
+        start = rng.uniform(-3.0, 3.0, (people, 2))
+        velocity = rng.uniform(-1.2, 1.2, (people, 2))
+        velocity[0] *= people > 1  # the first one stands (from the second scene on)
+        bend = rng.normal(0.0, 0.05, (people, pp.HISTORY + 1, 2))
+        steps = np.arange(pp.HISTORY + 1)[None, :, None] * 0.2
+        scenes.append(start[:, None, :] + velocity[:, None, :] * steps + np.cumsum(bend, axis=1) * (people > 1))
+    return scenes
+
+
+def test_the_cpp_inference_predicts_what_the_exported_network_does(tmp_path):
+    path = tmp_path / "net.dqnp"
+    net, mean, scale = _random_network(path)
+    model = pp.load(path)
+    scenes = _scenes(np.random.default_rng(5))
+    lines = [" ".join([str(len(s)), "4.0"] + [f"{v:.9f}" for v in s.ravel()]) for s in scenes]
+    (tmp_path / "scenes.txt").write_text("\n".join(lines) + "\n")
+    result = subprocess.run([str(built_tool("dqn_dovs_people_predict")), str(path), str(tmp_path / "scenes.txt"),
+                             str(tmp_path / "out.txt")], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    cpp = np.array([[float(v) for v in line.split()] for line in (tmp_path / "out.txt").read_text().splitlines()])
+    expected = np.concatenate([pp.predict(model, s, 4.0).reshape(len(s), -1) for s in scenes])
+    assert cpp.shape == expected.shape == (13, 2 * pp.FUTURE)
+    np.testing.assert_allclose(cpp, expected, atol=2e-5)
+    # The numpy reference is the network itself: PyTorch on the same inputs gives the same correction.
+    x, velocity, along = pp.features(scenes[2], 4.0, 0.2)
+    with torch.no_grad():
+        correction = net(torch.tensor((x - mean) / scale, dtype=torch.float32)).numpy()
+    cv = np.stack([pp._to_frame(along[i], np.outer(np.arange(1, pp.FUTURE + 1) * 0.2, velocity[i])).ravel()
+                   for i in range(len(x))])
+    frame = np.stack([pp._to_frame(along[i], expected[4 + i].reshape(-1, 2) - scenes[2][i, -1]).ravel()
+                      for i in range(len(x))])
+    np.testing.assert_allclose(frame, cv + correction, atol=1e-4)
+
+
+def test_a_zero_network_is_constant_velocity(tmp_path):
+    path = tmp_path / "zero.dqnp"
+    net, _, _ = _random_network(path)
+    with torch.no_grad():
+        for p in net.parameters():
+            p.zero_()
+    pp.export(path, net, np.zeros(pp.input_size()), np.ones(pp.input_size()), 0.2)
+    scene = _scenes(np.random.default_rng(8))[1]
+    predicted = pp.predict(pp.load(path), scene, 4.0)
+    velocity = (scene[:, -1] - scene[:, -2]) / 0.2
+    for k in range(pp.FUTURE):
+        np.testing.assert_allclose(predicted[:, k], scene[:, -1] + velocity * 0.2 * (k + 1), atol=1e-9)
+
+
+def _paths(tmp_path, seed, name):
+    out = tmp_path / name
+    result = subprocess.run([str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs", "--generate", str(seed),
+                             "--obstacles", "5", "--episodes", "3", "--threads", "1", "--world", "crowd",
+                             "--trajectories", "3", "--no-report", "--out", str(out)], capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return out
+
+
+def test_a_short_training_run_exports_a_file_the_oracle_predicts_with(tmp_path):
+    train_dir, valid_dir = _paths(tmp_path, 41, "train"), _paths(tmp_path, 42, "valid")
+    out = tmp_path / "pp.dqnp"
+    assert pp.main(["--train", str(train_dir), "--valid", str(valid_dir), "--out", str(out), "--epochs", "2",
+                    "--hidden", "16"]) == 0
+    summary = json.loads(out.with_suffix(".json").read_text())
+    assert summary["train_samples"] > 100 and summary["valid_samples"] > 100
+    for key in ("ade", "at_0.6s", "at_1s", "at_2s"):
+        assert 0.0 < summary["constant_velocity"][key] < 5.0 and 0.0 < summary["learned"][key] < 5.0
+    eval_cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "oracle", "--generate", "43", "--obstacles", "5",
+                "--episodes", "2", "--threads", "1", "--world", "crowd", "--no-report"]
+    ran = subprocess.run(eval_cmd + ["--oracle", f"true_future_periods=0,learned_prediction={out}",
+                                     "--out", str(tmp_path / "eval")], capture_output=True, text=True)
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+    assert len((tmp_path / "eval" / "results.csv").read_text().splitlines()) == 3
+    # A corrupt file and a prediction mixed with another are refused, naming the file or the parameter.
+    broken = tmp_path / "broken.dqnp"
+    broken.write_bytes(out.read_bytes()[:-5])
+    refused = subprocess.run(eval_cmd + ["--oracle", f"true_future_periods=0,learned_prediction={broken}",
+                                         "--out", str(tmp_path / "bad")], capture_output=True, text=True)
+    assert refused.returncode != 0
+    assert "broken.dqnp" in refused.stdout + refused.stderr and "truncated" in refused.stdout + refused.stderr
+    mixed = subprocess.run(eval_cmd + ["--oracle", f"learned_prediction={out}", "--out", str(tmp_path / "mixed")],
+                           capture_output=True, text=True)
+    assert mixed.returncode != 0 and "true_future_periods = 0" in mixed.stdout + mixed.stderr
+
+
+def test_training_data_that_is_not_paths_is_named(tmp_path):
+    (tmp_path / "paths.json").write_text("{}")
+    with pytest.raises(pp.PredictorDataError, match="paths.json"):
+        pp.samples_from_paths(tmp_path / "paths.json", 0.2)
+    assert pp.main(["--train", str(tmp_path), "--valid", str(tmp_path), "--out", str(tmp_path / "x.dqnp")]) == 2
