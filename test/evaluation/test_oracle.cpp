@@ -137,8 +137,8 @@ TEST(Oracle, ReadsOnlyAsMuchOfTheFutureAsItIsTold) {
   EXPECT_LE(constant_velocity, exact - 3);
 }
 
-TEST(Oracle, PredictsFromThePresentWhenToldTo) {
-  // A disc crossing at constant velocity and a person speeding up toward a destination straight ahead of them.
+/// A disc crossing at constant velocity and a person speeding up toward a destination straight ahead of them.
+sim::Scenario discAndWalkingPerson() {
   sim::Scenario s = emptyRoom({-3.0, -3.0, 0.0}, {3.0, -3.0});
   MovingObstacle disc;
   disc.center = Vec2(-2.0, 1.0);
@@ -150,6 +150,13 @@ TEST(Oracle, PredictsFromThePresentWhenToldTo) {
   person.preferred_speed_mps = 1.2;
   person.destinations = {Vec2(0.0, -3.5)};
   s.people.push_back(person);
+  return s;
+}
+
+TEST(Oracle, PredictsFromThePresentWhenToldTo) {
+  const sim::Scenario s = discAndWalkingPerson();
+  const MovingObstacle& disc = s.obstacles[0];
+  const sim::PersonSpec& person = s.people[0];
   sim::World world(s, sim::WorldConfig{}, 1);
   world.step(Twist2{}, 0.2);  // the person is on the way up to their preferred speed
   OracleConfig c;
@@ -223,17 +230,8 @@ std::string writeLinearPredictor(const std::string& name, float lateral, uint32_
 }
 
 TEST(Oracle, PredictsPeopleWithALearnedNetwork) {
-  sim::Scenario s = emptyRoom({-3.0, -3.0, 0.0}, {3.0, -3.0});
-  MovingObstacle disc;
-  disc.center = Vec2(-2.0, 1.0);
-  disc.speed = 0.5;
-  s.obstacles.push_back(disc);
-  sim::PersonSpec person;
-  person.position = Vec2(0.0, 2.5);
-  person.heading_rad = -kPi / 2;
-  person.preferred_speed_mps = 1.2;
-  person.destinations = {Vec2(0.0, -3.5)};
-  s.people.push_back(person);
+  const sim::Scenario s = discAndWalkingPerson();
+  const sim::PersonSpec& person = s.people[0];
   sim::World world(s, sim::WorldConfig{}, 1);
   world.step(Twist2{}, 0.2);
   OracleConfig c;
