@@ -32,7 +32,8 @@ using dqn_dovs::EvalConfig;
 
 const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
-    "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--threads N] [--out DIR]\n"
+    "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--predict-people F]\n"
+    "                     [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
@@ -46,6 +47,8 @@ const char* kUsage =
     "  --episodes K        episodes 1..K per obstacle count (default 100)\n"
     "  --dynamic-fraction  fraction of moving obstacles in [0, 1] (default 0.85)\n"
     "  --perfect-info      planners see the simulator's ground truth instead of the tracker's output\n"
+    "  --predict-people F  the moving obstacles the planners see move on the arc that fits a learned\n"
+    "                      prediction (a people predictor file, models/people_predictor.dqnp; a diagnostic)\n"
     "  --threads N         worker threads (default 1); results do not depend on it\n"
     "  --out DIR           output folder (default eval_results)\n"
     "  --model PATH        weight file of dqn_dovs (default models/dqn_dovs.dqnw)\n"
@@ -195,6 +198,8 @@ Options parse(int argc, char** argv) {
       o.eval.dynamic_fraction = parseDouble(flag, value(), 0.0, 1.0);
     } else if (flag == "--perfect-info") {
       o.eval.episode.perfect_info = true;
+    } else if (flag == "--predict-people") {
+      o.eval.episode.people_predictor = value();
     } else if (flag == "--threads") {
       o.eval.threads = static_cast<int>(parseInt(flag, value(), 1, 256));
     } else if (flag == "--out") {

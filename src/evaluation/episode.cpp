@@ -98,11 +98,27 @@ Episode::Episode(const EpisodeConfig& config)
       dovs_builder_(config_.world.robot, config_.dovs),
       normalization_(stateNormalization(config_.world.robot, config_.dovs)),
       route_guide_(config_.route.guide),
-      state_(Eigen::VectorXf::Zero(stateSize(normalization_.grid_channels, normalization_.previous_action != 0))) {}
+      state_(Eigen::VectorXf::Zero(stateSize(normalization_.grid_channels, normalization_.previous_action != 0))) {
+  if (!config_.people_predictor.empty()) {
+    std::shared_ptr<const PeoplePredictor> predictor;
+    try {
+      predictor = std::make_shared<const PeoplePredictor>(PeoplePredictor::load(config_.people_predictor));
+    } catch (const PeoplePredictorError& e) {
+      throw std::invalid_argument(std::string("episode people_predictor: ") + e.what());
+    }
+    if (std::abs(predictor->stepSeconds() - config_.world.robot.dt) > 1e-6) {
+      throw std::invalid_argument("episode people_predictor '" + config_.people_predictor + "' steps " +
+                                  std::to_string(predictor->stepSeconds()) + " s, the control period is " +
+                                  std::to_string(config_.world.robot.dt) + " s");
+    }
+    predicted_arcs_ = std::make_unique<PredictedArcs>(predictor);
+  }
+}
 
 void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   world_.reset(scenario, seed);
   tracker_.reset();
+  if (predicted_arcs_) predicted_arcs_->reset();
   outcome_ = Outcome::kRunning;
   steps_ = 0;
   path_length_m_ = 0.0;
@@ -171,6 +187,15 @@ void Episode::buildContext() {
   } else {
     for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
     observation_.segments = tracker_.scene().segments;
+  }
+  if (predicted_arcs_) {
+    std::vector<int> ids;
+    if (config_.perfect_info) {
+      for (size_t k = 0; k < observation_.obstacles.size(); ++k) ids.push_back(static_cast<int>(k));
+    } else {
+      for (const TrackedObstacle& t : tracker_.scene().obstacles) ids.push_back(t.id);
+    }
+    predicted_arcs_->apply(observation_.obstacles, ids, world_.time_s(), world_.roomHalfSize_m());
   }
   if (route_planner_) {
     // The robot's decision step: the route's subgoal, once per control period, as planner_node gives it.

@@ -61,6 +61,36 @@ Vec2 fromFrame(const Vec2& along, const Vec2& f) {
 
 }  // namespace
 
+ArcMotion fitArc(const Vec2& from, const std::vector<Vec2>& path, double step_s, double max_turn_rate_rps) {
+  // Along an arc of turn rate w from heading th: p(t) - from = v R(th) h(w, t), h = (sin(wt) / w, (1 - cos(wt)) / w).
+  // As complex numbers d_k = v e^{i th} h_k: for a given w, z = sum conj(h_k) d_k gives th = arg z and
+  // v = |z| / sum |h_k|^2, leaving sum |d_k|^2 - |z|^2 / sum |h_k|^2; the best w has the largest |z|^2 / sum |h_k|^2.
+  ArcMotion best;
+  double best_fit = -1.0;
+  const int steps = static_cast<int>(std::round(max_turn_rate_rps / 0.02));
+  for (int n = -steps; n <= steps; ++n) {
+    const double w = 0.02 * n;
+    double zr = 0.0, zi = 0.0, hh = 0.0;
+    for (size_t k = 0; k < path.size(); ++k) {
+      const double t = step_s * static_cast<double>(k + 1);
+      const double hx = std::abs(w) < 1e-9 ? t : std::sin(w * t) / w;
+      const double hy = std::abs(w) < 1e-9 ? 0.0 : (1.0 - std::cos(w * t)) / w;
+      const Vec2 d = path[k] - from;
+      zr += hx * d.x() + hy * d.y();
+      zi += hx * d.y() - hy * d.x();
+      hh += hx * hx + hy * hy;
+    }
+    const double fit = hh > 0.0 ? (zr * zr + zi * zi) / hh : 0.0;
+    if (fit > best_fit) {
+      best_fit = fit;
+      best.turn_rate_rps = w;
+      best.heading_rad = std::atan2(zi, zr);
+      best.speed_mps = hh > 0.0 ? std::sqrt(zr * zr + zi * zi) / hh : 0.0;
+    }
+  }
+  return best;
+}
+
 PeoplePredictor PeoplePredictor::load(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw PeoplePredictorError("people predictor '" + path + "': cannot be opened");
@@ -194,6 +224,60 @@ std::vector<Vec2> PeoplePredictor::predict(const std::vector<std::vector<Vec2>>&
     out.push_back(tracks[i].back() + fromFrame(along, f));
   }
   return out;
+}
+
+PredictedArcs::PredictedArcs(std::shared_ptr<const PeoplePredictor> predictor) : predictor_(std::move(predictor)) {
+  if (!predictor_) throw PeoplePredictorError("predicted arcs: no predictor");
+}
+
+void PredictedArcs::reset() {
+  history_.clear();
+  last_stamp_s_ = -1.0;
+}
+
+void PredictedArcs::apply(std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids, double stamp_s,
+                          double room_half_size_m) {
+  if (ids.size() != obstacles.size()) {
+    throw PeoplePredictorError("predicted arcs: " + std::to_string(ids.size()) + " ids for " +
+                               std::to_string(obstacles.size()) + " obstacles");
+  }
+  const size_t steps = static_cast<size_t>(predictor_->historySteps()) + 1;
+  const double step = predictor_->stepSeconds();
+  const bool new_decision = stamp_s != last_stamp_s_;
+  last_stamp_s_ = stamp_s;
+  std::vector<size_t> moving;
+  std::map<int, std::deque<Vec2>> seen;
+  for (size_t k = 0; k < obstacles.size(); ++k) {
+    if (obstacles[k].is_static) continue;
+    moving.push_back(k);
+    std::deque<Vec2> h;
+    if (const auto it = history_.find(ids[k]); it != history_.end()) h = it->second;
+    if (new_decision || h.empty()) h.push_back(obstacles[k].center);
+    h.back() = obstacles[k].center;
+    while (h.size() > steps) h.pop_front();
+    seen[ids[k]] = std::move(h);
+  }
+  history_ = std::move(seen);  // an id not seen at this decision starts afresh
+  std::vector<std::vector<Vec2>> tracks;
+  for (const size_t k : moving) {
+    const MovingObstacle& o = obstacles[k];
+    const std::deque<Vec2>& h = history_[ids[k]];
+    const Vec2 velocity = o.speed * Vec2(std::cos(o.heading), std::sin(o.heading));
+    std::vector<Vec2> track;
+    for (size_t s = 0; s < steps; ++s) {
+      const size_t back = steps - 1 - s;
+      track.push_back(back < h.size() ? h[h.size() - 1 - back]
+                                      : Vec2(o.center - static_cast<double>(back) * step * velocity));
+    }
+    tracks.push_back(std::move(track));
+  }
+  for (size_t m = 0; m < moving.size(); ++m) {
+    MovingObstacle& o = obstacles[moving[m]];
+    const ArcMotion a = fitArc(o.center, predictor_->predict(tracks, m, room_half_size_m), step);
+    o.heading = a.heading_rad;
+    o.speed = a.speed_mps;
+    o.turn_rate = a.turn_rate_rps;
+  }
 }
 
 }  // namespace dqn_dovs

@@ -7,9 +7,11 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/evaluation/episode.h"
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/evaluation/oracle.h"
 #include "dqn_dovs/sim/worlds.h"
@@ -292,6 +294,64 @@ TEST(Oracle, PredictsPeopleWithALearnedNetwork) {
   const float not_a_number = std::nanf("");
   std::memcpy(nan.data() + bytes.size() - 4, &not_a_number, 4);
   EXPECT_NE(variant("nan.dqnp", nan).find("layer biases holds a non-finite number"), std::string::npos);
+}
+
+TEST(PeoplePrediction, AnArcIsRecoveredFromItsPath) {
+  const Pose2 start{1.0, -2.0, 0.7};
+  for (const double w : {0.0, 0.4, -1.1}) {
+    std::vector<Vec2> path;
+    for (int k = 1; k <= 10; ++k) path.push_back(integrateUnicycle(start, 0.9, w, 0.2 * k).position());
+    const ArcMotion a = fitArc(start.position(), path, 0.2);
+    EXPECT_NEAR(a.turn_rate_rps, w, 1e-9);
+    EXPECT_NEAR(a.speed_mps, 0.9, 1e-9);
+    EXPECT_NEAR(angleDiff(a.heading_rad, 0.7), 0.0, 1e-9);
+  }
+}
+
+TEST(PeoplePrediction, PlannersSeeTheArcOfThePrediction) {
+  // A person walking east at 1 m/s, seen at six decisions 0.2 s apart, and a chair.
+  auto scene = [](int decision) {
+    MovingObstacle person;
+    person.center = Vec2(-2.0 + 0.2 * decision, 1.0);
+    person.speed = 1.0;
+    MovingObstacle chair;
+    chair.center = Vec2(2.0, 2.0);
+    chair.is_static = true;
+    return std::vector<MovingObstacle>{person, chair};
+  };
+  auto run = [&](const std::string& file) {
+    PredictedArcs arcs(std::make_shared<const PeoplePredictor>(PeoplePredictor::load(file)));
+    std::vector<MovingObstacle> seen;
+    for (int decision = 0; decision < 6; ++decision) {
+      seen = scene(decision);
+      arcs.apply(seen, {7, 3}, 0.2 * decision, 4.0);
+    }
+    return seen;
+  };
+  const std::vector<MovingObstacle> straight = run(writeLinearPredictor("arc_zero.dqnp", 0.0f));
+  EXPECT_NEAR(straight[0].speed, 1.0, 1e-6);
+  EXPECT_NEAR(straight[0].heading, 0.0, 1e-6);
+  EXPECT_NEAR(straight[0].turn_rate, 0.0, 1e-9);
+  EXPECT_EQ(straight[1].speed, 0.0) << "a static obstacle keeps its motion";
+  EXPECT_TRUE(straight[1].is_static);
+  // Predicted 0.1 m to the left at every step: the arc bends that way (a left turn), and keeps the pace.
+  const std::vector<MovingObstacle> left = run(writeLinearPredictor("arc_left.dqnp", 0.1f));
+  EXPECT_GT(left[0].heading, 0.0);
+  EXPECT_NEAR(left[0].speed, 1.0, 0.2);
+  EXPECT_EQ(left[0].center, straight[0].center) << "where it is stays where it is";
+  PredictedArcs arcs(
+      std::make_shared<const PeoplePredictor>(PeoplePredictor::load(::testing::TempDir() + "arc_zero.dqnp")));
+  std::vector<MovingObstacle> two = scene(0);
+  EXPECT_THROW(arcs.apply(two, {1}, 0.0, 4.0), PeoplePredictorError);
+  // An episode told to use a file that is not one says which and why.
+  EpisodeConfig config;
+  config.people_predictor = ::testing::TempDir() + "nothing_here.dqnp";
+  try {
+    Episode episode(config);
+    FAIL() << "accepted a missing predictor file";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("nothing_here.dqnp': cannot be opened"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Oracle, PredictionParametersAreNamedAndChecked) {

@@ -104,6 +104,13 @@ def test_a_short_training_run_exports_a_file_the_oracle_predicts_with(tmp_path):
                                      "--out", str(tmp_path / "eval")], capture_output=True, text=True)
     assert ran.returncode == 0, ran.stdout + ran.stderr
     assert len((tmp_path / "eval" / "results.csv").read_text().splitlines()) == 3
+    # The planners take it as arcs (--predict-people), with the tracker and with perfect information.
+    for flags in ([], ["--perfect-info"]):
+        planners = subprocess.run([str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs,dqn_dovs", "--generate", "43",
+                                   "--obstacles", "5", "--episodes", "2", "--threads", "1", "--world", "crowd",
+                                   "--no-report", "--predict-people", str(out), "--out",
+                                   str(tmp_path / f"planners{len(flags)}")] + flags, capture_output=True, text=True)
+        assert planners.returncode == 0, planners.stdout + planners.stderr
     # A corrupt file and a prediction mixed with another are refused, naming the file or the parameter.
     broken = tmp_path / "broken.dqnp"
     broken.write_bytes(out.read_bytes()[:-5])
@@ -111,6 +118,12 @@ def test_a_short_training_run_exports_a_file_the_oracle_predicts_with(tmp_path):
                                          "--out", str(tmp_path / "bad")], capture_output=True, text=True)
     assert refused.returncode != 0
     assert "broken.dqnp" in refused.stdout + refused.stderr and "truncated" in refused.stdout + refused.stderr
+    refused_planners = subprocess.run([str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs", "--generate", "43",
+                                       "--obstacles", "5", "--episodes", "1", "--world", "crowd", "--no-report",
+                                       "--predict-people", str(broken), "--out", str(tmp_path / "bad2")],
+                                      capture_output=True, text=True)
+    assert refused_planners.returncode != 0
+    assert "broken.dqnp" in refused_planners.stdout + refused_planners.stderr
     mixed = subprocess.run(eval_cmd + ["--oracle", f"learned_prediction={out}", "--out", str(tmp_path / "mixed")],
                            capture_output=True, text=True)
     assert mixed.returncode != 0 and "true_future_periods = 0" in mixed.stdout + mixed.stderr

@@ -15,6 +15,7 @@
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/evaluation/people_predictor.h"
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/planning/route.h"
@@ -60,6 +61,10 @@ struct EpisodeConfig {
   double scan_period_s = 0.1;    ///< LIDAR period; must divide the control period world.robot.dt
   bool perfect_info = false;     ///< true: the planner sees the simulator's ground truth (comparison only)
   double sensor_warmup_s = 0.3;  ///< the robot senses this long, standing still, before the episode starts
+  /// A people predictor file (evaluation/people_predictor.h): the moving obstacles the planners see (tracks, or the
+  /// truth with perfect_info) move on the arc that fits their learned prediction instead of at their present
+  /// (speed, turn rate). Empty: none. A diagnostic of the worlds with people (docs/planners.md).
+  std::string people_predictor;
   std::string validate() const;
 };
 
@@ -142,6 +147,7 @@ class Episode {
   EpisodeConfig config_;
   sim::World world_;
   ObstacleTracker tracker_;
+  std::unique_ptr<PredictedArcs> predicted_arcs_;  ///< EpisodeConfig::people_predictor
   DovsBuilder dovs_builder_;
   StateNormalization normalization_;
   LaserScan2 scan_;

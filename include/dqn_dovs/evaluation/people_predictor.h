@@ -10,6 +10,9 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <deque>
+#include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -23,6 +26,16 @@ class PeoplePredictorError : public std::runtime_error {
  public:
   explicit PeoplePredictorError(const std::string& what) : std::runtime_error(what) {}
 };
+
+/// A unicycle motion: heading (rad), speed (m/s), turn rate (rad/s).
+struct ArcMotion {
+  double heading_rad = 0.0, speed_mps = 0.0, turn_rate_rps = 0.0;
+};
+
+/// The constant (speed, turn rate) motion from `from` that comes closest (least squares) to `path`, whose k-th point
+/// is (k + 1) * step_s ahead: what a velocity space of arcs can take from a predicted path. Turn rates within
+/// +-max_turn_rate_rps, searched in steps of 0.02 rad/s; for each, heading and speed in closed form.
+ArcMotion fitArc(const Vec2& from, const std::vector<Vec2>& path, double step_s, double max_turn_rate_rps = 1.5);
 
 class PeoplePredictor {
  public:
@@ -55,6 +68,25 @@ class PeoplePredictor {
   double step_s_ = 0.0;
   Eigen::VectorXf mean_, scale_;
   std::vector<Layer> layers_;
+};
+
+/// Gives the planners the learned prediction as the arcs their velocity space takes: remembers the positions of the
+/// moving obstacles at the last decisions by id, and replaces each one's (speed, heading, turn rate) with the arc that
+/// fits its predicted path (fitArc). Decisions must come PeoplePredictor::stepSeconds() apart; an obstacle seen for
+/// fewer decisions than the predictor's history is walked back at its present velocity.
+class PredictedArcs {
+ public:
+  explicit PredictedArcs(std::shared_ptr<const PeoplePredictor> predictor);
+  void reset();
+  /// obstacles[k] carries id ids[k] (stable across decisions); those not is_static get the fitted arc. A second call
+  /// at the same stamp_s does not add to the history.
+  void apply(std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids, double stamp_s,
+             double room_half_size_m);
+
+ private:
+  std::shared_ptr<const PeoplePredictor> predictor_;
+  std::map<int, std::deque<Vec2>> history_;
+  double last_stamp_s_ = -1.0;
 };
 
 }  // namespace dqn_dovs
