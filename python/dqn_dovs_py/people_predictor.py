@@ -106,8 +106,66 @@ def samples_from_paths(paths: Path, step_s: float) -> tuple[np.ndarray, np.ndarr
     return np.array(xs, np.float32), np.array(ys, np.float32), np.array(cvs, np.float32)
 
 
-def load_dirs(dirs: list[Path], step_s: float):
-    parts = [samples_from_paths(Path(d) / "paths.json", step_s) for d in dirs]
+def track_histories(decisions: list, step_s: float):
+    """For every decision of an episode's "tracks" (per step: [id, x, y, speed, heading, static] of each confirmed
+    track), the moving tracks' last HISTORY + 1 positions as PredictedArcs keeps them (include/dqn_dovs/evaluation/
+    people_predictor.h): by id, afresh when an id was missing at the decision before, walked back at the track's
+    reported velocity where it is younger. Yields (step index, array tracks x (HISTORY + 1) x 2)."""
+    history: dict[int, list] = {}
+    for k, tracks in enumerate(decisions):
+        seen = {}
+        rows = []
+        for t in tracks:
+            if t[5]:
+                continue
+            h = history.get(int(t[0]), []) + [np.array(t[1:3], dtype=np.float64)]
+            seen[int(t[0])] = h[-(HISTORY + 1):]
+            velocity = t[3] * np.array([np.cos(t[4]), np.sin(t[4])])
+            h = seen[int(t[0])]
+            rows.append([h[len(h) - 1 - back] if back < len(h) else np.array(t[1:3]) - back * step_s * velocity
+                         for back in range(HISTORY, -1, -1)])
+        history = seen
+        yield k, np.array(rows, dtype=np.float64).reshape(len(rows), HISTORY + 1, 2)
+
+
+def samples_from_tracks(paths: Path, step_s: float, match_m: float = 0.5):
+    """(inputs, targets, constant-velocity targets) as samples_from_paths, with the inputs from the tracker's tracks
+    (the paths.json "tracks" of a run with the tracker in the loop) and the targets from the person each track
+    follows (the nearest within match_m): where that person will be, from the track's present position."""
+    try:
+        episodes = json.loads(paths.read_text())["episodes"]
+    except (OSError, ValueError, KeyError) as e:
+        raise PredictorDataError(f"{paths}: not a paths.json of dqn_dovs_eval ({e})") from e
+    xs, ys, cvs = [], [], []
+    ahead = np.arange(1, FUTURE + 1) * step_s
+    for e in episodes:
+        if "tracks" not in e:
+            raise PredictorDataError(f"{paths}: no tracks (a run with --perfect-info, or before tracks were recorded)")
+        walking = [np.asarray(o["path"], dtype=np.float64) for o in e["obstacle_paths"] if not o["static"]]
+        if not walking:
+            continue
+        length = min(len(p) for p in walking)
+        A = np.stack([p[:length, :2] for p in walking])
+        for k, tracks in track_histories(e["tracks"][:length], step_s):
+            if k + FUTURE >= length or len(tracks) == 0:
+                continue
+            x, velocity, along = features(tracks, e["room_half_size_m"], step_s)
+            for i in range(len(tracks)):
+                d = np.linalg.norm(A[:, k] - tracks[i, -1], axis=1)
+                person = int(np.argmin(d))
+                if d[person] > match_m:
+                    continue
+                xs.append(x[i])
+                ys.append(_to_frame(along[i], A[person, k + 1:k + FUTURE + 1] - tracks[i, -1]).ravel())
+                cvs.append(_to_frame(along[i], np.outer(ahead, velocity[i])).ravel())
+    if not xs:
+        raise PredictorDataError(f"{paths}: no track follows a person")
+    return np.array(xs, np.float32), np.array(ys, np.float32), np.array(cvs, np.float32)
+
+
+def load_dirs(dirs: list[Path], step_s: float, inputs: str = "truth"):
+    take = samples_from_tracks if inputs == "tracks" else samples_from_paths
+    parts = [take(Path(d) / "paths.json", step_s) for d in dirs]
     return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
 
 
@@ -221,14 +279,16 @@ def main(argv=None) -> int:
     ap.add_argument("--hidden", default="128,128,128", help="hidden layer widths")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--step", type=float, default=0.2, help="seconds between the path's positions (control period)")
+    ap.add_argument("--inputs", choices=("truth", "tracks"), default="truth",
+                    help="learn from the people's true past (truth) or from the tracker's tracks of them (tracks)")
     a = ap.parse_args(argv)
     import torch
 
     torch.set_num_threads(2)
     t0 = time.time()
     try:
-        tr = load_dirs(a.train, a.step)
-        va = load_dirs(a.valid, a.step)
+        tr = load_dirs(a.train, a.step, a.inputs)
+        va = load_dirs(a.valid, a.step, a.inputs)
     except PredictorDataError as e:
         print(f"people_predictor: {e}", file=sys.stderr)
         return 2
@@ -237,7 +297,7 @@ def main(argv=None) -> int:
     net, mean, scale, history = train(tr, va, tuple(int(h) for h in a.hidden.split(",")), a.epochs, a.seed,
                                       log=lambda m: print(m, flush=True))
     export(Path(a.out), net, mean, scale, a.step)
-    summary = {"constant_velocity": cv, "learned": history[-1], "train_samples": len(tr[0]),
+    summary = {"inputs": a.inputs, "constant_velocity": cv, "learned": history[-1], "train_samples": len(tr[0]),
                "valid_samples": len(va[0]), "seconds": round(time.time() - t0, 1)}
     Path(a.out).with_suffix(".json").write_text(json.dumps(summary, indent=2) + "\n")
     print(json.dumps(summary, indent=2))

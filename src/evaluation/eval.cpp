@@ -195,6 +195,7 @@ EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& metho
     const auto& people = ep.world().crowd().people();
     for (size_t i = 0; i < r.obstacle_paths.size(); ++i)
       r.obstacle_paths[i].push_back(i < obs.size() ? obs[i].body.center : people[i - obs.size()].position);
+    if (!ep.config().perfect_info) r.tracks.push_back(ep.trackedScene().obstacles);
   };
   recordObstacles();
   const RobotLimits& limits = ep.config().world.robot;
@@ -446,7 +447,23 @@ void writePathsJson(const std::vector<EpisodeRecord>& records, const std::vector
       }
       out << "]}";
     }
-    out << "]}";
+    out << "]";
+    if (!r.tracks.empty()) {
+      // [id, x, y, speed, heading, static] of every confirmed track, per step.
+      out << ",\n \"tracks\": [";
+      for (size_t k = 0; k < r.tracks.size(); ++k) {
+        out << (k ? ",\n  [" : "\n  [");
+        for (size_t j = 0; j < r.tracks[k].size(); ++j) {
+          const TrackedObstacle& t = r.tracks[k][j];
+          out << (j ? ", [" : "[") << t.id << ", " << jsonNumber(t.center.x(), 6) << ", " << jsonNumber(t.center.y(), 6)
+              << ", " << jsonNumber(t.speed, 6) << ", " << jsonNumber(t.heading, 6) << ", " << (t.is_static ? 1 : 0)
+              << "]";
+        }
+        out << "]";
+      }
+      out << "]";
+    }
+    out << "}";
     first = false;
   }
   out << "\n]}\n";

@@ -343,6 +343,20 @@ TEST(PeoplePrediction, PlannersSeeTheArcOfThePrediction) {
       std::make_shared<const PeoplePredictor>(PeoplePredictor::load(::testing::TempDir() + "arc_zero.dqnp")));
   std::vector<MovingObstacle> two = scene(0);
   EXPECT_THROW(arcs.apply(two, {1}, 0.0, 4.0), PeoplePredictorError);
+  // The history is kept by id, as test_people_predictor.py's track_histories keeps it: the tracker says 0.5 m/s while
+  // the person walks 1 m/s. Seen for the first time, it is walked back at 0.5 m/s (so the zero network predicts
+  // 0.5 m/s); at the next decision its own last step says 1 m/s; not a moving track once, it starts afresh.
+  arcs.reset();
+  const double speeds[] = {0.5, 1.0, 1.0, -1.0, 0.5, 1.0};
+  for (int decision = 0; decision < 6; ++decision) {
+    std::vector<MovingObstacle> seen = scene(decision);
+    seen[0].speed = 0.5;
+    if (speeds[decision] < 0.0) seen[0].is_static = true;
+    arcs.apply(seen, {7, 3}, 0.2 * decision, 4.0);
+    if (speeds[decision] > 0.0) {
+      EXPECT_NEAR(seen[0].speed, speeds[decision], 1e-6) << decision;
+    }
+  }
   // An episode told to use a file that is not one says which and why.
   EpisodeConfig config;
   config.people_predictor = ::testing::TempDir() + "nothing_here.dqnp";

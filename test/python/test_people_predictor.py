@@ -134,3 +134,29 @@ def test_training_data_that_is_not_paths_is_named(tmp_path):
     with pytest.raises(pp.PredictorDataError, match="paths.json"):
         pp.samples_from_paths(tmp_path / "paths.json", 0.2)
     assert pp.main(["--train", str(tmp_path), "--valid", str(tmp_path), "--out", str(tmp_path / "x.dqnp")]) == 2
+
+
+def test_track_histories_are_kept_as_the_planners_keep_them():
+    # Track 5 walks east at 1 m/s (0.2 m per decision; the tracker says 0.5 m/s) and is missed at decision 3; track 9
+    # stands (static).
+    decisions = []
+    for k in range(8):
+        rows = [[9, 2.0, 2.0, 0.0, 0.0, 1]]
+        if k != 3:
+            rows.append([5, 0.2 * k, 1.0, 0.5, 0.0, 0])
+        decisions.append(rows)
+    out = dict(pp.track_histories(decisions, 0.2))
+    assert out[3].shape == (0, pp.HISTORY + 1, 2)
+    # Seen for the first time (decision 0), and again after the miss (decision 4): walked back at its reported velocity.
+    for k in (0, 4):
+        np.testing.assert_allclose(out[k][0, :, 0], 0.2 * k - 0.1 * np.arange(pp.HISTORY, -1, -1), atol=1e-12)
+    # Decision 6: its own positions at 4, 5, 6, the older ones walked back from where it is now.
+    np.testing.assert_allclose(out[6][0, -3:, 0], [0.8, 1.0, 1.2], atol=1e-12)
+    np.testing.assert_allclose(out[6][0, :3, 0], [0.7, 0.8, 0.9], atol=1e-12)
+    np.testing.assert_allclose(out[7][0, :, 1], 1.0)
+
+
+def test_paths_without_tracks_are_named(tmp_path):
+    (tmp_path / "paths.json").write_text(json.dumps({"episodes": [{"obstacle_paths": [], "room_half_size_m": 4}]}))
+    with pytest.raises(pp.PredictorDataError, match="no tracks"):
+        pp.samples_from_tracks(tmp_path / "paths.json", 0.2)

@@ -103,6 +103,8 @@ class Episode {
 
   // Decision context for the current step.
   const Observation& observation() const { return observation_; }
+  /// The tracker's last scene (empty with perfect_info).
+  const TrackedScene& trackedScene() const { return tracker_.scene(); }
   const VelocitySpace& dovs() const { return dovs_; }
   const ActionSet& actions() const { return actions_; }
   const Eigen::VectorXf& state() const { return state_; }

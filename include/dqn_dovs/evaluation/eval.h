@@ -125,6 +125,8 @@ struct EpisodeRecord {
   std::vector<Pose2> robot_path;
   /// Per obstacle, then per person, its centre at every step (same jobs).
   std::vector<std::vector<Vec2>> obstacle_paths;
+  /// The tracker's confirmed tracks at every step (same jobs, tracker in the loop only; aligned with obstacle_paths).
+  std::vector<std::vector<TrackedObstacle>> tracks;
 };
 
 /// The episodes of the protocol for `config`: files `scenarios_dir/1-N/K.dovs` with the dynamic fraction applied,
