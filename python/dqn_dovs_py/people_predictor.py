@@ -78,23 +78,33 @@ def features(tracks: np.ndarray, room_half_size_m: float, step_s: float,
     return np.array(rows, dtype=np.float64), velocity, along
 
 
+def _episodes(paths: Path) -> list:
+    try:
+        return json.loads(paths.read_text())["episodes"]
+    except (OSError, ValueError, KeyError) as e:
+        raise PredictorDataError(f"{paths}: not a paths.json of dqn_dovs_eval ({e})") from e
+
+
+def _walking(episode: dict) -> np.ndarray | None:
+    """The true paths of the people (not the static obstacles), cut to the shortest: people x steps x 2."""
+    walking = [np.asarray(o["path"], dtype=np.float64) for o in episode["obstacle_paths"] if not o["static"]]
+    if not walking:
+        return None
+    length = min(len(p) for p in walking)
+    return np.stack([p[:length, :2] for p in walking])
+
+
 def samples_from_paths(paths: Path, step_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(inputs, targets, constant-velocity targets) of every walking person at every step of every episode of a
     paths.json with a full history and future; targets are positions at the next FUTURE steps in the person's frame."""
-    try:
-        episodes = json.loads(paths.read_text())["episodes"]
-    except (OSError, ValueError, KeyError) as e:
-        raise PredictorDataError(f"{paths}: not a paths.json of dqn_dovs_eval ({e})") from e
+    episodes = _episodes(paths)
     xs, ys, cvs = [], [], []
     steps = np.arange(1, FUTURE + 1) * step_s
     for e in episodes:
-        walking = [np.asarray(o["path"], dtype=np.float64) for o in e["obstacle_paths"] if not o["static"]]
-        if len(walking) < 1:
+        A = _walking(e)
+        if A is None or A.shape[1] < HISTORY + FUTURE + 1:
             continue
-        length = min(len(p) for p in walking)
-        if length < HISTORY + FUTURE + 1:
-            continue
-        A = np.stack([p[:length, :2] for p in walking])
+        length = A.shape[1]
         for t in range(HISTORY, length - FUTURE):
             x, v, along = features(A[:, t - HISTORY:t + 1], e["room_half_size_m"], step_s)
             for i in range(len(A)):
@@ -132,20 +142,16 @@ def samples_from_tracks(paths: Path, step_s: float, match_m: float = 0.5):
     """(inputs, targets, constant-velocity targets) as samples_from_paths, with the inputs from the tracker's tracks
     (the paths.json "tracks" of a run with the tracker in the loop) and the targets from the person each track
     follows (the nearest within match_m): where that person will be, from the track's present position."""
-    try:
-        episodes = json.loads(paths.read_text())["episodes"]
-    except (OSError, ValueError, KeyError) as e:
-        raise PredictorDataError(f"{paths}: not a paths.json of dqn_dovs_eval ({e})") from e
+    episodes = _episodes(paths)
     xs, ys, cvs = [], [], []
     ahead = np.arange(1, FUTURE + 1) * step_s
     for e in episodes:
         if "tracks" not in e:
             raise PredictorDataError(f"{paths}: no tracks (a run with --perfect-info, or before tracks were recorded)")
-        walking = [np.asarray(o["path"], dtype=np.float64) for o in e["obstacle_paths"] if not o["static"]]
-        if not walking:
+        A = _walking(e)
+        if A is None:
             continue
-        length = min(len(p) for p in walking)
-        A = np.stack([p[:length, :2] for p in walking])
+        length = A.shape[1]
         for k, tracks in track_histories(e["tracks"][:length], step_s):
             if k + FUTURE >= length or len(tracks) == 0:
                 continue
