@@ -362,7 +362,7 @@ _RUN_TYPES: dict[str, type] = {"command": str, "scenarios": str, "seed": int, "o
                                "step_s": float, "max_steps": int, "wall_s": float, "threads": int, "methods": list,
                                "reference": str, "goal_tolerance_m": float}
 _OPTIONAL_RUN_TYPES: dict[str, type] = {"world": str, "sensor": str, "people_model": str, "people_see_robot": bool,
-                                        "odom_noise": str, "route": str}
+                                        "odom_noise": str, "route": str, "people_predictor": str}
 _TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
                list: "a non-empty list of strings"}
 

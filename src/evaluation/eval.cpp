@@ -391,6 +391,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"people_see_robot\": " << (config.people_see_robot ? "true" : "false")
       << ",\n  \"odom_noise\": " << jsonString(config.odom_noise) << ",\n  \"route\": " << jsonString(config.route)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
+      << ",\n  \"people_predictor\": " << jsonString(config.episode.people_predictor)
       << ",\n  \"step_s\": " << jsonNumber(config.episode.world.robot.dt)
       << ",\n  \"max_steps\": " << config.episode.reward.max_steps << ",\n  \"wall_s\": " << jsonNumber(info.wall_s)
       << ",\n  \"threads\": " << config.threads << ",\n  \"methods\": [";
