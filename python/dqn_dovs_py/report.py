@@ -345,6 +345,7 @@ class RunInfo:
     people_see_robot: bool = False
     odom_noise: str = "none"
     route: str = "off"  # runs made before routes existed drove at the goal itself
+    people_predictor: str = ""  # the learned people prediction the planners saw (dqn_dovs_eval --predict-people)
 
 
 def _type_ok(value: object, kind: type) -> bool:
@@ -402,6 +403,8 @@ def run_header(run: RunInfo) -> str:
     """The lines above the tables: command, scenarios, perception, wall time."""
     scenarios = f"generated, seed {run.seed}" if run.scenarios == "generated" else f"`{run.scenarios}`"
     perception = "perfect information (ground truth)" if run.perfect_info else "LIDAR + tracker in the loop"
+    if run.people_predictor:
+        perception += f"; moving obstacles on the arcs of the learned prediction `{run.people_predictor}`"
     world = ""
     if run.world != "room" or run.sensor != "sim" or run.odom_noise != "none":
         sees = "people give way to the robot" if run.people_see_robot else "the robot invisible to people"
