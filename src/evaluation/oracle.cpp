@@ -91,7 +91,8 @@ OraclePlanner::OraclePlanner(const OracleConfig& config) : config_(config) {
   if (const std::string e = config_.validate(); !e.empty()) throw PlannerError(e);
   if (!config_.learned_prediction.empty()) {
     try {
-      predictor_ = std::make_shared<const PeoplePredictor>(PeoplePredictor::load(config_.learned_prediction));
+      learned_ = std::make_unique<PredictedArcs>(
+          std::make_shared<const PeoplePredictor>(PeoplePredictor::load(config_.learned_prediction)));
     } catch (const PeoplePredictorError& e) {
       throw PlannerError(std::string("oracle learned_prediction: ") + e.what());
     }
@@ -102,42 +103,27 @@ void OraclePlanner::reset() {
   statics_ready_ = false;
   future_.clear();
   previous_velocities_.clear();
-  people_history_.clear();
-  people_history_time_s_ = -1.0;
+  if (learned_) learned_->reset();
 }
 
 std::vector<std::vector<Vec2>> OraclePlanner::learnedFuture(const sim::World& world) {
-  const PeoplePredictor& predictor = *predictor_;
-  const double step = predictor.stepSeconds();
+  const double step = learned_->predictor().stepSeconds();
   if (std::abs(world.config().robot.dt - step) > 1e-6) {
     throw PlannerError("oracle learned_prediction: the predictor steps " + std::to_string(step) +
                        " s but the control period is " + std::to_string(world.config().robot.dt) + " s");
   }
-  const std::vector<sim::Person>& persons = world.crowd().people();
-  std::vector<Vec2> now;
-  for (const sim::Person& p : persons) now.push_back(p.position);
-  if (people_history_time_s_ != world.time_s()) {
-    people_history_.push_back(now);
-    people_history_time_s_ = world.time_s();
+  // The people as the planners would see them with perfect information, each one's id its index.
+  std::vector<MovingObstacle> people;
+  std::vector<int> ids;
+  for (const sim::Person& p : world.crowd().people()) {
+    MovingObstacle o;
+    o.center = p.position;
+    o.speed = p.velocity.norm();
+    o.heading = o.speed > 1e-9 ? std::atan2(p.velocity.y(), p.velocity.x()) : p.heading_rad;
+    ids.push_back(static_cast<int>(people.size()));
+    people.push_back(o);
   }
-  const size_t steps = static_cast<size_t>(predictor.historySteps()) + 1;
-  while (people_history_.size() > steps) people_history_.pop_front();
-  // Each person's last historySteps() + 1 positions; before the episode's first decisions, walked back at its
-  // velocity of now.
-  std::vector<std::vector<Vec2>> tracks(persons.size());
-  for (size_t i = 0; i < persons.size(); ++i) {
-    for (size_t s = 0; s < steps; ++s) {
-      const size_t back = steps - 1 - s;  // decisions before now
-      tracks[i].push_back(back < people_history_.size() &&
-                                  people_history_[people_history_.size() - 1 - back].size() == persons.size()
-                              ? people_history_[people_history_.size() - 1 - back][i]
-                              : Vec2(now[i] - static_cast<double>(back) * step * persons[i].velocity));
-    }
-  }
-  std::vector<std::vector<Vec2>> future(persons.size());
-  const double h = world.roomHalfSize_m();
-  for (size_t i = 0; i < persons.size(); ++i) future[i] = predictor.predict(tracks, i, h);
-  return future;
+  return learned_->predictPaths(people, ids, world.time_s(), world.roomHalfSize_m());
 }
 
 void OraclePlanner::prepareStatics(const sim::World& world) {
@@ -242,8 +228,8 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
     previous_time_s_ = world.time_s();
   }
   std::vector<std::vector<Vec2>> learned;
-  if (predictor_) learned = learnedFuture(world);
-  const size_t people = config_.social_prediction || predictor_ ? future.crowd().people().size() : 0;
+  if (learned_) learned = learnedFuture(world);
+  const size_t people = config_.social_prediction || learned_ ? future.crowd().people().size() : 0;
   sim::Crowd crowd;
   if (people > 0) {
     std::vector<sim::PersonSpec> specs;
@@ -278,9 +264,9 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
       }
       bodies.push_back({at.position(), o.radius + moving * growth});
     }
-    if (predictor_) {
+    if (learned_) {
       // Linear between the predictor's steps (its step 0 is now), then on at its last step's velocity.
-      const double step = predictor_->stepSeconds();
+      const double step = learned_->predictor().stepSeconds();
       const size_t first = then.size() - people;
       for (size_t i = 0; i < people; ++i) {
         const std::vector<Vec2>& path = learned[i];

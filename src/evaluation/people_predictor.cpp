@@ -235,8 +235,9 @@ void PredictedArcs::reset() {
   last_stamp_s_ = -1.0;
 }
 
-void PredictedArcs::apply(std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids, double stamp_s,
-                          double room_half_size_m) {
+std::vector<std::vector<Vec2>> PredictedArcs::predictPaths(const std::vector<MovingObstacle>& obstacles,
+                                                           const std::vector<int>& ids, double stamp_s,
+                                                           double room_half_size_m) {
   if (ids.size() != obstacles.size()) {
     throw PeoplePredictorError("predicted arcs: " + std::to_string(ids.size()) + " ids for " +
                                std::to_string(obstacles.size()) + " obstacles");
@@ -271,12 +272,20 @@ void PredictedArcs::apply(std::vector<MovingObstacle>& obstacles, const std::vec
     }
     tracks.push_back(std::move(track));
   }
-  for (size_t m = 0; m < moving.size(); ++m) {
-    MovingObstacle& o = obstacles[moving[m]];
-    const ArcMotion a = fitArc(o.center, predictor_->predict(tracks, m, room_half_size_m), step);
-    o.heading = a.heading_rad;
-    o.speed = a.speed_mps;
-    o.turn_rate = a.turn_rate_rps;
+  std::vector<std::vector<Vec2>> paths(obstacles.size());
+  for (size_t m = 0; m < moving.size(); ++m) paths[moving[m]] = predictor_->predict(tracks, m, room_half_size_m);
+  return paths;
+}
+
+void PredictedArcs::apply(std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids, double stamp_s,
+                          double room_half_size_m) {
+  const std::vector<std::vector<Vec2>> paths = predictPaths(obstacles, ids, stamp_s, room_half_size_m);
+  for (size_t k = 0; k < obstacles.size(); ++k) {
+    if (paths[k].empty()) continue;
+    const ArcMotion a = fitArc(obstacles[k].center, paths[k], predictor_->stepSeconds());
+    obstacles[k].heading = a.heading_rad;
+    obstacles[k].speed = a.speed_mps;
+    obstacles[k].turn_rate = a.turn_rate_rps;
   }
 }
 

@@ -15,7 +15,6 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -107,10 +106,8 @@ class OraclePlanner : public Planner {
   // The people's velocities at the previous decision and its time (acceleration_prediction_s).
   std::vector<Vec2> previous_velocities_;
   double previous_time_s_ = 0.0;
-  /// OracleConfig::learned_prediction, and the people's positions at the last decisions (newest last).
-  std::shared_ptr<const PeoplePredictor> predictor_;
-  std::deque<std::vector<Vec2>> people_history_;
-  double people_history_time_s_ = -1.0;
+  /// OracleConfig::learned_prediction, with the people's positions at the last decisions (by person index).
+  std::unique_ptr<PredictedArcs> learned_;
   /// The people's positions at every step of the predictor's future, as it predicts them now.
   std::vector<std::vector<Vec2>> learnedFuture(const sim::World& world);
 };

@@ -82,6 +82,11 @@ class PredictedArcs {
   /// at the same stamp_s does not add to the history.
   void apply(std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids, double stamp_s,
              double room_half_size_m);
+  /// The predicted positions (futureSteps() of them, stepSeconds() apart) of every obstacle not is_static, empty for
+  /// the others; it keeps the history as apply() does (apply is this, then fitArc). The oracle's learned prediction.
+  std::vector<std::vector<Vec2>> predictPaths(const std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids,
+                                              double stamp_s, double room_half_size_m);
+  const PeoplePredictor& predictor() const { return *predictor_; }
 
  private:
   std::shared_ptr<const PeoplePredictor> predictor_;
