@@ -551,14 +551,12 @@ double ObstacleTracker::reacquireDistance(const Track& track, const Vec2& z, dou
   }
   // The arc its filter would have predicted, as chords of at most 0.25 s.
   const int pieces = std::clamp(static_cast<int>(std::ceil(silent_s / 0.25)), 1, 64);
-  const double heading = std::atan2(track.hit_velocity.y(), track.hit_velocity.x());
-  const double radius = speed / w;
+  const Pose2 lost{track.hit_position.x(), track.hit_position.y(),
+                   std::atan2(track.hit_velocity.y(), track.hit_velocity.x())};
   double best = std::numeric_limits<double>::infinity();
   Vec2 previous = track.hit_position;
   for (int k = 1; k <= pieces; ++k) {
-    const double turned = w * silent_s * static_cast<double>(k) / static_cast<double>(pieces);
-    const Vec2 next(track.hit_position.x() + radius * (std::sin(heading + turned) - std::sin(heading)),
-                    track.hit_position.y() - radius * (std::cos(heading + turned) - std::cos(heading)));
+    const Vec2 next = integrateUnicycle(lost, speed, w, silent_s * static_cast<double>(k) / pieces).position();
     best = std::min(best, pointSegmentDistance(z, Segment{previous, next}));
     previous = next;
   }

@@ -183,9 +183,10 @@ struct TrackerConfig {
   /// the straight line. Among people (pair_legs) a turn rate does not last: the line is kept.
   bool reacquire_follow_turn = true;
 
-  /// Without pair_legs, two confirmed tracks on one spot (closer than half a radius) whose velocities differ by more
-  /// than this (m/s) are two discs passing through each other, and both are kept; otherwise (and among people) they
-  /// are one object tracked twice and the one with less evidence is dropped. 0 always drops.
+  /// Without pair_legs, two confirmed tracks at least 1 s old on one spot (closer than half a radius) whose velocities
+  /// differ by more than this (m/s) are two discs passing through each other, and both are kept; otherwise (and among
+  /// people) they are one object tracked twice and the one with less evidence is dropped. 0 always drops. (A younger
+  /// track's velocity is too rough: a fresh duplicate on a still disc would be kept.)
   double duplicate_max_velocity_difference_mps = 0.6;
 
   // --- time ---------------------------------------------------------------------------------------------
