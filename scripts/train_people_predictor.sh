@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
-# Trains the learned people predictor (docs/planners.md, "A learned prediction of the people"): generates crowds
-# with dqn_dovs_eval (the oracle drives, so episodes run to the goal and the people's paths are long; the tracker
-# runs in the loop and its tracks are recorded beside the true paths), 200 episodes each of 5, 10 and 15 people for
-# training (seed 22601) and for validation (seed 22602), then trains and exports the predictor (+ .json with the
-# validation errors).
+# Trains the learned people predictor (docs/planners.md, "A learned prediction of the people"): generates episodes of
+# every world family with dqn_dovs_eval (the oracle drives, so episodes run to the goal and the paths are long; the
+# tracker runs in the loop and its tracks are recorded beside the true paths): crowds of 5, 10 and 15 walking people,
+# the paper's room of 5, 10 and 15 discs, and corridors, doorways, clutter and junctions of 4, 8 and 12 people; seed
+# 22601 to train on, 22602 (half as many episodes) to measure on. Then it trains and exports the predictor (+ .json
+# with the validation errors, overall and per family).
 #   bash scripts/train_people_predictor.sh [OUT_DIR]     from the true paths: models/people_predictor.dqnp
 #   INPUTS=tracks bash scripts/train_people_predictor.sh  from the tracks:     models/people_predictor_tracks.dqnp
-# About 6-8 minutes on two cores.
+# About 25 minutes on two cores (the episodes are kept in OUT_DIR and reused by the second run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-runs/people_predictor}
@@ -14,13 +15,24 @@ inputs=${INPUTS:-truth}
 eval_tool=${DQN_DOVS_EVAL:-build/dqn_dovs/dqn_dovs_eval}
 model=models/people_predictor.dqnp
 [ "$inputs" = tracks ] && model=models/people_predictor_tracks.dqnp
+# family:sensor:counts:training episodes per count
+worlds="crowd:urg04lx:5,10,15:200 room:sim:5,10,15:100 corridor:urg04lx:4,8,12:80 doorway:urg04lx:4,8,12:80
+        clutter:urg04lx:4,8,12:80 junction:urg04lx:4,8,12:80"
 mkdir -p "$out"
-for seed in 22601 22602; do
-  for n in 5 10 15; do
-    [ -f "$out/paths_${seed}_$n/paths.json" ] && continue
-    "$eval_tool" --generate "$seed" --obstacles "$n" --episodes 200 --threads 2 --world crowd --sensor urg04lx \
-      --methods oracle --no-report --trajectories 1000 --out "$out/paths_${seed}_$n" | tail -1
+train=() valid=()
+for spec in $worlds; do
+  IFS=: read -r family sensor counts episodes <<<"$spec"
+  for seed in 22601 22602; do
+    k=$episodes
+    [ "$seed" = 22602 ] && k=$((episodes / 2))
+    for n in ${counts//,/ }; do
+      dir="$out/${family}_${seed}_$n"
+      if [ "$seed" = 22601 ]; then train+=("$dir"); else valid+=("$dir"); fi
+      [ -f "$dir/paths.json" ] && continue
+      "$eval_tool" --generate "$seed" --obstacles "$n" --episodes "$k" --threads 2 --world "$family" \
+        --sensor "$sensor" --methods oracle --no-report --trajectories 1000 --out "$dir" | tail -1
+    done
   done
 done
 PYTHONPATH=python .venv/bin/python -m dqn_dovs_py.people_predictor --inputs "$inputs" \
-  --train "$out"/paths_22601_{5,10,15} --valid "$out"/paths_22602_{5,10,15} --out "$model"
+  --train "${train[@]}" --valid "${valid[@]}" --out "$model"

@@ -1,8 +1,8 @@
 // Runs a people predictor file (.dqnp) on scenes of people with the oracle's own inference code.
 //
 //   dqn_dovs_people_predict PREDICTOR.dqnp SCENES.txt OUT.txt
-//     scenes: one scene per line: "N H X0 Y0 X1 Y1 ..." (N people, room half size H, then each person's
-//             historySteps() + 1 positions, oldest first)
+//     scenes: one scene per line: "N W AX AY BX BY ... X0 Y0 X1 Y1 ..." (N people, W walls and their end points,
+//             then each person's historySteps() + 1 positions, oldest first)
 //     out:    one line per person of every scene: its futureSteps() predicted positions "X Y ..."
 //
 // Used by the PyTorch parity test (test/python/test_people_predictor.py).
@@ -38,9 +38,10 @@ int main(int argc, char** argv) {
     for (int number = 1; std::getline(in, line); ++number) {
       if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
       std::istringstream row(line);
-      size_t people = 0;
-      double half = 0.0;
-      row >> people >> half;
+      size_t people = 0, wall_count = 0;
+      row >> people >> wall_count;
+      std::vector<dqn_dovs::Segment> walls(row ? wall_count : 0);
+      for (dqn_dovs::Segment& w : walls) row >> w.a.x() >> w.a.y() >> w.b.x() >> w.b.y();
       std::vector<std::vector<dqn_dovs::Vec2>> tracks(people);
       for (auto& track : tracks) {
         for (size_t s = 0; s < steps; ++s) {
@@ -51,12 +52,12 @@ int main(int argc, char** argv) {
       }
       std::string extra;
       if (!row || people == 0 || (row >> extra)) {
-        std::cerr << "dqn_dovs_people_predict: scenes line " << number << ": not N H and N x " << steps
+        std::cerr << "dqn_dovs_people_predict: scenes line " << number << ": not N, W, W walls and N x " << steps
                   << " positions\n";
         return 1;
       }
       for (size_t i = 0; i < people; ++i) {
-        for (const dqn_dovs::Vec2& p : predictor.predict(tracks, i, half)) out << p.x() << " " << p.y() << " ";
+        for (const dqn_dovs::Vec2& p : predictor.predict(tracks, i, walls)) out << p.x() << " " << p.y() << " ";
         out << "\n";
       }
     }

@@ -59,6 +59,10 @@ class WorldSpec:
     # Worlds with walls: follow a route planned on the known walls and furniture (on, as the robot), or drive at the
     # goal (off).
     route: str = "on"
+    # A people predictor file (models/people_predictor_tracks.dqnp): the moving obstacles the DOVS sees move on the arc
+    # of their learned prediction, as `dqn_dovs_eval --predict-people` ("": their present velocity). A relative path
+    # is taken from the directory training runs in.
+    people_predictor: str = ""
     weight: float = 1.0
 
     @property
@@ -73,13 +77,18 @@ class WorldSpec:
             parts.append("see_robot")
         if self.route != default.route:
             parts.append(f"route_{self.route}")
+        if self.people_predictor:
+            parts.append("predicted")
         return "/".join(parts)
 
     def options(self) -> dict[str, str]:
         """The core's world_options mapping (VecEnv.set_worlds)."""
-        return {"world": self.world, "sensor": self.sensor, "people_model": self.people_model,
-                "people_see_robot": "true" if self.people_see_robot else "false", "odom_noise": self.odom_noise,
-                "route": self.route}
+        options = {"world": self.world, "sensor": self.sensor, "people_model": self.people_model,
+                   "people_see_robot": "true" if self.people_see_robot else "false", "odom_noise": self.odom_noise,
+                   "route": self.route}
+        if self.people_predictor:
+            options["people_predictor"] = self.people_predictor
+        return options
 
 
 ROOM_ONLY = (WorldSpec(),)
@@ -231,7 +240,7 @@ def _parse_worlds(raw, where: str) -> tuple[WorldSpec, ...]:
             raise CurriculumError(f"{at}.world must be one of {list(WORLD_FAMILIES)}, got {item.get('world')!r}")
         if "route" in item and item["route"] not in ("on", "off"):
             raise CurriculumError(f"{at}.route must be 'on' or 'off', got {item['route']!r}")
-        for name in ("sensor", "people_model", "odom_noise"):
+        for name in ("sensor", "people_model", "odom_noise", "people_predictor"):
             if name in item and not (isinstance(item[name], str) and item[name]):
                 raise CurriculumError(f"{at}.{name} must be a non-empty string, got {item[name]!r}")
         if "people_see_robot" in item and not isinstance(item["people_see_robot"], bool):

@@ -45,7 +45,8 @@ Contract of `dqn_dovs_py._core.VecEnv` (n = num_envs, all arrays numpy):
                                           (set_worlds) in force when its episode began
     core.set_worlds(worlds: list[dict[str, str]], weights: list[float]) -> None
         (optional) The mixture of worlds for the episodes reset from now on: each a
-        world_options mapping (world, sensor, people_model, people_see_robot, odom_noise, route),
+        world_options mapping (world, sensor, people_model, people_see_robot, odom_noise, route,
+        people_predictor: a people predictor file whose predicted arcs the DOVS takes, as --predict-people),
         drawn with probability weight / sum; a bad one raises ValueError naming it.
     core.normalization() -> dict[str, float]
         The state normaliser's named constants; the weight file stores them so that the

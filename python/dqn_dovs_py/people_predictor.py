@@ -1,11 +1,12 @@
-"""A learned prediction of walking people's next seconds, for the oracle's diagnostic.
+"""A learned prediction of walking people's next seconds, for the oracle's diagnostic and the planners' predicted arcs.
 
 Trains a small multilayer perceptron that corrects a constant-velocity extrapolation of each person from what can be
-seen now: the person's last second of positions, its nearest neighbours' positions and velocities, and the room's
-walls. Training data are the people's paths that ``dqn_dovs_eval`` writes (paths.json, one position per control
-period); the network is exported in the format ``PeoplePredictor::load`` reads
-(include/dqn_dovs/evaluation/people_predictor.h). The features here and in people_predictor.cpp are the same, item by
-item; test/python/test_people_predictor.py holds them to it through the C++ oracle.
+seen now: the person's last second of positions, its nearest neighbours' positions and velocities, and the walls
+around it (8 rays from the person, every 45 deg from its direction of motion). Training data are the paths that
+``dqn_dovs_eval`` writes (paths.json, one position per control period) in any world family: people in buildings and
+the paper's discs alike; the network is exported in the format ``PeoplePredictor::load`` reads
+(include/dqn_dovs/evaluation/people_predictor.h, version 2). The features here and in people_predictor.cpp are the
+same, item by item; test/python/test_people_predictor.py holds them to it through the C++ inference.
 
     python -m dqn_dovs_py.people_predictor --train DIR [DIR ...] --valid DIR [DIR ...] --out FILE.dqnp
 """
@@ -21,11 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-MAGIC = b"DQNDPPv1"
+MAGIC = b"DQNDPPv2"
 HISTORY = 5  # steps of the past (1 s at 0.2 s)
 FUTURE = 10  # steps predicted (2 s)
 NEIGHBOURS = 6
 FAR = 10.0  # position of a missing neighbour (m, straight ahead)
+WALL_RAY_RANGE = 5.0  # reach of the wall rays (m): PeoplePredictor::kWallRayRange_m
+V1_AXIS_RANGE = 10.0  # a version 1 file's offset along an axis without a wall (m)
 
 
 class PredictorDataError(ValueError):
@@ -55,27 +58,76 @@ def _to_frame(along: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.stack([along[0] * w[..., 0] + along[1] * w[..., 1], -along[1] * w[..., 0] + along[0] * w[..., 1]], -1)
 
 
-def features(tracks: np.ndarray, room_half_size_m: float, step_s: float,
-             neighbours: int = NEIGHBOURS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Inputs of every person (people x input_size), their velocities and directions of motion."""
+def first_wall(origins: np.ndarray, directions: np.ndarray, walls: np.ndarray, reach: float) -> np.ndarray:
+    """Distance from each origin (P x 2) along each of its unit directions (P x K x 2) to the first wall (segments
+    M x 4: ax ay bx by), `reach` where none is nearer (P x K); the arithmetic of the C++ raySegment."""
+    if len(walls) == 0:
+        return np.full(directions.shape[:2], reach)
+    a, e = walls[:, :2], walls[:, 2:] - walls[:, :2]
+    d = directions[:, :, None, :]
+    denom = d[..., 0] * e[:, 1] - d[..., 1] * e[:, 0]
+    ao = (a[None] - origins[:, None])[:, None]  # P x 1 x M x 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (ao[..., 0] * e[:, 1] - ao[..., 1] * e[:, 0]) / denom
+        u = (ao[..., 0] * d[..., 1] - ao[..., 1] * d[..., 0]) / denom
+    hit = (np.abs(denom) >= 1e-12) & (t >= 0.0) & (u >= 0.0) & (u <= 1.0)
+    return np.minimum(np.where(hit, t, np.inf).min(axis=2), reach)
+
+
+def square_room(half_size_m: float) -> np.ndarray:
+    """The four walls of the square room x, y = +-h (segments M x 4)."""
+    h = half_size_m
+    return np.array([[-h, -h, h, -h], [h, -h, h, h], [h, h, -h, h], [-h, h, -h, -h]], dtype=np.float64)
+
+
+def episode_walls(episode: dict) -> np.ndarray:
+    """The walls of a paths.json episode as the simulator has them: its room's four, then its extra segments."""
+    extra = np.asarray(episode.get("walls", []), dtype=np.float64).reshape(-1, 4)
+    return np.concatenate([square_room(float(episode["room_half_size_m"])), extra])
+
+
+_RAYS = np.stack([np.cos(np.arange(8) * np.pi / 4.0), np.sin(np.arange(8) * np.pi / 4.0)], 1)
+_AXES = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+
+
+def _rotate_into(along: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """w (P x ... x 2) in the frames whose x axes are along (P x 2), person by person."""
+    a = along.reshape(along.shape[:1] + (1,) * (w.ndim - 2) + (2,))
+    return np.stack([a[..., 0] * w[..., 0] + a[..., 1] * w[..., 1], -a[..., 1] * w[..., 0] + a[..., 0] * w[..., 1]],
+                    -1)
+
+
+def _wall_inputs(now: np.ndarray, along: np.ndarray, walls: np.ndarray, version: int) -> np.ndarray:
+    n = len(now)
+    if version == 1:
+        axes = np.broadcast_to(_AXES, (n, 4, 2))
+        reach = first_wall(now, axes, walls, V1_AXIS_RANGE)
+        return _rotate_into(along, axes * reach[..., None]).reshape(n, 8)
+    directions = np.stack([along[:, None, 0] * _RAYS[:, 0] - along[:, None, 1] * _RAYS[:, 1],
+                           along[:, None, 1] * _RAYS[:, 0] + along[:, None, 0] * _RAYS[:, 1]], -1)
+    return first_wall(now, directions, walls, WALL_RAY_RANGE)
+
+
+def features(tracks: np.ndarray, walls: np.ndarray, step_s: float, neighbours: int = NEIGHBOURS,
+             version: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Inputs of every person (people x input_size), their velocities and directions of motion; walls: segments
+    (M x 4) in the tracks' frame."""
     velocity, along = _frames(tracks, step_s)
     now = tracks[:, -1]
     n = len(tracks)
-    rows = []
-    for i in range(n):
-        a = along[i]
-        own = _to_frame(a, tracks[i, :-1] - now[i]).ravel()
-        dist = np.linalg.norm(now - now[i], axis=1)
-        dist[i] = np.inf
-        order = [j for j in np.argsort(dist, kind="stable") if j != i][:neighbours]
-        nb = []
-        for j in order:
-            nb += list(_to_frame(a, now[j] - now[i])) + list(_to_frame(a, velocity[j] - velocity[i])) + [1.0]
-        nb += [FAR, 0.0, 0.0, 0.0, 0.0] * (neighbours - len(order))
-        h = room_half_size_m
-        walls = np.array([[h - now[i, 0], 0.0], [-h - now[i, 0], 0.0], [0.0, h - now[i, 1]], [0.0, -h - now[i, 1]]])
-        rows.append(np.concatenate([own, [np.linalg.norm(velocity[i])], nb, _to_frame(a, walls).ravel()]))
-    return np.array(rows, dtype=np.float64), velocity, along
+    own = _rotate_into(along, tracks[:, :-1] - now[:, None]).reshape(n, -1)
+    dist = np.linalg.norm(now[None] - now[:, None], axis=2)
+    np.fill_diagonal(dist, np.inf)
+    taken = max(0, min(neighbours, n - 1))
+    order = np.argsort(dist, axis=1, kind="stable")[:, :taken]  # the others by distance, ties by index, as C++
+    nb = np.zeros((n, neighbours, 5))
+    nb[:, :, 0] = FAR
+    nb[:, :taken, :2] = _rotate_into(along, now[order] - now[:, None])
+    nb[:, :taken, 2:4] = _rotate_into(along, velocity[order] - velocity[:, None])
+    nb[:, :taken, 4] = 1.0
+    rows = np.concatenate([own, np.linalg.norm(velocity, axis=1)[:, None], nb.reshape(n, -1),
+                           _wall_inputs(now, along, walls, version)], axis=1)
+    return rows, velocity, along
 
 
 def _episodes(paths: Path) -> list:
@@ -104,16 +156,16 @@ def samples_from_paths(paths: Path, step_s: float) -> tuple[np.ndarray, np.ndarr
         A = _walking(e)
         if A is None or A.shape[1] < HISTORY + FUTURE + 1:
             continue
+        walls = episode_walls(e)
         length = A.shape[1]
         for t in range(HISTORY, length - FUTURE):
-            x, v, along = features(A[:, t - HISTORY:t + 1], e["room_half_size_m"], step_s)
-            for i in range(len(A)):
-                xs.append(x[i])
-                ys.append(_to_frame(along[i], A[i, t + 1:t + FUTURE + 1] - A[i, t]).ravel())
-                cvs.append(_to_frame(along[i], np.outer(steps, v[i])).ravel())
+            x, v, along = features(A[:, t - HISTORY:t + 1], walls, step_s)
+            xs.append(x)
+            ys.append(_rotate_into(along, A[:, t + 1:t + FUTURE + 1] - A[:, t, None]).reshape(len(A), -1))
+            cvs.append(_rotate_into(along, v[:, None] * steps[None, :, None]).reshape(len(A), -1))
     if not xs:
         raise PredictorDataError(f"{paths}: no person walks long enough ({HISTORY + FUTURE + 1} steps)")
-    return np.array(xs, np.float32), np.array(ys, np.float32), np.array(cvs, np.float32)
+    return tuple(np.concatenate(a).astype(np.float32) for a in (xs, ys, cvs))
 
 
 def track_histories(decisions: list, step_s: float):
@@ -151,28 +203,44 @@ def samples_from_tracks(paths: Path, step_s: float, match_m: float = 0.5):
         A = _walking(e)
         if A is None:
             continue
+        walls = episode_walls(e)
         length = A.shape[1]
         for k, tracks in track_histories(e["tracks"][:length], step_s):
             if k + FUTURE >= length or len(tracks) == 0:
                 continue
-            x, velocity, along = features(tracks, e["room_half_size_m"], step_s)
-            for i in range(len(tracks)):
-                d = np.linalg.norm(A[:, k] - tracks[i, -1], axis=1)
-                person = int(np.argmin(d))
-                if d[person] > match_m:
-                    continue
-                xs.append(x[i])
-                ys.append(_to_frame(along[i], A[person, k + 1:k + FUTURE + 1] - tracks[i, -1]).ravel())
-                cvs.append(_to_frame(along[i], np.outer(ahead, velocity[i])).ravel())
+            x, velocity, along = features(tracks, walls, step_s)
+            d = np.linalg.norm(A[None, :, k] - tracks[:, None, -1], axis=2)  # tracks x people
+            person = np.argmin(d, axis=1)
+            kept = d[np.arange(len(tracks)), person] <= match_m
+            if not kept.any():
+                continue
+            future = A[person[kept], k + 1:k + FUTURE + 1] - tracks[kept, None, -1]
+            xs.append(x[kept])
+            ys.append(_rotate_into(along[kept], future).reshape(int(kept.sum()), -1))
+            cvs.append(_rotate_into(along[kept], velocity[kept, None] * ahead[None, :, None]).reshape(
+                int(kept.sum()), -1))
     if not xs:
         raise PredictorDataError(f"{paths}: no track follows a person")
-    return np.array(xs, np.float32), np.array(ys, np.float32), np.array(cvs, np.float32)
+    return tuple(np.concatenate(a).astype(np.float32) for a in (xs, ys, cvs))
+
+
+def load_parts(dirs: list[Path], step_s: float, inputs: str = "truth") -> list:
+    """The samples of each folder (inputs, targets, constant-velocity targets)."""
+    take = samples_from_tracks if inputs == "tracks" else samples_from_paths
+    return [take(Path(d) / "paths.json", step_s) for d in dirs]
+
+
+def concatenate(parts: list) -> tuple:
+    return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
 
 
 def load_dirs(dirs: list[Path], step_s: float, inputs: str = "truth"):
-    take = samples_from_tracks if inputs == "tracks" else samples_from_paths
-    parts = [take(Path(d) / "paths.json", step_s) for d in dirs]
-    return tuple(np.concatenate([p[k] for p in parts]) for k in range(3))
+    return concatenate(load_parts(dirs, step_s, inputs))
+
+
+def family_of(folder: str) -> str:
+    """The world family a data folder holds: its name up to the first '_' (train_people_predictor.sh's names)."""
+    return Path(folder).name.split("_")[0]
 
 
 def errors(pred: np.ndarray, target: np.ndarray, step_s: float) -> dict:
@@ -235,7 +303,7 @@ def export(path: Path, net, mean: np.ndarray, scale: np.ndarray, step_s: float) 
 def load(path: Path) -> dict:
     """A predictor file as numpy arrays (the format people_predictor.h describes); ValueError naming the file."""
     b = Path(path).read_bytes()
-    if b[:8] != MAGIC:
+    if b[:8] not in (MAGIC, b"DQNDPPv1"):
         raise ValueError(f"{path}: not a people predictor file")
     history, future, neighbours, step_ms, count = struct.unpack_from("<5I", b, 8)
     off = 28
@@ -253,15 +321,15 @@ def load(path: Path) -> dict:
         off += 4 * outputs
     if off != len(b):
         raise ValueError(f"{path}: {len(b) - off} bytes follow the last layer")
-    return {"history": history, "future": future, "neighbours": neighbours, "step_s": step_ms / 1000.0,
-            "mean": mean, "scale": scale, "layers": layers}
+    return {"version": int(b[7:8]), "history": history, "future": future, "neighbours": neighbours,
+            "step_s": step_ms / 1000.0, "mean": mean, "scale": scale, "layers": layers}
 
 
-def predict(model: dict, tracks: np.ndarray, room_half_size_m: float) -> np.ndarray:
-    """Every person's predicted positions (people x future x 2, fixed frame) from tracks (people x (history + 1) x 2),
-    in numpy: the reference the C++ PeoplePredictor is held to."""
+def predict(model: dict, tracks: np.ndarray, walls: np.ndarray) -> np.ndarray:
+    """Every person's predicted positions (people x future x 2, the tracks' frame) from tracks (people x (history +
+    1) x 2) among walls (segments M x 4), in numpy: the reference the C++ PeoplePredictor is held to."""
     step = model["step_s"]
-    x, velocity, along = features(tracks, room_half_size_m, step, model["neighbours"])
+    x, velocity, along = features(tracks, walls, step, model["neighbours"], model["version"])
     a = (x - model["mean"]) / model["scale"]
     for k, (w, b) in enumerate(model["layers"]):
         a = a @ w.T + b
@@ -294,17 +362,25 @@ def main(argv=None) -> int:
     t0 = time.time()
     try:
         tr = load_dirs(a.train, a.step, a.inputs)
-        va = load_dirs(a.valid, a.step, a.inputs)
+        valid_parts = load_parts(a.valid, a.step, a.inputs)
     except PredictorDataError as e:
         print(f"people_predictor: {e}", file=sys.stderr)
         return 2
+    va = concatenate(valid_parts)
     print(f"{len(tr[0])} training and {len(va[0])} validation samples ({time.time() - t0:.0f} s)", flush=True)
     cv = errors(va[2], va[1], a.step)
     net, mean, scale, history = train(tr, va, tuple(int(h) for h in a.hidden.split(",")), a.epochs, a.seed,
                                       log=lambda m: print(m, flush=True))
     export(Path(a.out), net, mean, scale, a.step)
+    per_family = {}
+    for family in dict.fromkeys(family_of(d) for d in a.valid):
+        x, y, c = concatenate([p for d, p in zip(a.valid, valid_parts) if family_of(d) == family])
+        with torch.no_grad():
+            learned = c + net(torch.tensor((x - mean) / scale, dtype=torch.float32)).numpy()
+        per_family[family] = {"samples": len(x), "constant_velocity": errors(c, y, a.step),
+                              "learned": errors(learned, y, a.step)}
     summary = {"inputs": a.inputs, "constant_velocity": cv, "learned": history[-1], "train_samples": len(tr[0]),
-               "valid_samples": len(va[0]), "seconds": round(time.time() - t0, 1)}
+               "valid_samples": len(va[0]), "per_family": per_family, "seconds": round(time.time() - t0, 1)}
     Path(a.out).with_suffix(".json").write_text(json.dumps(summary, indent=2) + "\n")
     print(json.dumps(summary, indent=2))
     return 0

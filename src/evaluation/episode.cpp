@@ -172,12 +172,12 @@ void Episode::buildContext() {
   observation_.goal = world_.goal();
   observation_.obstacles.clear();
   observation_.segments.clear();
+  const Pose2 odom_from_world = world_.odomPose().compose(world_.robotPose().inverse());  // identity without drift
   if (config_.perfect_info) {
     observation_.obstacles = world_.groundTruthObstacles();
     observation_.segments = world_.walls();
     if (config_.world.odometry.enabled()) {
       // The truth seen from the odom frame (where the robot believes it is): every pose through odom <- world.
-      const Pose2 odom_from_world = world_.odomPose().compose(world_.robotPose().inverse());
       for (MovingObstacle& o : observation_.obstacles) {
         o.center = odom_from_world.toWorld(o.center);
         o.heading = normalizeAngle(o.heading + odom_from_world.theta);
@@ -195,7 +195,12 @@ void Episode::buildContext() {
     } else {
       for (const TrackedObstacle& t : tracker_.scene().obstacles) ids.push_back(t.id);
     }
-    predicted_arcs_->apply(observation_.obstacles, ids, world_.time_s(), world_.roomHalfSize_m());
+    // The walls as the map gives them (the world's), in the obstacles' frame: odom where odometry drifts.
+    std::vector<Segment> walls = world_.walls();
+    if (config_.world.odometry.enabled()) {
+      for (Segment& w : walls) w = {odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)};
+    }
+    predicted_arcs_->apply(observation_.obstacles, ids, world_.time_s(), walls);
   }
   if (route_planner_) {
     // The robot's decision step: the route's subgoal, once per control period, as planner_node gives it.

@@ -123,7 +123,7 @@ std::vector<std::vector<Vec2>> OraclePlanner::learnedFuture(const sim::World& wo
     ids.push_back(static_cast<int>(people.size()));
     people.push_back(o);
   }
-  return learned_->predictPaths(people, ids, world.time_s(), world.roomHalfSize_m());
+  return learned_->predictPaths(people, ids, world.time_s(), world.walls());
 }
 
 void OraclePlanner::prepareStatics(const sim::World& world) {

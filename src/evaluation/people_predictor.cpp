@@ -7,11 +7,14 @@
 #include <fstream>
 #include <iterator>
 #include <numeric>
+#include <optional>
+
+#include "dqn_dovs/common/geometry.h"
 
 namespace dqn_dovs {
 namespace {
 
-constexpr char kMagic[8] = {'D', 'Q', 'N', 'D', 'P', 'P', 'v', '1'};
+constexpr char kMagic[7] = {'D', 'Q', 'N', 'D', 'P', 'P', 'v'};
 
 /// Reads the file's bytes in order; every shortfall is an error naming the file and the field.
 class Reader {
@@ -28,10 +31,13 @@ class Reader {
       if (!std::isfinite(out[k])) fail(std::string(field) + " holds a non-finite number");
     }
   }
-  void magic() {
+  /// The file's version (the magic's last character).
+  int magic() {
     char m[8];
     take(m, sizeof m, "magic");
-    if (std::memcmp(m, kMagic, sizeof m) != 0) fail("not a people predictor file (magic is not DQNDPPv1)");
+    if (std::memcmp(m, kMagic, sizeof kMagic) != 0 || (m[7] != '1' && m[7] != '2'))
+      fail("not a people predictor file (magic is not DQNDPPv2 or DQNDPPv1)");
+    return m[7] - '0';
   }
   void end() const {
     if (at_ != bytes_.size()) fail(std::to_string(bytes_.size() - at_) + " bytes follow the last layer");
@@ -57,6 +63,15 @@ Vec2 toFrame(const Vec2& along, const Vec2& w) {
 }
 Vec2 fromFrame(const Vec2& along, const Vec2& f) {
   return {along.x() * f.x() - along.y() * f.y(), along.y() * f.x() + along.x() * f.y()};
+}
+
+/// Distance from o along the unit direction d to the first wall, `range` where none is nearer.
+double firstWall(const Vec2& o, const Vec2& d, const std::vector<Segment>& walls, double range) {
+  double best = range;
+  for (const Segment& w : walls) {
+    if (const std::optional<double> t = raySegment(o, d, w); t && *t < best) best = *t;
+  }
+  return best;
 }
 
 }  // namespace
@@ -95,8 +110,8 @@ PeoplePredictor PeoplePredictor::load(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw PeoplePredictorError("people predictor '" + path + "': cannot be opened");
   Reader r(path, std::vector<char>(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()));
-  r.magic();
   PeoplePredictor p;
+  p.version_ = r.magic();
   const uint32_t history = r.u32("history_steps"), future = r.u32("future_steps"), neighbours = r.u32("neighbours"),
                  step_ms = r.u32("step_ms");
   if (history < 1 || history > 50) r.fail("history_steps " + std::to_string(history) + " not in [1, 50]");
@@ -159,7 +174,7 @@ void PeoplePredictor::frameOf(const std::vector<Vec2>& track, Vec2& velocity, Ve
 }
 
 Eigen::VectorXf PeoplePredictor::features(const std::vector<std::vector<Vec2>>& tracks, size_t i,
-                                          double room_half_size_m) const {
+                                          const std::vector<Segment>& walls) const {
   const size_t steps = static_cast<size_t>(history_steps_) + 1;
   for (const auto& t : tracks) {
     if (t.size() != steps) {
@@ -197,19 +212,25 @@ Eigen::VectorXf PeoplePredictor::features(const std::vector<std::vector<Vec2>>& 
     }
     k += 5;
   }
-  const double h = room_half_size_m;
-  const Vec2 walls[4] = {{h - now.x(), 0.0}, {-h - now.x(), 0.0}, {0.0, h - now.y()}, {0.0, -h - now.y()}};
-  for (const Vec2& w : walls) {
-    const Vec2 f = toFrame(along, w);
-    x(k++) = static_cast<float>(f.x());
-    x(k++) = static_cast<float>(f.y());
+  if (version_ == 1) {
+    const Vec2 axes[4] = {{1.0, 0.0}, {-1.0, 0.0}, {0.0, 1.0}, {0.0, -1.0}};
+    for (const Vec2& d : axes) {
+      const Vec2 f = toFrame(along, firstWall(now, d, walls, 10.0) * d);
+      x(k++) = static_cast<float>(f.x());
+      x(k++) = static_cast<float>(f.y());
+    }
+  } else {
+    for (int r = 0; r < 8; ++r) {
+      const Vec2 d = fromFrame(along, Vec2(std::cos(r * M_PI / 4.0), std::sin(r * M_PI / 4.0)));
+      x(k++) = static_cast<float>(firstWall(now, d, walls, kWallRayRange_m));
+    }
   }
   return x;
 }
 
 std::vector<Vec2> PeoplePredictor::predict(const std::vector<std::vector<Vec2>>& tracks, size_t i,
-                                           double room_half_size_m) const {
-  Eigen::VectorXf a = (features(tracks, i, room_half_size_m) - mean_).cwiseQuotient(scale_);
+                                           const std::vector<Segment>& walls) const {
+  Eigen::VectorXf a = (features(tracks, i, walls) - mean_).cwiseQuotient(scale_);
   for (size_t l = 0; l < layers_.size(); ++l) {
     Eigen::VectorXf z = layers_[l].w * a + layers_[l].b;
     a = l + 1 < layers_.size() ? Eigen::VectorXf(z.cwiseMax(0.0f)) : z;
@@ -237,49 +258,60 @@ void PredictedArcs::reset() {
 
 std::vector<std::vector<Vec2>> PredictedArcs::predictPaths(const std::vector<MovingObstacle>& obstacles,
                                                            const std::vector<int>& ids, double stamp_s,
-                                                           double room_half_size_m) {
+                                                           const std::vector<Segment>& walls) {
   if (ids.size() != obstacles.size()) {
     throw PeoplePredictorError("predicted arcs: " + std::to_string(ids.size()) + " ids for " +
                                std::to_string(obstacles.size()) + " obstacles");
   }
-  const size_t steps = static_cast<size_t>(predictor_->historySteps()) + 1;
+  if (!std::isfinite(stamp_s)) throw PeoplePredictorError("predicted arcs: the stamp is not finite");
+  if (stamp_s < last_stamp_s_) reset();  // time went backwards (a replayed bag, a restarted clock): start afresh
+  const int steps = predictor_->historySteps() + 1;
   const double step = predictor_->stepSeconds();
-  const bool new_decision = stamp_s != last_stamp_s_;
+  const double oldest_needed = stamp_s - step * static_cast<double>(steps);
   last_stamp_s_ = stamp_s;
   std::vector<size_t> moving;
-  std::map<int, std::deque<Vec2>> seen;
+  std::map<int, std::deque<std::pair<double, Vec2>>> seen;
   for (size_t k = 0; k < obstacles.size(); ++k) {
     if (obstacles[k].is_static) continue;
     moving.push_back(k);
-    std::deque<Vec2> h;
-    if (const auto it = history_.find(ids[k]); it != history_.end()) h = it->second;
-    if (new_decision || h.empty()) h.push_back(obstacles[k].center);
-    h.back() = obstacles[k].center;
-    while (h.size() > steps) h.pop_front();
+    std::deque<std::pair<double, Vec2>> h;
+    if (const auto it = history_.find(ids[k]); it != history_.end()) h = std::move(it->second);
+    if (!h.empty() && h.back().first == stamp_s) h.pop_back();  // a second call at the same stamp replaces it
+    h.emplace_back(stamp_s, obstacles[k].center);
+    while (h.size() > 1 && h[1].first <= oldest_needed) h.pop_front();  // keep one entry before the oldest needed
     seen[ids[k]] = std::move(h);
   }
-  history_ = std::move(seen);  // an id not seen at this decision starts afresh
+  history_ = std::move(seen);  // an id not seen at this call starts afresh
+  constexpr double kSameStamp_s = 1e-6;
   std::vector<std::vector<Vec2>> tracks;
   for (const size_t k : moving) {
     const MovingObstacle& o = obstacles[k];
-    const std::deque<Vec2>& h = history_[ids[k]];
+    const std::deque<std::pair<double, Vec2>>& h = history_[ids[k]];
     const Vec2 velocity = o.speed * Vec2(std::cos(o.heading), std::sin(o.heading));
     std::vector<Vec2> track;
-    for (size_t s = 0; s < steps; ++s) {
-      const size_t back = steps - 1 - s;
-      track.push_back(back < h.size() ? h[h.size() - 1 - back]
-                                      : Vec2(o.center - static_cast<double>(back) * step * velocity));
+    size_t j = 0;  // h[j] is the first entry at or after the time wanted (the times wanted rise)
+    for (int back = steps - 1; back >= 0; --back) {
+      const double at = stamp_s - step * static_cast<double>(back);
+      while (j + 1 < h.size() && h[j].first < at - kSameStamp_s) ++j;
+      if (std::abs(h[j].first - at) <= kSameStamp_s) {
+        track.push_back(h[j].second);  // seen at that time (every call a step apart: always)
+      } else if (j > 0 && h[j - 1].first < at && at < h[j].first) {
+        const double f = (at - h[j - 1].first) / (h[j].first - h[j - 1].first);
+        track.push_back(h[j - 1].second + f * (h[j].second - h[j - 1].second));  // between two calls
+      } else {
+        track.push_back(o.center - static_cast<double>(back) * step * velocity);  // before its first call
+      }
     }
     tracks.push_back(std::move(track));
   }
   std::vector<std::vector<Vec2>> paths(obstacles.size());
-  for (size_t m = 0; m < moving.size(); ++m) paths[moving[m]] = predictor_->predict(tracks, m, room_half_size_m);
+  for (size_t m = 0; m < moving.size(); ++m) paths[moving[m]] = predictor_->predict(tracks, m, walls);
   return paths;
 }
 
 void PredictedArcs::apply(std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids, double stamp_s,
-                          double room_half_size_m) {
-  const std::vector<std::vector<Vec2>> paths = predictPaths(obstacles, ids, stamp_s, room_half_size_m);
+                          const std::vector<Segment>& walls) {
+  const std::vector<std::vector<Vec2>> paths = predictPaths(obstacles, ids, stamp_s, walls);
   for (size_t k = 0; k < obstacles.size(); ++k) {
     if (paths[k].empty()) continue;
     const ArcMotion a = fitArc(obstacles[k].center, paths[k], predictor_->stepSeconds());

@@ -100,8 +100,8 @@ class VecEnv {
   }
 
   /// The mixture of worlds that episodes reset from now on are drawn from: each entry is a world_options mapping
-  /// (world, sensor, people_model, people_see_robot, odom_noise, route), drawn with probability weight / sum of
-  /// weights. With one world no draw is made, so a single world replays the same scenarios as before.
+  /// (world, sensor, people_model, people_see_robot, odom_noise, route, people_predictor), drawn with probability
+  /// weight / sum of weights. With one world no draw is made, so a single world replays the same scenarios as before.
   void setWorlds(const std::vector<std::map<std::string, std::string>>& worlds, const std::vector<double>& weights) {
     if (worlds.empty()) throw std::invalid_argument("set_worlds: at least one world is needed");
     if (weights.size() != worlds.size()) {
@@ -421,9 +421,12 @@ class VecEnv {
         world.odom_noise = value;
       } else if (key == "route") {
         world.route = value;  // applyWorldOptions names a value other than on or off
+      } else if (key == "people_predictor") {
+        world.episode.people_predictor = value;  // the Episode names a missing or unusable file
       } else {
         throw std::invalid_argument(where + ": unknown key '" + key +
-                                    "' (world, sensor, people_model, people_see_robot, odom_noise, route)");
+                                    "' (world, sensor, people_model, people_see_robot, odom_noise, route, "
+                                    "people_predictor)");
       }
     }
     WorldVariant v;
@@ -436,6 +439,13 @@ class VecEnv {
     }
     v.config = world.episode;
     v.config.perfect_info = perfect_info_;
+    if (!v.config.people_predictor.empty()) {
+      try {  // a missing or unusable file is named now, not when the first episode of this world resets
+        PeoplePredictor::load(v.config.people_predictor);
+      } catch (const PeoplePredictorError& e) {
+        throw std::invalid_argument(where + ": people_predictor: " + e.what());
+      }
+    }
     // The DOVS as the robot's dovs.yaml would set it (names of setDovsParameter), in every world.
     for (const auto& [name, value] : dovs_parameters_) {
       if (const std::string e = setDovsParameter(v.config.dovs, name, value); !e.empty())
@@ -560,7 +570,8 @@ PYBIND11_MODULE(_core, m) {
            py::arg("dovs_parameters") = std::map<std::string, std::string>{},
            "world_options: the evaluation's world flags by name (world: room, crowd, corridor, doorway, clutter, "
            "junction, with the stage's obstacle counts as people; sensor; people_model; people_see_robot: true or "
-           "false; odom_noise; route: on (default: routes in worlds with walls, as the robot follows them) or off). "
+           "false; odom_noise; route: on (default: routes in worlds with walls, as the robot follows them) or off; "
+           "people_predictor: a people predictor file whose predicted arcs the DOVS takes, as --predict-people). "
            "dovs_parameters: the DOVS model's parameters by name (config/dovs.yaml dovs/*, e.g. grid_contact_horizon), "
            "applied in every world.")
       .def("shield_parameters", &VecEnv::shieldParameters,

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <sstream>
 
@@ -42,6 +43,11 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
   DovsBuilder builder(config.limits, config.dovs);
   const StateNormalization normalization = stateNormalization(config.limits, config.dovs);
   VelocitySpace dovs;
+  std::unique_ptr<PredictedArcs> predicted_arcs;
+  if (!config.people_predictor.empty()) {
+    predicted_arcs = std::make_unique<PredictedArcs>(
+        std::make_shared<const PeoplePredictor>(PeoplePredictor::load(config.people_predictor)));
+  }
 
   rosbag::Bag bag;
   try {
@@ -109,7 +115,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     DovsStep step;
     const Twist2 odom_twist{odom->twist.twist.linear.x, odom->twist.twist.angular.z};
     if (!buildDovsStep(obstacles, *robot_pose, odom_twist, goal, config.limits, normalization, config.shield,
-                       config.base_frame, builder, dovs, step)
+                       config.base_frame, builder, dovs, step, predicted_arcs.get())
              .empty()) {
       continue;
     }

@@ -45,6 +45,8 @@ struct ReplayConfig {
   double max_input_age_s = 0.5;
   /// Weight file of the planner's network.
   std::string model_path;
+  /// dovs_node's `people_predictor` ("": moving tracks at their present velocity).
+  std::string people_predictor;
   /// Topics in the bag.
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
@@ -87,7 +89,7 @@ struct ReplayResult {
 };
 
 /// Replays `bag_path`. Throws ReplayError when the bag cannot be read, WeightFileError for a bad model,
-/// TrackerConfigError / DovsError for bad configurations.
+/// PeoplePredictorError for a bad people predictor, TrackerConfigError / DovsError for bad configurations.
 ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config);
 
 /// Writes the scans and tracks (one CSV) and the decisions (another), fixed precision.

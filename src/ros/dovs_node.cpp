@@ -36,6 +36,15 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
   normalization_ = stateNormalization(limits_, builder_.config());
   shield_ = loadActionShieldConfig(pnh_);
+  if (const std::string file = param<std::string>(pnh_, "people_predictor", ""); !file.empty()) {
+    try {
+      predicted_arcs_ =
+          std::make_unique<PredictedArcs>(std::make_shared<const PeoplePredictor>(PeoplePredictor::load(file)));
+    } catch (const PeoplePredictorError& e) {
+      throw ParameterError(std::string("people_predictor: ") + e.what());
+    }
+    ROS_INFO("dovs: moving tracks take the arcs of the learned prediction in '%s'", file.c_str());
+  }
 
   dovs_pub_ = nh_.advertise<Dovs>("dovs", 5);
   image_pub_ = image_transport_.advertise("dovs/image", 2);
@@ -182,8 +191,9 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   }
   DovsStep step;
   try {
-    const std::string obstacle_error = buildDovsStep(*obstacles, robot_pose, odom_twist, goal_, limits_, normalization_,
-                                                     shield_, base_frame_, builder_, dovs_, step);
+    const std::string obstacle_error =
+        buildDovsStep(*obstacles, robot_pose, odom_twist, goal_, limits_, normalization_, shield_, base_frame_,
+                      builder_, dovs_, step, predicted_arcs_.get());
     if (!obstacle_error.empty()) {
       ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());
       return;

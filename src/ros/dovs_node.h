@@ -11,6 +11,7 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/evaluation/people_predictor.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "transform_wait.h"
 
@@ -48,6 +50,7 @@ class DovsNode {
   StateNormalization normalization_;
   ActionShieldConfig shield_;
   VelocitySpace dovs_;
+  std::unique_ptr<PredictedArcs> predicted_arcs_;  ///< people_predictor: moving tracks on their predicted arcs
 
   // The map's walls (map frame), when `use_map`: static geometry beside the scan's, for what the LIDAR cannot see.
   bool use_map_ = false;

@@ -23,7 +23,8 @@ std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Po
 std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
                           const StateNormalization& normalization, const ActionShieldConfig& shield,
-                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out) {
+                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out,
+                          PredictedArcs* predicted_arcs) {
   Observation& obs = out.observation;
   obs.robot_pose = robot_pose;
   obs.stamp_s = obstacles.header.stamp.toSec();
@@ -31,6 +32,11 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   obs.goal = goal.value_or(obs.robot_pose.position());
   const std::string obstacle_error = observationObstaclesFromMsg(obstacles, obs.obstacles, obs.segments);
   if (!obstacle_error.empty()) return obstacle_error;
+  if (predicted_arcs) {
+    std::vector<int> ids;
+    for (const ObstacleTrack& t : obstacles.obstacles) ids.push_back(t.id);
+    predicted_arcs->apply(obs.obstacles, ids, obs.stamp_s, obs.segments);
+  }
 
   builder.build(obs, dovs);
   out.actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);

@@ -13,6 +13,7 @@
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/evaluation/people_predictor.h"
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/policy/dovs_decision.h"
@@ -38,13 +39,15 @@ struct DovsStep {
 /// dovs_node's step after the odom and transform checks: builds the observation (the odom velocity clipped
 /// into the feasible set; without a goal, the goal is the robot's own position), the velocity space, the
 /// actions and the Dovs message, whose action_valid is the mask the network chooses under: the validity mask
-/// narrowed by the action shield (action_shield.h; the shield's level goes into `out.shield_level`). Returns why the
-/// obstacles were dropped (NaN fields, non-positive radius), else "". Throws (DovsError, ActionError, StateError) when
-/// the core rejects the observation.
+/// narrowed by the action shield (action_shield.h; the shield's level goes into `out.shield_level`). With
+/// `predicted_arcs`, the moving tracks move on the arcs of their learned prediction (by track id, among the message's
+/// static segments). Returns why the obstacles were dropped (NaN fields, non-positive radius), else "". Throws
+/// (DovsError, ActionError, StateError, PeoplePredictorError) when the core rejects the observation.
 std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
                           const StateNormalization& normalization, const ActionShieldConfig& shield,
-                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out);
+                          const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out,
+                          PredictedArcs* predicted_arcs = nullptr);
 
 /// planner_node's choice for one Dovs message: the core's chooseAction (policy/dovs_decision.h) on the message's
 /// decision fields.

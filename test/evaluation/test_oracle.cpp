@@ -214,10 +214,11 @@ TEST(Oracle, PredictsFromThePresentWhenToldTo) {
 
 /// Writes a people predictor file (people_predictor.h) with one layer: zero weights and `lateral` as the bias of every
 /// step's sideways offset (the person's left), so it predicts constant velocity shifted sideways.
-std::string writeLinearPredictor(const std::string& name, float lateral, uint32_t inputs = 49) {
+std::string writeLinearPredictor(const std::string& name, float lateral, uint32_t inputs = 49,
+                                 const char* magic = "DQNDPPv2") {
   const std::string path = ::testing::TempDir() + name;
   std::ofstream out(path, std::ios::binary);
-  out.write("DQNDPPv1", 8);
+  out.write(magic, 8);
   auto u32 = [&](uint32_t v) { out.write(reinterpret_cast<const char*>(&v), 4); };
   auto f32 = [&](float v) { out.write(reinterpret_cast<const char*>(&v), 4); };
   for (uint32_t v : {5u, 10u, 6u, 200u, 1u, 20u, inputs}) u32(v);
@@ -308,6 +309,78 @@ TEST(PeoplePrediction, AnArcIsRecoveredFromItsPath) {
   }
 }
 
+/// The walls of the square room of half size h (x, y = +-h).
+std::vector<Segment> squareRoom(double h) {
+  return {{{-h, -h}, {h, -h}}, {{h, -h}, {h, h}}, {{h, h}, {-h, h}}, {{-h, h}, {-h, -h}}};
+}
+
+TEST(PeoplePrediction, WallsAreSeenAlongRaysFromThePerson) {
+  // A person at (1, 0.5) walking north at 1 m/s in the room of half size 4: the last 8 inputs are the walls.
+  std::vector<Vec2> track;
+  for (int s = 0; s <= 5; ++s) track.push_back(Vec2(1.0, 0.5 - 0.2 * (5 - s)));
+  const std::vector<std::vector<Vec2>> tracks{track};
+  const PeoplePredictor v2 = PeoplePredictor::load(writeLinearPredictor("walls_v2.dqnp", 0.0f));
+  const PeoplePredictor v1 = PeoplePredictor::load(writeLinearPredictor("walls_v1.dqnp", 0.0f, 49, "DQNDPPv1"));
+  EXPECT_EQ(v2.version(), 2);
+  EXPECT_EQ(v1.version(), 1);
+  const Eigen::VectorXf room2 = v2.features(tracks, 0, squareRoom(4.0)).tail(8);
+  // v2: every 45 deg from the direction of motion (north), counter-clockwise; beyond 5 m the reach.
+  const double expected2[8] = {3.5, std::sqrt(2.0) * 3.5, 5.0, 5.0,
+                               4.5, std::sqrt(2.0) * 3.0, 3.0, std::sqrt(2.0) * 3.0};
+  for (int r = 0; r < 8; ++r) EXPECT_NEAR(room2(r), expected2[r], 1e-5) << "ray " << r;
+  const Eigen::VectorXf open2 = v2.features(tracks, 0, {}).tail(8);
+  EXPECT_TRUE((open2.array() == 5.0f).all()) << "no wall: every ray at its reach";
+  // v1: the offsets to the walls along the room's axes, in the person's frame (x north, y west), as it was learned.
+  const Eigen::VectorXf room1 = v1.features(tracks, 0, squareRoom(4.0)).tail(8);
+  const float expected1[8] = {0.0f, -3.0f, 0.0f, 5.0f, 3.5f, 0.0f, -4.5f, 0.0f};
+  for (int k = 0; k < 8; ++k) EXPECT_NEAR(room1(k), expected1[k], 1e-5) << k;
+  // A corridor wall 1 m to the person's right (east) is seen by v2's right ray only.
+  const std::vector<Segment> corridor{{{2.0, -10.0}, {2.0, 10.0}}};
+  const Eigen::VectorXf side = v2.features(tracks, 0, corridor).tail(8);
+  EXPECT_NEAR(side(6), 1.0, 1e-5);
+  EXPECT_NEAR(side(7), std::sqrt(2.0), 1e-5);
+  EXPECT_NEAR(side(2), 5.0, 1e-5);
+}
+
+TEST(PeoplePrediction, TheHistoryIsReadAtThePredictorsStepWhateverTheCallRate) {
+  // A person on a 0.5 rad/s turn at 1 m/s. The zero network predicts its last step's velocity, so the arc it gets says
+  // which past position the history held.
+  const Pose2 start{-1.0, 0.0, 0.3};
+  auto seen_at = [&](double t) {
+    MovingObstacle o;
+    const Pose2 p = integrateUnicycle(start, 1.0, 0.5, t);
+    o.center = p.position();
+    o.heading = p.theta;
+    o.speed = 1.0;
+    return std::vector<MovingObstacle>{o};
+  };
+  const auto predictor =
+      std::make_shared<const PeoplePredictor>(PeoplePredictor::load(writeLinearPredictor("rate.dqnp", 0.0f)));
+  auto arc_after = [&](PredictedArcs& arcs, double period, double until) {
+    std::vector<MovingObstacle> seen;
+    for (int k = 0; k * period <= until + 1e-9; ++k) {
+      seen = seen_at(k * period);
+      arcs.apply(seen, {4}, k * period, {});
+    }
+    return seen[0];
+  };
+  PredictedArcs every_step(predictor), every_scan(predictor), odd(predictor);
+  const MovingObstacle a = arc_after(every_step, 0.2, 2.0), b = arc_after(every_scan, 0.1, 2.0);
+  EXPECT_NEAR(a.heading, b.heading, 1e-9) << "calls at 10 Hz read the same history as calls every 0.2 s";
+  EXPECT_NEAR(a.speed, b.speed, 1e-9);
+  // The last step's chord: the heading half a step (0.05 rad) behind the present one.
+  EXPECT_NEAR(angleDiff(a.heading, seen_at(2.0)[0].heading), -0.05, 0.01);
+  // Calls 0.15 s apart: the history is interpolated between them, close to the path.
+  const MovingObstacle c = arc_after(odd, 0.15, 2.1);
+  EXPECT_NEAR(angleDiff(c.heading, seen_at(2.1)[0].heading), -0.05, 0.01);
+  // A stamp earlier than the last forgets everything: as a fresh start (walked back at the present velocity, so the
+  // present heading itself).
+  std::vector<MovingObstacle> again = seen_at(0.4);
+  every_step.apply(again, {4}, 0.4, {});
+  EXPECT_NEAR(angleDiff(again[0].heading, seen_at(0.4)[0].heading), 0.0, 1e-6);
+  EXPECT_THROW(every_step.apply(again, {4}, std::nan(""), {}), PeoplePredictorError);
+}
+
 TEST(PeoplePrediction, PlannersSeeTheArcOfThePrediction) {
   // A person walking east at 1 m/s, seen at six decisions 0.2 s apart, and a chair.
   auto scene = [](int decision) {
@@ -324,7 +397,7 @@ TEST(PeoplePrediction, PlannersSeeTheArcOfThePrediction) {
     std::vector<MovingObstacle> seen;
     for (int decision = 0; decision < 6; ++decision) {
       seen = scene(decision);
-      arcs.apply(seen, {7, 3}, 0.2 * decision, 4.0);
+      arcs.apply(seen, {7, 3}, 0.2 * decision, squareRoom(4.0));
     }
     return seen;
   };
@@ -342,7 +415,7 @@ TEST(PeoplePrediction, PlannersSeeTheArcOfThePrediction) {
   PredictedArcs arcs(
       std::make_shared<const PeoplePredictor>(PeoplePredictor::load(::testing::TempDir() + "arc_zero.dqnp")));
   std::vector<MovingObstacle> two = scene(0);
-  EXPECT_THROW(arcs.apply(two, {1}, 0.0, 4.0), PeoplePredictorError);
+  EXPECT_THROW(arcs.apply(two, {1}, 0.0, squareRoom(4.0)), PeoplePredictorError);
   // The history is kept by id, as test_people_predictor.py's track_histories keeps it: the tracker says 0.5 m/s while
   // the person walks 1 m/s. Seen for the first time, it is walked back at 0.5 m/s (so the zero network predicts
   // 0.5 m/s); at the next decision its own last step says 1 m/s; not a moving track once, it starts afresh.
@@ -352,7 +425,7 @@ TEST(PeoplePrediction, PlannersSeeTheArcOfThePrediction) {
     std::vector<MovingObstacle> seen = scene(decision);
     seen[0].speed = 0.5;
     if (speeds[decision] < 0.0) seen[0].is_static = true;
-    arcs.apply(seen, {7, 3}, 0.2 * decision, 4.0);
+    arcs.apply(seen, {7, 3}, 0.2 * decision, squareRoom(4.0));
     if (speeds[decision] > 0.0) {
       EXPECT_NEAR(seen[0].speed, speeds[decision], 1e-6) << decision;
     }

@@ -41,22 +41,39 @@ def _scenes(rng):
     return scenes
 
 
-def test_the_cpp_inference_predicts_what_the_exported_network_does(tmp_path):
-    path = tmp_path / "net.dqnp"
-    net, mean, scale = _random_network(path)
-    model = pp.load(path)
-    scenes = _scenes(np.random.default_rng(5))
-    lines = [" ".join([str(len(s)), "4.0"] + [f"{v:.9f}" for v in s.ravel()]) for s in scenes]
+# The room, a slanted wall and a short one inside it (the third scene has no walls at all).
+WALLS = [np.concatenate([pp.square_room(4.0), [[-3.0, 2.5, 1.0, 3.5], [0.5, -1.0, 0.5, -2.0]]]),
+         pp.square_room(4.0), np.zeros((0, 4))]
+
+
+def _cpp_predictions(tmp_path, path, scenes):
+    lines = [" ".join([str(len(s)), str(len(w))] + [f"{v:.9f}" for v in np.concatenate([w.ravel(), s.ravel()])])
+             for s, w in zip(scenes, WALLS)]
     (tmp_path / "scenes.txt").write_text("\n".join(lines) + "\n")
     result = subprocess.run([str(built_tool("dqn_dovs_people_predict")), str(path), str(tmp_path / "scenes.txt"),
                              str(tmp_path / "out.txt")], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
-    cpp = np.array([[float(v) for v in line.split()] for line in (tmp_path / "out.txt").read_text().splitlines()])
-    expected = np.concatenate([pp.predict(model, s, 4.0).reshape(len(s), -1) for s in scenes])
+    return np.array([[float(v) for v in line.split()] for line in (tmp_path / "out.txt").read_text().splitlines()])
+
+
+def test_the_cpp_inference_predicts_what_the_exported_network_does(tmp_path):
+    path = tmp_path / "net.dqnp"
+    net, mean, scale = _random_network(path)
+    model = pp.load(path)
+    assert model["version"] == 2
+    scenes = _scenes(np.random.default_rng(5))
+    cpp = _cpp_predictions(tmp_path, path, scenes)
+    expected = np.concatenate([pp.predict(model, s, w).reshape(len(s), -1) for s, w in zip(scenes, WALLS)])
     assert cpp.shape == expected.shape == (13, 2 * pp.FUTURE)
     np.testing.assert_allclose(cpp, expected, atol=2e-5)
+    # A version 1 file (the walls along the room's axes) is still read the same way on both sides.
+    v1 = tmp_path / "v1.dqnp"
+    v1.write_bytes(b"DQNDPPv1" + path.read_bytes()[8:])
+    expected_v1 = np.concatenate([pp.predict(pp.load(v1), s, w).reshape(len(s), -1) for s, w in zip(scenes, WALLS)])
+    np.testing.assert_allclose(_cpp_predictions(tmp_path, v1, scenes), expected_v1, atol=2e-5)
+    assert np.abs(expected_v1 - expected).max() > 1e-3, "the versions read the walls differently"
     # The numpy reference is the network itself: PyTorch on the same inputs gives the same correction.
-    x, velocity, along = pp.features(scenes[2], 4.0, 0.2)
+    x, velocity, along = pp.features(scenes[2], WALLS[2], 0.2)
     with torch.no_grad():
         correction = net(torch.tensor((x - mean) / scale, dtype=torch.float32)).numpy()
     cv = np.stack([pp._to_frame(along[i], np.outer(np.arange(1, pp.FUTURE + 1) * 0.2, velocity[i])).ravel()
@@ -74,7 +91,7 @@ def test_a_zero_network_is_constant_velocity(tmp_path):
             p.zero_()
     pp.export(path, net, np.zeros(pp.input_size()), np.ones(pp.input_size()), 0.2)
     scene = _scenes(np.random.default_rng(8))[1]
-    predicted = pp.predict(pp.load(path), scene, 4.0)
+    predicted = pp.predict(pp.load(path), scene, pp.square_room(4.0))
     velocity = (scene[:, -1] - scene[:, -2]) / 0.2
     for k in range(pp.FUTURE):
         np.testing.assert_allclose(predicted[:, k], scene[:, -1] + velocity * 0.2 * (k + 1), atol=1e-9)
@@ -98,6 +115,10 @@ def test_a_short_training_run_exports_a_file_the_oracle_predicts_with(tmp_path):
     assert summary["train_samples"] > 100 and summary["valid_samples"] > 100
     for key in ("ade", "at_0.6s", "at_1s", "at_2s"):
         assert 0.0 < summary["constant_velocity"][key] < 5.0 and 0.0 < summary["learned"][key] < 5.0
+    # Per family (the folder's name up to its first '_'): here one, holding every validation sample.
+    assert list(summary["per_family"]) == ["valid"]
+    assert summary["per_family"]["valid"]["samples"] == summary["valid_samples"]
+    assert summary["per_family"]["valid"]["learned"]["at_2s"] == pytest.approx(summary["learned"]["at_2s"], rel=1e-4)
     eval_cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "oracle", "--generate", "43", "--obstacles", "5",
                 "--episodes", "2", "--threads", "1", "--world", "crowd", "--no-report"]
     ran = subprocess.run(eval_cmd + ["--oracle", f"true_future_periods=0,learned_prediction={out}",

@@ -82,11 +82,30 @@ def test_a_running_episode_finishes_in_its_own_world(core):
     ([{"world": "room"}, {"world": "crowd"}], [1.0, 0.0], "world 1: weight must be finite and positive"),
     ([{"world": "room"}, {"world": "crowd", "sensor": "sonar"}], [1.0, 1.0], "world 1: .*lidar profile 'sonar'"),
     ([{"world": "room", "planet": "mars"}], [1.0], "world 0: unknown key 'planet'"),
+    ([{"world": "crowd", "people_predictor": "/nonexistent/p.dqnp"}], [1.0],
+     "world 0: people_predictor: .*/nonexistent/p.dqnp"),
 ])
 def test_bad_mixtures_are_refused_naming_the_world(core, worlds, weights, message):
     env = core.VecEnv(1, 1)
     with pytest.raises(ValueError, match=message):
         env.set_worlds(worlds, weights)
+
+
+def test_a_world_with_a_people_predictor_gives_the_dovs_its_predicted_arcs(core):
+    """The same crowd episodes with and without the learned prediction: the states the network sees differ (a track
+    without a history is walked back at its present velocity, so even the first decisions are predicted)."""
+    predicted = dict(CROWD, people_predictor=str(ROOT / "models" / "people_predictor_tracks.dqnp"))
+    runs = []
+    for world in (CROWD, predicted):
+        env = core.VecEnv(2, 41, threads=1, world_options=world)
+        env.set_stage(4.0, 8.0, 10, 10, "both")
+        env.reset()
+        runs.append(_roll(env, 25))
+    differing = sum(a[0] != b[0] for a, b in zip(*runs))
+    assert differing >= 10, f"the predicted arcs change what the network sees ({differing} of 25 steps differ)"
+    spec = WorldSpec(world="crowd", people_predictor="models/p.dqnp")
+    assert spec.options()["people_predictor"] == "models/p.dqnp" and spec.label == "crowd/predicted"
+    assert "people_predictor" not in WorldSpec(world="crowd").options()
 
 
 def _curriculum(**extra) -> dict:

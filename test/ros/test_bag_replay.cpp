@@ -32,6 +32,7 @@ dqn_dovs::ReplayConfig loadConfig() {
   c.base_frame = dqn_dovs::param<std::string>(dovs_ns, "base_frame", "base_footprint");
   c.max_input_age_s = dqn_dovs::param<double>(dovs_ns, "max_input_age", 0.5);
   c.model_path = dqn_dovs::param<std::string>(planner_ns, "model_path", "");
+  c.people_predictor = dqn_dovs::param<std::string>(dovs_ns, "people_predictor", "");
   return c;
 }
 

@@ -187,13 +187,17 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
   struct Case {
     const char *exe, *culprit, *args;
   };
-  const std::array<Case, 12> cases = {{
+  const std::array<Case, 14> cases = {{
       {"dovs_node", "max_input_age", "_max_input_age:=0.0"},
       {"dovs_node", "v_max", "_robot/v_max:=-1.0"},
       // The shield's parameters, read by name (shieldParameterNames): the setter's and the validation's refusals.
       {"dovs_node", "action_shield/escape_window_samples", "_action_shield/escape_window_samples:=2.5"},
       {"dovs_node", "margin", "_static_safety/margin:=-1.0"},
       {"dovs_node", "action_shield/passive_escape", "_action_shield/passive_escape:=maybe"},
+      // A people predictor that cannot be read: the parameter and the file are named.
+      {"dovs_node", "people_predictor: people predictor '/nonexistent/people.dqnp': cannot be opened",
+       "_people_predictor:=/nonexistent/people.dqnp"},
+      {"dovs_node", "not a people predictor file", "_people_predictor:=" DQN_DOVS_SOURCE_DIR "/models/dqn_dovs.dqnw"},
       {"obstacle_tracker_node", "tf_timeout", "_tf_timeout:=9.0"},
       // Every tracker parameter is read by its config/tracker.yaml name; a misspelt one is named, not ignored.
       {"obstacle_tracker_node", "reacquire_speed", "_tracker/reacquire_speed:=-1.0"},

@@ -1,12 +1,18 @@
 // A learned prediction of where walking people will be over the next seconds, from what can be seen of them now:
-// each one's last second of positions, its nearest neighbours' positions and velocities, and the room's walls. A
-// small multilayer perceptron (trained by python/dqn_dovs_py/people_predictor.py on generated crowds, file format
+// each one's last second of positions, its nearest neighbours' positions and velocities, and the walls around it. A
+// small multilayer perceptron (trained by python/dqn_dovs_py/people_predictor.py on generated worlds, file format
 // below) adds its correction to a constant-velocity extrapolation. Used by the oracle's diagnostic
-// (OracleConfig::learned_prediction, docs/planners.md "What the prediction costs").
+// (OracleConfig::learned_prediction, docs/planners.md "What the prediction costs") and by the planners' predicted
+// arcs (PredictedArcs).
 //
-// File (little-endian): 8 bytes "DQNDPPv1"; uint32 history_steps, future_steps, neighbours, step_ms; uint32 layer
-// count L; per layer uint32 outputs and inputs; then float32 input mean[inputs], input scale[inputs]; then per layer
-// the weights (outputs x inputs, row-major) and the biases. Nothing may follow. Hidden layers use ReLU.
+// File (little-endian): 8 bytes "DQNDPPv2" (or "DQNDPPv1"); uint32 history_steps, future_steps, neighbours, step_ms;
+// uint32 layer count L; per layer uint32 outputs and inputs; then float32 input mean[inputs], input scale[inputs];
+// then per layer the weights (outputs x inputs, row-major) and the biases. Nothing may follow. Hidden layers use ReLU.
+// The versions differ in the last 8 inputs, the walls (any static segments: a room's, a building's, a map's):
+//   v2: the distance to the first wall along 8 rays from the person, every 45 deg from its direction of motion,
+//       kWallRayRange_m where none is nearer (any world);
+//   v1: the offset to the first wall along the fixed frame's +x, -x, +y, -y axes, in the person's frame (learned in
+//       the square room, whose walls are all it knows).
 #pragma once
 
 #include <Eigen/Dense>
@@ -15,6 +21,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dqn_dovs/common/types.h"
@@ -39,22 +46,29 @@ ArcMotion fitArc(const Vec2& from, const std::vector<Vec2>& path, double step_s,
 
 class PeoplePredictor {
  public:
+  /// The reach of a v2 file's wall rays (m).
+  static constexpr double kWallRayRange_m = 5.0;
+
   /// Throws PeoplePredictorError naming `path` and what is wrong (missing, bad magic, shapes, truncated, trailing
   /// bytes, non-finite numbers).
   static PeoplePredictor load(const std::string& path);
 
+  /// The file's layout: 1 or 2 (the wall inputs, above).
+  int version() const { return version_; }
   int historySteps() const { return history_steps_; }
   int futureSteps() const { return future_steps_; }
   int neighbours() const { return neighbours_; }
   double stepSeconds() const { return step_s_; }
-  /// Length of the input vector: 2 per history step, the speed, 5 per neighbour, 8 for the four walls.
+  /// Length of the input vector: 2 per history step, the speed, 5 per neighbour, 8 for the walls.
   int inputSize() const { return 2 * history_steps_ + 1 + 5 * neighbours_ + 8; }
 
   /// The input of person i. tracks[k] holds person k's positions at steps t - historySteps() .. t, oldest first,
-  /// stepSeconds() apart; room_half_size_m: the walls at x, y = +-h.
-  Eigen::VectorXf features(const std::vector<std::vector<Vec2>>& tracks, size_t i, double room_half_size_m) const;
-  /// Person i's positions at steps t + 1 .. t + futureSteps() (fixed frame).
-  std::vector<Vec2> predict(const std::vector<std::vector<Vec2>>& tracks, size_t i, double room_half_size_m) const;
+  /// stepSeconds() apart; walls: the static segments around, in the same frame.
+  Eigen::VectorXf features(const std::vector<std::vector<Vec2>>& tracks, size_t i,
+                           const std::vector<Segment>& walls) const;
+  /// Person i's positions at steps t + 1 .. t + futureSteps() (the tracks' frame).
+  std::vector<Vec2> predict(const std::vector<std::vector<Vec2>>& tracks, size_t i,
+                            const std::vector<Segment>& walls) const;
 
  private:
   struct Layer {
@@ -64,33 +78,35 @@ class PeoplePredictor {
   /// The frame of person i: x along its motion (its last step, else its last second), y to its left.
   void frameOf(const std::vector<Vec2>& track, Vec2& velocity, Vec2& along) const;
 
-  int history_steps_ = 0, future_steps_ = 0, neighbours_ = 0;
+  int version_ = 2, history_steps_ = 0, future_steps_ = 0, neighbours_ = 0;
   double step_s_ = 0.0;
   Eigen::VectorXf mean_, scale_;
   std::vector<Layer> layers_;
 };
 
 /// Gives the planners the learned prediction as the arcs their velocity space takes: remembers the positions of the
-/// moving obstacles at the last decisions by id, and replaces each one's (speed, heading, turn rate) with the arc that
-/// fits its predicted path (fitArc). Decisions must come PeoplePredictor::stepSeconds() apart; an obstacle seen for
-/// fewer decisions than the predictor's history is walked back at its present velocity.
+/// moving obstacles at the last calls by id and stamp, and replaces each one's (speed, heading, turn rate) with the arc
+/// that fits its predicted path (fitArc). Calls may come at any rate (a decision every control period, a tracker's
+/// every scan): the history the predictor takes, PeoplePredictor::stepSeconds() apart, is read from the positions
+/// seen at those times, interpolated between two calls, and walked back at the present velocity before the first
+/// call that saw the obstacle. An id missing from a call starts afresh; a stamp earlier than the last forgets all.
 class PredictedArcs {
  public:
   explicit PredictedArcs(std::shared_ptr<const PeoplePredictor> predictor);
   void reset();
   /// obstacles[k] carries id ids[k] (stable across decisions); those not is_static get the fitted arc. A second call
-  /// at the same stamp_s does not add to the history.
+  /// at the same stamp_s does not add to the history. walls: the static segments, in the obstacles' frame.
   void apply(std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids, double stamp_s,
-             double room_half_size_m);
+             const std::vector<Segment>& walls);
   /// The predicted positions (futureSteps() of them, stepSeconds() apart) of every obstacle not is_static, empty for
   /// the others; it keeps the history as apply() does (apply is this, then fitArc). The oracle's learned prediction.
   std::vector<std::vector<Vec2>> predictPaths(const std::vector<MovingObstacle>& obstacles, const std::vector<int>& ids,
-                                              double stamp_s, double room_half_size_m);
+                                              double stamp_s, const std::vector<Segment>& walls);
   const PeoplePredictor& predictor() const { return *predictor_; }
 
  private:
   std::shared_ptr<const PeoplePredictor> predictor_;
-  std::map<int, std::deque<Vec2>> history_;
+  std::map<int, std::deque<std::pair<double, Vec2>>> history_;  ///< by id: (stamp, position), oldest first
   double last_stamp_s_ = -1.0;
 };
 
