@@ -2,12 +2,12 @@
 # Trains the learned people predictor (docs/planners.md, "A learned prediction of the people"): generates episodes of
 # every world family with dqn_dovs_eval (the oracle drives, so episodes run to the goal and the paths are long; the
 # tracker runs in the loop and its tracks are recorded beside the true paths): crowds of 5, 10 and 15 walking people,
-# the paper's room of 5, 10 and 15 discs, and corridors, doorways, clutter and junctions of 4, 8 and 12 people; seed
-# 22601 to train on, 22602 (half as many episodes) to measure on. Then it trains and exports the predictor (+ .json
+# and corridors, doorways, clutter and junctions of 4, 8 and 12 people (the people, never the paper's discs: the
+# planners apply the prediction to people only); seed 22601 to train on, 22602 (half as many episodes) to measure on. Then it trains and exports the predictor (+ .json
 # with the validation errors, overall and per family).
 #   bash scripts/train_people_predictor.sh [OUT_DIR]     from the true paths: models/people_predictor.dqnp
 #   INPUTS=tracks bash scripts/train_people_predictor.sh  from the tracks:     models/people_predictor_tracks.dqnp
-# About 25 minutes on two cores (the episodes are kept in OUT_DIR and reused by the second run).
+# About 20 minutes on two cores (the episodes are kept in OUT_DIR and reused by the second run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-runs/people_predictor}
@@ -16,7 +16,7 @@ eval_tool=${DQN_DOVS_EVAL:-build/dqn_dovs/dqn_dovs_eval}
 model=models/people_predictor.dqnp
 [ "$inputs" = tracks ] && model=models/people_predictor_tracks.dqnp
 # family:sensor:counts:training episodes per count
-worlds="crowd:urg04lx:5,10,15:200 room:sim:5,10,15:100 corridor:urg04lx:4,8,12:80 doorway:urg04lx:4,8,12:80
+worlds="crowd:urg04lx:5,10,15:200 corridor:urg04lx:4,8,12:80 doorway:urg04lx:4,8,12:80
         clutter:urg04lx:4,8,12:80 junction:urg04lx:4,8,12:80"
 mkdir -p "$out"
 train=() valid=()

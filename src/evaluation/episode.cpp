@@ -188,19 +188,24 @@ void Episode::buildContext() {
     for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
     observation_.segments = tracker_.scene().segments;
   }
-  if (predicted_arcs_) {
+  // The learned prediction is of people: with perfect information the world's people (not the room's discs, whose
+  // constant (v, w) it only blurs), with the tracker its tracks when it pairs legs into people (every track is one).
+  if (predicted_arcs_ && (config_.perfect_info || config_.tracker.pair_legs)) {
+    std::vector<MovingObstacle> people;
     std::vector<int> ids;
-    if (config_.perfect_info) {
-      for (size_t k = 0; k < observation_.obstacles.size(); ++k) ids.push_back(static_cast<int>(k));
-    } else {
-      for (const TrackedObstacle& t : tracker_.scene().obstacles) ids.push_back(t.id);
+    const size_t first = config_.perfect_info ? world_.obstacles().size() : 0;  // truth: the discs, then the people
+    for (size_t k = first; k < observation_.obstacles.size(); ++k) {
+      people.push_back(observation_.obstacles[k]);
+      ids.push_back(config_.perfect_info ? static_cast<int>(k) : tracker_.scene().obstacles[k].id);
     }
-    // The walls as the map gives them (the world's), in the obstacles' frame: odom where odometry drifts.
+    // The walls as a map gives them (the world's, as the route planner knows them), in the obstacles' frame: odom
+    // where odometry drifts. dovs_node gives the scan's segments and, with use_map, the map's near the robot.
     std::vector<Segment> walls = world_.walls();
     if (config_.world.odometry.enabled()) {
       for (Segment& w : walls) w = {odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)};
     }
-    predicted_arcs_->apply(observation_.obstacles, ids, world_.time_s(), walls);
+    predicted_arcs_->apply(people, ids, world_.time_s(), walls);
+    std::copy(people.begin(), people.end(), observation_.obstacles.begin() + static_cast<std::ptrdiff_t>(first));
   }
   if (route_planner_) {
     // The robot's decision step: the route's subgoal, once per control period, as planner_node gives it.

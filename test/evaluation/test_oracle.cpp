@@ -441,6 +441,29 @@ TEST(PeoplePrediction, PlannersSeeTheArcOfThePrediction) {
   }
 }
 
+TEST(PeoplePrediction, EpisodesPredictPeopleNotDiscs) {
+  // Perfect information in a room with a disc and a walking person, the predictor shifting everyone 0.1 m to the left:
+  // after a few decisions the person's arc bends, the disc keeps its true (speed, turn rate).
+  const sim::Scenario s = discAndWalkingPerson();
+  auto observed = [&](const std::string& file) {
+    EpisodeConfig config;
+    config.perfect_info = true;
+    config.people_predictor = file;
+    Episode episode(config);
+    episode.reset(s, 3);
+    for (int k = 0; k < 5; ++k) episode.step(Twist2{});
+    return episode.observation().obstacles;
+  };
+  const std::vector<MovingObstacle> plain = observed(""), left = observed(writeLinearPredictor("ep_left.dqnp", 0.1f));
+  ASSERT_EQ(plain.size(), 2u);
+  ASSERT_EQ(left.size(), 2u);
+  EXPECT_EQ(left[0].speed, plain[0].speed) << "the disc is not a person";
+  EXPECT_EQ(left[0].heading, plain[0].heading);
+  EXPECT_EQ(left[0].turn_rate, plain[0].turn_rate);
+  EXPECT_GT(std::abs(angleDiff(left[1].heading, plain[1].heading)), 0.02) << "the person's arc bends to its left";
+  EXPECT_EQ(left[1].center, plain[1].center);
+}
+
 TEST(Oracle, PredictionParametersAreNamedAndChecked) {
   OracleConfig c;
   EXPECT_EQ(setOracleParameter(c, "true_future_periods", "3"), "");

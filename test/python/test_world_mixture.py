@@ -93,7 +93,8 @@ def test_bad_mixtures_are_refused_naming_the_world(core, worlds, weights, messag
 
 def test_a_world_with_a_people_predictor_gives_the_dovs_its_predicted_arcs(core):
     """The same crowd episodes with and without the learned prediction: the states the network sees differ (a track
-    without a history is walked back at its present velocity, so even the first decisions are predicted)."""
+    without a history is walked back at its present velocity, so even the first decisions are predicted); in the
+    paper's room they do not."""
     predicted = dict(CROWD, people_predictor=str(ROOT / "models" / "people_predictor_tracks.dqnp"))
     runs = []
     for world in (CROWD, predicted):
@@ -103,6 +104,14 @@ def test_a_world_with_a_people_predictor_gives_the_dovs_its_predicted_arcs(core)
         runs.append(_roll(env, 25))
     differing = sum(a[0] != b[0] for a, b in zip(*runs))
     assert differing >= 10, f"the predicted arcs change what the network sees ({differing} of 25 steps differ)"
+    # The prediction is of people: the paper's room of discs (no legs to pair) runs as without it.
+    room = []
+    for world in ({"world": "room"}, {"world": "room", "people_predictor": predicted["people_predictor"]}):
+        env = core.VecEnv(2, 41, threads=1, world_options=world)
+        env.set_stage(4.0, 8.0, 10, 10, "both")
+        env.reset()
+        room.append(_roll(env, 25))
+    assert room[0] == room[1]
     spec = WorldSpec(world="crowd", people_predictor="models/p.dqnp")
     assert spec.options()["people_predictor"] == "models/p.dqnp" and spec.label == "crowd/predicted"
     assert "people_predictor" not in WorldSpec(world="crowd").options()

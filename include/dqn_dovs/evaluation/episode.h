@@ -61,9 +61,10 @@ struct EpisodeConfig {
   double scan_period_s = 0.1;    ///< LIDAR period; must divide the control period world.robot.dt
   bool perfect_info = false;     ///< true: the planner sees the simulator's ground truth (comparison only)
   double sensor_warmup_s = 0.3;  ///< the robot senses this long, standing still, before the episode starts
-  /// A people predictor file (evaluation/people_predictor.h): the moving obstacles the planners see (tracks, or the
-  /// truth with perfect_info) move on the arc that fits their learned prediction instead of at their present
-  /// (speed, turn rate). Empty: none. A diagnostic of the worlds with people (docs/planners.md).
+  /// A people predictor file (evaluation/people_predictor.h): the people the planners see (with the tracker, its
+  /// tracks when it pairs legs into people; with perfect_info, the world's people, not the room's discs) move on the
+  /// arc that fits their learned prediction instead of at their present (speed, turn rate), among the world's walls.
+  /// Empty: none (docs/planners.md, "A learned prediction of the people").
   std::string people_predictor;
   std::string validate() const;
 };
