@@ -1,6 +1,7 @@
-// DOVS accuracy against brute force, build time, the shield's escape search and the whole decision (DOVS build,
-// actions, state, shield, network). Prints a table; writes bench/results/dovs.json.
-//   bench_dovs [--scenarios DIR] [--out FILE] [--scenes N] [--seed S] [--model FILE]
+// DOVS accuracy against brute force, build time, the shield's escape search, the whole decision (DOVS build,
+// actions, state, shield, network) and the learned people prediction's arcs (what dovs_node adds with
+// people_predictor). Prints a table; writes bench/results/dovs.json.
+//   bench_dovs [--scenarios DIR] [--out FILE] [--scenes N] [--seed S] [--model FILE] [--people-predictor FILE]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -15,6 +16,7 @@
 #include "dovs_bruteforce.h"
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/evaluation/people_predictor.h"
 #include "dqn_dovs/planning/dqn_dovs_planner.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
@@ -29,6 +31,7 @@ struct Args {
   int scenes = 1500;
   unsigned long seed = 7;
   std::string model = "models/dqn_dovs.dqnw";
+  std::string people_predictor = "models/people_predictor_tracks.dqnp";
 };
 
 Args parse(int argc, char** argv) {
@@ -52,8 +55,12 @@ Args parse(int argc, char** argv) {
       a.seed = std::strtoul(value().c_str(), nullptr, 10);
     else if (k == "--model")
       a.model = value();
+    else if (k == "--people-predictor")
+      a.people_predictor = value();
     else {
-      std::fprintf(stderr, "bench_dovs: unknown option %s (known: --scenarios --out --scenes --seed --model)\n",
+      std::fprintf(stderr,
+                   "bench_dovs: unknown option %s (known: --scenarios --out --scenes --seed --model "
+                   "--people-predictor)\n",
                    k.c_str());
       std::exit(2);
     }
@@ -199,7 +206,36 @@ int main(int argc, char** argv) {
     if (escaped) decision_escape_ms.push_back(percentile(runs, 0.5));
   }
 
+  // The learned people prediction as dovs_node applies it: every moving obstacle of a scene (its id its index) on
+  // the arc of its predicted path, at decisions 0.2 s apart while they move on (so the history fills), among the
+  // room's walls. A scene's time is the median of its last 5 of 10 decisions.
+  const PeoplePredictor predictor = PeoplePredictor::load(args.people_predictor);
+  PredictedArcs arcs(std::make_shared<const PeoplePredictor>(predictor));
+  std::vector<double> predicted_ms;
+  double predicted_people = 0.0;
+  for (const Observation& obs : timed) {
+    arcs.reset();
+    std::vector<int> ids(obs.obstacles.size());
+    for (size_t k = 0; k < ids.size(); ++k) ids[k] = static_cast<int>(k);
+    std::vector<double> runs;
+    for (int decision = 0; decision < 10; ++decision) {
+      std::vector<MovingObstacle> seen = obs.obstacles;
+      for (MovingObstacle& o : seen) {
+        if (!o.is_static) o.center += 0.2 * decision * o.speed * Vec2(std::cos(o.heading), std::sin(o.heading));
+      }
+      const auto t0 = std::chrono::steady_clock::now();
+      arcs.apply(seen, ids, 0.2 * decision, obs.segments);
+      runs.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    predicted_ms.push_back(percentile(std::vector<double>(runs.begin() + 5, runs.end()), 0.5));
+    predicted_people += static_cast<double>(std::count_if(obs.obstacles.begin(), obs.obstacles.end(),
+                                                          [](const MovingObstacle& o) { return !o.is_static; }));
+  }
+
   std::map<std::string, double> figures;
+  figures["predicted_arcs_ms_median"] = percentile(predicted_ms, 0.5);
+  figures["predicted_arcs_ms_p99"] = percentile(predicted_ms, 0.99);
+  figures["predicted_arcs_people_mean"] = predicted_people / static_cast<double>(timed.size());
   figures["decision_ms_median"] = percentile(decision_ms, 0.5);
   figures["decision_ms_p99"] = percentile(decision_ms, 0.99);
   figures["decision_ms_max"] = percentile(decision_ms, 1.0);
@@ -247,6 +283,12 @@ int main(int argc, char** argv) {
       "p99 %.3f ms, max %.3f ms; the %zu scenes where the escape ran: median %.3f ms, p99 %.3f ms\n",
       figures["decision_ms_median"], figures["decision_ms_p99"], figures["decision_ms_max"], decision_escape_ms.size(),
       figures["decision_escape_ms_median"], figures["decision_escape_ms_p99"]);
+
+  std::printf(
+      "learned people prediction's arcs (%s, %.1f moving obstacles per scene; median of the last 5 of 10 decisions): "
+      "median %.3f ms, p99 %.3f ms\n",
+      args.people_predictor.c_str(), figures["predicted_arcs_people_mean"], figures["predicted_arcs_ms_median"],
+      figures["predicted_arcs_ms_p99"]);
 
   const std::filesystem::path out(args.out);
   if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());

@@ -76,34 +76,49 @@ double firstWall(const Vec2& o, const Vec2& d, const std::vector<Segment>& walls
 
 }  // namespace
 
-ArcMotion fitArc(const Vec2& from, const std::vector<Vec2>& path, double step_s, double max_turn_rate_rps) {
+ArcFitter::ArcFitter(size_t points, double step_s, double max_turn_rate_rps) {
   // Along an arc of turn rate w from heading th: p(t) - from = v R(th) h(w, t), h = (sin(wt) / w, (1 - cos(wt)) / w).
+  const int steps = static_cast<int>(std::round(max_turn_rate_rps / 0.02));
+  for (int n = -steps; n <= steps; ++n) {
+    Shape shape;
+    shape.turn_rate_rps = 0.02 * n;
+    const double w = shape.turn_rate_rps;
+    for (size_t k = 0; k < points; ++k) {
+      const double t = step_s * static_cast<double>(k + 1);
+      const Vec2 h = std::abs(w) < 1e-9 ? Vec2(t, 0.0) : Vec2(std::sin(w * t) / w, (1.0 - std::cos(w * t)) / w);
+      shape.h.push_back(h);
+      shape.hh += h.squaredNorm();
+    }
+    shapes_.push_back(std::move(shape));
+  }
+}
+
+ArcMotion ArcFitter::fit(const Vec2& from, const std::vector<Vec2>& path) const {
   // As complex numbers d_k = v e^{i th} h_k: for a given w, z = sum conj(h_k) d_k gives th = arg z and
   // v = |z| / sum |h_k|^2, leaving sum |d_k|^2 - |z|^2 / sum |h_k|^2; the best w has the largest |z|^2 / sum |h_k|^2.
   ArcMotion best;
   double best_fit = -1.0;
-  const int steps = static_cast<int>(std::round(max_turn_rate_rps / 0.02));
-  for (int n = -steps; n <= steps; ++n) {
-    const double w = 0.02 * n;
-    double zr = 0.0, zi = 0.0, hh = 0.0;
-    for (size_t k = 0; k < path.size(); ++k) {
-      const double t = step_s * static_cast<double>(k + 1);
-      const double hx = std::abs(w) < 1e-9 ? t : std::sin(w * t) / w;
-      const double hy = std::abs(w) < 1e-9 ? 0.0 : (1.0 - std::cos(w * t)) / w;
+  for (const Shape& shape : shapes_) {
+    double zr = 0.0, zi = 0.0;
+    for (size_t k = 0; k < path.size() && k < shape.h.size(); ++k) {
       const Vec2 d = path[k] - from;
-      zr += hx * d.x() + hy * d.y();
-      zi += hx * d.y() - hy * d.x();
-      hh += hx * hx + hy * hy;
+      const Vec2& h = shape.h[k];
+      zr += h.x() * d.x() + h.y() * d.y();
+      zi += h.x() * d.y() - h.y() * d.x();
     }
-    const double fit = hh > 0.0 ? (zr * zr + zi * zi) / hh : 0.0;
+    const double fit = shape.hh > 0.0 ? (zr * zr + zi * zi) / shape.hh : 0.0;
     if (fit > best_fit) {
       best_fit = fit;
-      best.turn_rate_rps = w;
+      best.turn_rate_rps = shape.turn_rate_rps;
       best.heading_rad = std::atan2(zi, zr);
-      best.speed_mps = hh > 0.0 ? std::sqrt(zr * zr + zi * zi) / hh : 0.0;
+      best.speed_mps = shape.hh > 0.0 ? std::sqrt(zr * zr + zi * zi) / shape.hh : 0.0;
     }
   }
   return best;
+}
+
+ArcMotion fitArc(const Vec2& from, const std::vector<Vec2>& path, double step_s, double max_turn_rate_rps) {
+  return ArcFitter(path.size(), step_s, max_turn_rate_rps).fit(from, path);
 }
 
 PeoplePredictor PeoplePredictor::load(const std::string& path) {
@@ -247,9 +262,9 @@ std::vector<Vec2> PeoplePredictor::predict(const std::vector<std::vector<Vec2>>&
   return out;
 }
 
-PredictedArcs::PredictedArcs(std::shared_ptr<const PeoplePredictor> predictor) : predictor_(std::move(predictor)) {
-  if (!predictor_) throw PeoplePredictorError("predicted arcs: no predictor");
-}
+PredictedArcs::PredictedArcs(std::shared_ptr<const PeoplePredictor> predictor)
+    : predictor_(predictor ? std::move(predictor) : throw PeoplePredictorError("predicted arcs: no predictor")),
+      fitter_(static_cast<size_t>(predictor_->futureSteps()), predictor_->stepSeconds()) {}
 
 void PredictedArcs::reset() {
   history_.clear();
@@ -314,7 +329,7 @@ void PredictedArcs::apply(std::vector<MovingObstacle>& obstacles, const std::vec
   const std::vector<std::vector<Vec2>> paths = predictPaths(obstacles, ids, stamp_s, walls);
   for (size_t k = 0; k < obstacles.size(); ++k) {
     if (paths[k].empty()) continue;
-    const ArcMotion a = fitArc(obstacles[k].center, paths[k], predictor_->stepSeconds());
+    const ArcMotion a = fitter_.fit(obstacles[k].center, paths[k]);
     obstacles[k].heading = a.heading_rad;
     obstacles[k].speed = a.speed_mps;
     obstacles[k].turn_rate = a.turn_rate_rps;

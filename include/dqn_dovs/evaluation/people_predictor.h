@@ -44,6 +44,21 @@ struct ArcMotion {
 /// +-max_turn_rate_rps, searched in steps of 0.02 rad/s; for each, heading and speed in closed form.
 ArcMotion fitArc(const Vec2& from, const std::vector<Vec2>& path, double step_s, double max_turn_rate_rps = 1.5);
 
+/// fitArc for many paths of `points` points: the arcs' unit shapes are computed once (what PredictedArcs runs).
+class ArcFitter {
+ public:
+  ArcFitter(size_t points, double step_s, double max_turn_rate_rps = 1.5);
+  /// fitArc(from, path, step_s, max_turn_rate_rps); path must hold `points` points.
+  ArcMotion fit(const Vec2& from, const std::vector<Vec2>& path) const;
+
+ private:
+  struct Shape {
+    double turn_rate_rps = 0.0, hh = 0.0;
+    std::vector<Vec2> h;  ///< per point: (sin(wt) / w, (1 - cos(wt)) / w), or (t, 0) for w = 0
+  };
+  std::vector<Shape> shapes_;
+};
+
 class PeoplePredictor {
  public:
   /// The reach of a v2 file's wall rays (m).
@@ -106,6 +121,7 @@ class PredictedArcs {
 
  private:
   std::shared_ptr<const PeoplePredictor> predictor_;
+  ArcFitter fitter_;
   std::map<int, std::deque<std::pair<double, Vec2>>> history_;  ///< by id: (stamp, position), oldest first
   double last_stamp_s_ = -1.0;
 };
