@@ -66,6 +66,22 @@ inline bool waitFor(const std::function<bool()>& condition, double timeout_s, do
   return condition();
 }
 
+/// A robot standing at the odom origin at `stamp`: tf odom -> base_footprint (identity) and its odom message.
+inline void publishStandingRobot(tf2_ros::TransformBroadcaster& tf, ros::Publisher& odom, const ros::Time& stamp) {
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = "odom";
+  t.child_frame_id = "base_footprint";
+  t.transform.rotation.w = 1.0;
+  tf.sendTransform(t);
+  nav_msgs::Odometry o;
+  o.header.stamp = stamp;
+  o.header.frame_id = "odom";
+  o.child_frame_id = "base_footprint";
+  o.pose.pose.orientation.w = 1.0;
+  odom.publish(o);
+}
+
 /// main() of a rostest node.
 inline int runRostestNode(int argc, char** argv, const std::string& name) {
   ::testing::InitGoogleTest(&argc, argv);

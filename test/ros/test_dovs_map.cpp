@@ -16,6 +16,7 @@
 
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
+#include "fake_robot.h"
 
 namespace {
 
@@ -53,18 +54,7 @@ class DovsMap : public ::testing::Test {
   /// One period of the robot at the odom origin: tf, odom, an empty obstacle list (no segments from the scan).
   void publishRobot() {
     const ros::Time now = ros::Time::now();
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = now;
-    t.header.frame_id = "odom";
-    t.child_frame_id = "base_footprint";
-    t.transform.rotation.w = 1.0;
-    tf_.sendTransform(t);
-    nav_msgs::Odometry o;
-    o.header.stamp = now;
-    o.header.frame_id = "odom";
-    o.child_frame_id = "base_footprint";
-    o.pose.pose.orientation.w = 1.0;
-    odom_pub_.publish(o);
+    dqn_dovs::test::publishStandingRobot(tf_, odom_pub_, now);
     ros::WallDuration(0.02).sleep();
     dqn_dovs::TrackedObstacleArray a;
     a.header.stamp = now;
@@ -136,8 +126,4 @@ TEST_F(DovsMap, MapWallsJoinTheStaticGeometryInTheFixedFrame) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_dovs_map");
-  return RUN_ALL_TESTS();
-}
+int main(int argc, char** argv) { return dqn_dovs::test::runRostestNode(argc, argv, "test_dovs_map"); }

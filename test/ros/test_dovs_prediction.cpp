@@ -16,6 +16,7 @@
 
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
+#include "fake_robot.h"
 
 namespace {
 
@@ -36,18 +37,7 @@ class DovsPrediction : public ::testing::Test {
 
   /// One scan period at time t (s from the start): tf, odom, and the person's track.
   void publish(const ros::Time& now, double t) {
-    geometry_msgs::TransformStamped tf;
-    tf.header.stamp = now;
-    tf.header.frame_id = "odom";
-    tf.child_frame_id = "base_footprint";
-    tf.transform.rotation.w = 1.0;
-    tf_.sendTransform(tf);
-    nav_msgs::Odometry o;
-    o.header.stamp = now;
-    o.header.frame_id = "odom";
-    o.child_frame_id = "base_footprint";
-    o.pose.pose.orientation.w = 1.0;
-    odom_pub_.publish(o);
+    dqn_dovs::test::publishStandingRobot(tf_, odom_pub_, now);
     ros::WallDuration(0.02).sleep();
     // Walking at 1 m/s on a left turn of 0.6 rad/s, starting 1.2 m ahead and 1.6 m to the right, heading left.
     const double w = 0.6, speed = 1.0, heading0 = 1.2, heading = heading0 + w * t;
@@ -112,8 +102,4 @@ TEST_F(DovsPrediction, APredictedTurnReachesTheVelocitySpace) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  ros::init(argc, argv, "test_dovs_prediction");
-  return RUN_ALL_TESTS();
-}
+int main(int argc, char** argv) { return dqn_dovs::test::runRostestNode(argc, argv, "test_dovs_prediction"); }
