@@ -66,14 +66,22 @@ inline bool waitFor(const std::function<bool()>& condition, double timeout_s, do
   return condition();
 }
 
-/// A robot standing at the odom origin at `stamp`: tf odom -> base_footprint (identity) and its odom message.
-inline void publishStandingRobot(tf2_ros::TransformBroadcaster& tf, ros::Publisher& odom, const ros::Time& stamp) {
+/// The transform odom -> base_footprint of a robot at pose `p`.
+inline geometry_msgs::TransformStamped baseInOdom(const ros::Time& stamp, const Pose2& p) {
   geometry_msgs::TransformStamped t;
   t.header.stamp = stamp;
   t.header.frame_id = "odom";
   t.child_frame_id = "base_footprint";
-  t.transform.rotation.w = 1.0;
-  tf.sendTransform(t);
+  t.transform.translation.x = p.x;
+  t.transform.translation.y = p.y;
+  t.transform.rotation.z = std::sin(p.theta / 2.0);
+  t.transform.rotation.w = std::cos(p.theta / 2.0);
+  return t;
+}
+
+/// A robot standing at the odom origin at `stamp`: tf odom -> base_footprint (identity) and its odom message.
+inline void publishStandingRobot(tf2_ros::TransformBroadcaster& tf, ros::Publisher& odom, const ros::Time& stamp) {
+  tf.sendTransform(baseInOdom(stamp, Pose2{}));
   nav_msgs::Odometry o;
   o.header.stamp = stamp;
   o.header.frame_id = "odom";
@@ -317,17 +325,7 @@ class FakeRobot {
   void publishTf(const ros::Time& stamp, const Pose2& p, double now_wall) {
     std::vector<geometry_msgs::TransformStamped> tfs;
     const bool base = feed_tf;
-    if (base) {
-      geometry_msgs::TransformStamped t;
-      t.header.stamp = stamp;
-      t.header.frame_id = "odom";
-      t.child_frame_id = "base_footprint";
-      t.transform.translation.x = p.x;
-      t.transform.translation.y = p.y;
-      t.transform.rotation.z = std::sin(p.theta / 2.0);
-      t.transform.rotation.w = std::cos(p.theta / 2.0);
-      tfs.push_back(t);
-    }
+    if (base) tfs.push_back(baseInOdom(stamp, p));
     // The laser sits on the base (its scans must be placeable in the fixed frame, or they are rejected).
     geometry_msgs::TransformStamped laser;
     laser.header.stamp = stamp;
