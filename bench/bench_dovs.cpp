@@ -209,8 +209,14 @@ int main(int argc, char** argv) {
   // The learned people prediction as dovs_node applies it: every moving obstacle of a scene (its id its index) on
   // the arc of its predicted path, at decisions 0.2 s apart while they move on (so the history fills), among the
   // room's walls. A scene's time is the median of its last 5 of 10 decisions.
-  const PeoplePredictor predictor = PeoplePredictor::load(args.people_predictor);
-  PredictedArcs arcs(std::make_shared<const PeoplePredictor>(predictor));
+  std::shared_ptr<const PeoplePredictor> predictor;
+  try {
+    predictor = std::make_shared<const PeoplePredictor>(PeoplePredictor::load(args.people_predictor));
+  } catch (const PeoplePredictorError& e) {
+    std::fprintf(stderr, "bench_dovs: --people-predictor: %s\n", e.what());
+    return 2;
+  }
+  PredictedArcs arcs(predictor);
   std::vector<double> predicted_ms;
   double predicted_people = 0.0;
   for (const Observation& obs : timed) {

@@ -40,7 +40,11 @@ int main(int argc, char** argv) {
       std::istringstream row(line);
       size_t people = 0, wall_count = 0;
       row >> people >> wall_count;
-      std::vector<dqn_dovs::Segment> walls(row ? wall_count : 0);
+      if (!row || people > 1000 || wall_count > 100000) {
+        std::cerr << "dqn_dovs_people_predict: scenes line " << number << ": N or W missing or out of range\n";
+        return 1;
+      }
+      std::vector<dqn_dovs::Segment> walls(wall_count);
       for (dqn_dovs::Segment& w : walls) row >> w.a.x() >> w.a.y() >> w.b.x() >> w.b.y();
       std::vector<std::vector<dqn_dovs::Vec2>> tracks(people);
       for (auto& track : tracks) {

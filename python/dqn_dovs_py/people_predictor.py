@@ -54,8 +54,8 @@ def _frames(tracks: np.ndarray, step_s: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _to_frame(along: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """w (... x 2) in the frame whose x axis is `along` (2,)."""
-    return np.stack([along[0] * w[..., 0] + along[1] * w[..., 1], -along[1] * w[..., 0] + along[0] * w[..., 1]], -1)
+    """w (... x 2) in the frame whose x axis is `along` (2,): _rotate_into for one person."""
+    return _rotate_into(np.asarray(along)[None], np.asarray(w)[None])[0]
 
 
 def first_wall(origins: np.ndarray, directions: np.ndarray, walls: np.ndarray, reach: float) -> np.ndarray:

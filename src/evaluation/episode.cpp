@@ -173,16 +173,23 @@ void Episode::buildContext() {
   observation_.obstacles.clear();
   observation_.segments.clear();
   const Pose2 odom_from_world = world_.odomPose().compose(world_.robotPose().inverse());  // identity without drift
+  // The world's walls as the robot places them: in the odom frame where odometry drifts.
+  auto walls_in_odom = [&]() {
+    std::vector<Segment> walls = world_.walls();
+    if (config_.world.odometry.enabled()) {
+      for (Segment& w : walls) w = {odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)};
+    }
+    return walls;
+  };
   if (config_.perfect_info) {
     observation_.obstacles = world_.groundTruthObstacles();
-    observation_.segments = world_.walls();
+    observation_.segments = walls_in_odom();
     if (config_.world.odometry.enabled()) {
       // The truth seen from the odom frame (where the robot believes it is): every pose through odom <- world.
       for (MovingObstacle& o : observation_.obstacles) {
         o.center = odom_from_world.toWorld(o.center);
         o.heading = normalizeAngle(o.heading + odom_from_world.theta);
       }
-      for (Segment& w : observation_.segments) w = {odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)};
     }
   } else {
     for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
@@ -198,13 +205,10 @@ void Episode::buildContext() {
       people.push_back(observation_.obstacles[k]);
       ids.push_back(config_.perfect_info ? static_cast<int>(k) : tracker_.scene().obstacles[k].id);
     }
-    // The walls as a map gives them (the world's, as the route planner knows them), in the obstacles' frame: odom
-    // where odometry drifts. dovs_node gives the scan's segments and, with use_map, the map's near the robot.
-    std::vector<Segment> walls = world_.walls();
-    if (config_.world.odometry.enabled()) {
-      for (Segment& w : walls) w = {odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)};
-    }
-    predicted_arcs_->apply(people, ids, world_.time_s(), walls);
+    // The walls as a map gives them (the world's, as the route planner knows them; with perfect information they
+    // are the observation's). dovs_node gives the scan's segments and, with use_map, the map's near the robot.
+    predicted_arcs_->apply(people, ids, world_.time_s(),
+                           config_.perfect_info ? observation_.segments : walls_in_odom());
     std::copy(people.begin(), people.end(), observation_.obstacles.begin() + static_cast<std::ptrdiff_t>(first));
   }
   if (route_planner_) {
