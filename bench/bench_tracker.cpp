@@ -38,11 +38,13 @@
 // --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000);
 // --families LIST (comma-separated) picks the people part's families (default: every family but the room; `room` adds
 // the paper's world generated with 10 discs, pair_legs off, the robot driving, rows people_room_<sensor>_*: a
-// check on the paper's world with seeds of its own); --tracker NAME=VALUE (repeatable) sets a tracker parameter by its
+// check on the paper's world with seeds of its own); every family but the room runs again with the map a robot would
+// have (its walls and furniture, KnownStructure) given to the tracker, rows people_<family>_<sensor>_map_*, unless
+// --no-map; --tracker NAME=VALUE (repeatable) sets a tracker parameter by its
 // config/tracker.yaml name in both parts.
 //
 // Usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only PART]
-//                      [--people-seed B] [--families LIST] [--tracker NAME=VALUE]...
+//                      [--people-seed B] [--families LIST] [--no-map] [--tracker NAME=VALUE]...
 #include <sys/stat.h>
 #include <time.h>
 
@@ -145,7 +147,7 @@ struct PeopleRun {
 };
 
 PeopleRun trackPeople(const std::string& family, const std::string& sensor, int worlds, double duration_s,
-                      uint64_t seed_base, const TrackerConfig& base) {
+                      uint64_t seed_base, const TrackerConfig& base, bool with_map) {
   sim::WorldFamilyConfig f;
   f.family = sim::parseWorldFamily(family);
   f.people = 10;
@@ -164,15 +166,34 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
     tracker_config.range_noise_m = config.lidar.noise_std_m;
     tracker_config.range_noise_fraction = config.lidar.noise_std_fraction;
     ObstacleTracker tracker(tracker_config);
+    // The map a robot would have: the walls and the furniture (the clutter's chairs), not the people; the tracker
+    // works in the world's frame here, so the map's frame is its fixed frame.
+    std::vector<Circle> furniture;
+    for (const MovingObstacle& o : scenario.obstacles) {
+      if (o.is_static) furniture.push_back({o.center, o.radius});
+    }
+    const KnownStructure known(world.walls(), furniture, tracker_config.map_tolerance_m);
+    const MapStructureView map{with_map ? &known : nullptr, Pose2{}};
     evaluator.beginEpisode();
     std::vector<int> visible_streak(world.groundTruthObstacles().size(), 0);
     Vec2 goal = scenario.goal;
     LaserScan2 scan;
     for (double t = 0.0; t <= duration_s + 1e-9; t += period) {
       world.scanInto(scan);
-      const TrackerResult result = tracker.update(scan, world.laserPose());
-      const std::vector<MovingObstacle> truths = world.groundTruthObstacles();
-      const std::vector<bool> see = shouldSee(world, truths, visible_streak);
+      const TrackerResult result = tracker.update(scan, world.laserPose(), map);
+      std::vector<MovingObstacle> truths = world.groundTruthObstacles();
+      std::vector<bool> see = shouldSee(world, truths, visible_streak);
+      if (with_map) {
+        // The map's furniture is structure, not an obstacle to track: only the people are.
+        size_t kept = 0;
+        for (size_t i = 0; i < truths.size(); ++i) {
+          if (truths[i].is_static) continue;
+          truths[kept] = truths[i];
+          see[kept++] = see[i];
+        }
+        truths.resize(kept);
+        see.resize(kept);
+      }
       const std::vector<int> matched = evaluator.addScan(result.scene, truths, see, period);
       std::vector<bool> used(result.scene.obstacles.size(), false);
       for (int m : matched) {
@@ -181,12 +202,12 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
       for (size_t j = 0; j < result.scene.obstacles.size(); ++j) {
         const TrackedObstacle& o = result.scene.obstacles[j];
         if (used[j] || o.speed < 0.1) continue;
-        for (const Segment& w : world.walls()) {
-          if (pointSegmentDistance(o.center, w) < 0.3) {
-            ++wall_moving;
-            break;
-          }
-        }
+        const bool on_wall = std::any_of(world.walls().begin(), world.walls().end(),
+                                         [&](const Segment& w) { return pointSegmentDistance(o.center, w) < 0.3; });
+        const bool on_furniture = std::any_of(furniture.begin(), furniture.end(), [&](const Circle& c) {
+          return (o.center - c.center).norm() - c.radius < 0.3;
+        });
+        if (on_wall || on_furniture) ++wall_moving;
       }
       ++scans;
       if (drives && (goal - world.robotPose().position()).norm() < 0.4) {
@@ -207,6 +228,7 @@ int main(int argc, char** argv) {
   double duration_s = 20.0;
   std::string only;
   uint64_t people_seed = 12000;
+  bool map_rows = true;
   std::vector<std::string> families;
   for (const std::string& f : sim::worldFamilyNames()) {
     if (f != "room") families.push_back(f);
@@ -214,9 +236,13 @@ int main(int argc, char** argv) {
   TrackerConfig tracker_config;
   const char* usage =
       "usage: bench_tracker [--scenarios DIR] [--out FILE] [--episodes K] [--duration S] [--only original|people] "
-      "[--people-seed B] [--families LIST] [--tracker NAME=VALUE]...\n";
+      "[--people-seed B] [--families LIST] [--no-map] [--tracker NAME=VALUE]...\n";
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
+    if (arg == "--no-map") {
+      map_rows = false;
+      continue;
+    }
     if ((arg == "--scenarios" || arg == "--out" || arg == "--episodes" || arg == "--duration" || arg == "--only" ||
          arg == "--people-seed" || arg == "--families" || arg == "--tracker") &&
         i + 1 < argc) {
@@ -343,37 +369,40 @@ int main(int argc, char** argv) {
   for (const std::string& family : families) {
     if (only == "original") break;
     for (const std::string sensor : {"sim", "urg04lx"}) {
-      PeopleRun r;
-      try {
-        r = trackPeople(family, sensor, episodes, duration_s, people_seed, tracker_config);
-      } catch (const std::exception& e) {
-        std::cerr << "bench_tracker: people in " << family << " with " << sensor << ": " << e.what() << "\n";
-        return 1;
+      for (const bool with_map : {false, true}) {
+        if (with_map && (!map_rows || family == "room")) continue;
+        PeopleRun r;
+        try {
+          r = trackPeople(family, sensor, episodes, duration_s, people_seed, tracker_config, with_map);
+        } catch (const std::exception& e) {
+          std::cerr << "bench_tracker: people in " << family << " with " << sensor << ": " << e.what() << "\n";
+          return 1;
+        }
+        const std::string key = "people_" + family + "_" + sensor + (with_map ? "_map_" : "_");
+        figures[key + "pos_rmse_m"] = r.summary.pos_rmse_m;
+        figures[key + "speed_rmse_mps"] = r.summary.speed_rmse_mps;
+        figures[key + "id_switches_per_min"] = r.summary.id_switches_per_min;
+        // The share of the switches that came after the person went unmatched (lost, then found under a new id).
+        figures[key + "id_switches_after_gap_per_min"] =
+            r.summary.id_switches == 0
+                ? 0.0
+                : r.summary.id_switches_per_min * static_cast<double>(r.summary.id_switches_after_gap) /
+                      static_cast<double>(r.summary.id_switches);
+        figures[key + "speed_abs_err_median_mps"] = r.summary.speed_abs_err_median_mps;
+        figures[key + "static_speed_mps_p95"] = r.summary.static_speed_mps_p95;
+        figures[key + "wall_moving_tracks_per_scan"] = r.wall_moving_tracks_per_scan;
+        figures[key + "false_tracks_per_scan"] = r.summary.false_tracks_per_scan;
+        figures[key + "missed_rate"] = r.summary.missed_rate;
+        figures[key + "heading_err_deg_median"] = r.summary.heading_err_deg_median;
+        // Where the centre and speed errors come from: tracks younger than 1 s, tracks measured at this scan,
+        // tracks coasting without a measurement (docs/tracker.md, "Metrics").
+        figures[key + "pos_rmse_young_m"] = r.summary.pos_rmse_young_m;
+        figures[key + "pos_rmse_observed_m"] = r.summary.pos_rmse_observed_m;
+        figures[key + "pos_rmse_coasting_m"] = r.summary.pos_rmse_coasting_m;
+        figures[key + "speed_rmse_observed_mps"] = r.summary.speed_rmse_observed_mps;
+        figures[key + "speed_rmse_coasting_mps"] = r.summary.speed_rmse_coasting_mps;
+        figures[key + "coasting_pair_fraction"] = r.summary.coasting_pair_fraction;
       }
-      const std::string key = "people_" + family + "_" + sensor + "_";
-      figures[key + "pos_rmse_m"] = r.summary.pos_rmse_m;
-      figures[key + "speed_rmse_mps"] = r.summary.speed_rmse_mps;
-      figures[key + "id_switches_per_min"] = r.summary.id_switches_per_min;
-      // The share of the switches that came after the person went unmatched (lost, then found under a new id).
-      figures[key + "id_switches_after_gap_per_min"] = r.summary.id_switches == 0
-                                                           ? 0.0
-                                                           : r.summary.id_switches_per_min *
-                                                                 static_cast<double>(r.summary.id_switches_after_gap) /
-                                                                 static_cast<double>(r.summary.id_switches);
-      figures[key + "speed_abs_err_median_mps"] = r.summary.speed_abs_err_median_mps;
-      figures[key + "static_speed_mps_p95"] = r.summary.static_speed_mps_p95;
-      figures[key + "wall_moving_tracks_per_scan"] = r.wall_moving_tracks_per_scan;
-      figures[key + "false_tracks_per_scan"] = r.summary.false_tracks_per_scan;
-      figures[key + "missed_rate"] = r.summary.missed_rate;
-      figures[key + "heading_err_deg_median"] = r.summary.heading_err_deg_median;
-      // Where the centre and speed errors come from: tracks younger than 1 s, tracks measured at this scan,
-      // tracks coasting without a measurement (docs/tracker.md, "Metrics").
-      figures[key + "pos_rmse_young_m"] = r.summary.pos_rmse_young_m;
-      figures[key + "pos_rmse_observed_m"] = r.summary.pos_rmse_observed_m;
-      figures[key + "pos_rmse_coasting_m"] = r.summary.pos_rmse_coasting_m;
-      figures[key + "speed_rmse_observed_mps"] = r.summary.speed_rmse_observed_mps;
-      figures[key + "speed_rmse_coasting_mps"] = r.summary.speed_rmse_coasting_mps;
-      figures[key + "coasting_pair_fraction"] = r.summary.coasting_pair_fraction;
     }
   }
   std::map<std::string, std::string> targets{{"pos_rmse_m", "<= 0.05"},           {"speed_rmse_mps", "<= 0.10"},

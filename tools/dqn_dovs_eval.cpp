@@ -33,7 +33,7 @@ using dqn_dovs::EvalConfig;
 const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--predict-people F]\n"
-    "                     [--threads N] [--out DIR]\n"
+    "                     [--tracker-map] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
@@ -49,6 +49,8 @@ const char* kUsage =
     "  --perfect-info      planners see the simulator's ground truth instead of the tracker's output\n"
     "  --predict-people F  the moving obstacles the planners see move on the arc that fits a learned\n"
     "                      prediction (a people predictor file, models/people_predictor.dqnp; a diagnostic)\n"
+    "  --tracker-map       the tracker is given the map a robot would have (walls and furniture, not people)\n"
+    "                      placed by a perfect localisation; what lies on it is never tracked\n"
     "  --threads N         worker threads (default 1); results do not depend on it\n"
     "  --out DIR           output folder (default eval_results)\n"
     "  --model PATH        weight file of dqn_dovs (default models/dqn_dovs.dqnw)\n"
@@ -200,6 +202,8 @@ Options parse(int argc, char** argv) {
       o.eval.episode.perfect_info = true;
     } else if (flag == "--predict-people") {
       o.eval.episode.people_predictor = value();
+    } else if (flag == "--tracker-map") {
+      o.eval.episode.tracker_map = true;
     } else if (flag == "--threads") {
       o.eval.threads = static_cast<int>(parseInt(flag, value(), 1, 256));
     } else if (flag == "--out") {

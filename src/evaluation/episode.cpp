@@ -52,6 +52,7 @@ std::string EpisodeConfig::validate() const {
     return os.str();
   }
   if (!(sensor_warmup_s >= 0.0 && sensor_warmup_s <= 5.0)) return "sensor_warmup_s must be in [0, 5] s";
+  if (tracker_map && perfect_info) return "tracker_map gives the tracker a map; with perfect_info there is no tracker";
   return {};
 }
 
@@ -141,6 +142,14 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   start_time_s_ = world_.time_s();
   // The goal is given now: a world with walls gets its route (the room of the paper none, as before).
   if (config_.route.enabled && !scenario.static_segments.empty()) planRoute();
+  known_structure_.reset();
+  if (config_.tracker_map && !config_.perfect_info) {
+    std::vector<Circle> furniture;
+    for (const MovingObstacle& o : world_.scenario().obstacles) {
+      if (o.is_static) furniture.push_back({o.center, o.radius});
+    }
+    known_structure_ = std::make_unique<KnownStructure>(world_.walls(), furniture, config_.tracker.map_tolerance_m);
+  }
   min_clearance_m_ = world_.minClearance_m();
   trajectory_.push_back(world_.robotPose());
   if (world_.collided()) {
@@ -157,7 +166,13 @@ void Episode::sense() {
   const Pose2 laser =
       config_.world.odometry.enabled() ? world_.odomPose().compose(config_.world.lidar.mount) : world_.laserPose();
   scan_laser_ = laser;
-  const TrackerResult result = tracker_.update(scan_, laser);
+  // The map is in the world's frame; a perfect localisation places the odom frame in it.
+  MapStructureView map;
+  if (known_structure_) {
+    map.structure = known_structure_.get();
+    if (config_.world.odometry.enabled()) map.fixed_in_map = world_.robotPose().compose(world_.odomPose().inverse());
+  }
+  const TrackerResult result = tracker_.update(scan_, laser, map);
   if (result.status == TrackerStatus::kRejected) {
     throw std::runtime_error("episode: the tracker rejected a simulated scan: " + result.message);
   }

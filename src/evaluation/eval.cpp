@@ -392,6 +392,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"odom_noise\": " << jsonString(config.odom_noise) << ",\n  \"route\": " << jsonString(config.route)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"people_predictor\": " << jsonString(config.episode.people_predictor)
+      << ",\n  \"tracker_map\": " << (config.episode.tracker_map ? "true" : "false")
       << ",\n  \"step_s\": " << jsonNumber(config.episode.world.robot.dt)
       << ",\n  \"max_steps\": " << config.episode.reward.max_steps << ",\n  \"wall_s\": " << jsonNumber(info.wall_s)
       << ",\n  \"threads\": " << config.threads << ",\n  \"methods\": [";

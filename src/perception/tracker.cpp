@@ -69,6 +69,7 @@ std::string TrackerConfig::validate() const {
   if (!positive(lone_leg_std_m)) return badField("lone_leg_std_m", lone_leg_std_m, "must be > 0 (m)");
   if (!nonNegative(structure_line_extension_m))
     return badField("structure_line_extension_m", structure_line_extension_m, "must be >= 0 (m); 0 disables");
+  if (!nonNegative(map_tolerance_m)) return badField("map_tolerance_m", map_tolerance_m, "must be >= 0 (m)");
   if (!positive(measurement_noise_m)) return badField("measurement_noise_m", measurement_noise_m, "must be > 0 (m)");
   if (!nonNegative(outlier_sigma)) return badField("outlier_sigma", outlier_sigma, "must be >= 0; 0 disables");
   if (!positive(accel_noise_mps2)) return badField("accel_noise_mps2", accel_noise_mps2, "must be > 0 (m/s^2)");
@@ -157,6 +158,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"structure_min_scans", nullptr, &TrackerConfig::structure_min_scans},
       {"structure_max_fraction", &TrackerConfig::structure_max_fraction},
       {"structure_line_extension", &TrackerConfig::structure_line_extension_m},
+      {"map_tolerance", &TrackerConfig::map_tolerance_m},
       {"measurement_noise", &TrackerConfig::measurement_noise_m},
       {"outlier_sigma", &TrackerConfig::outlier_sigma},
       {"accel_noise", &TrackerConfig::accel_noise_mps2},
@@ -244,7 +246,7 @@ void ObstacleTracker::reset() {
   last_stamp_s_ = 0.0;
 }
 
-TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser_pose) {
+TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser_pose, const MapStructureView& map) {
   TrackerResult result;
   auto reject = [&](const std::string& why) {
     result.status = TrackerStatus::kRejected;
@@ -277,7 +279,8 @@ TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser
   }
 
   if (config_.structure_memory_s > 0.0) structure_.expire(scan.stamp_s);
-  detections_ = detectObstacles(scan, laser_pose, config_, config_.structure_memory_s > 0.0 ? &structure_ : nullptr);
+  detections_ = detectObstacles(scan, laser_pose, config_, config_.structure_memory_s > 0.0 ? &structure_ : nullptr,
+                                map.fixed_in_map.isFinite() ? map : MapStructureView{});
   result.ignored_beams = detections_.ignored_beams;
   predictTracks(scan.stamp_s);
   associateAndUpdate(detections_, scan.stamp_s);

@@ -314,7 +314,7 @@ std::string checkScan(const LaserScan2& scan) {
 }
 
 ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config,
-                               StaticMap* structure) {
+                               StaticMap* structure, const MapStructureView& map) {
   ScanDetections out;
   out.stamp_s = scan.stamp_s;
   const size_t n = scan.ranges.size();
@@ -385,6 +385,12 @@ ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, 
     for (size_t k : cluster) pts.push_back(laser_pose.toWorld(beams[k].local));
     classifyCluster(pts, laser_xy, config, out);
   }
+  // What a map gives as walls and furniture is structure whatever the memory says.
+  auto onMap = [&](const CircleDetection& d) {
+    return map.structure != nullptr &&
+           map.structure->fraction(d.points, map.fixed_in_map) >= config.structure_max_fraction;
+  };
+  std::vector<Segment> walls;
   if (structure != nullptr) {
     // Only long straight pieces teach the memory: a short flat piece may be a still person's legs.
     for (const Segment& s : out.segments) {
@@ -392,40 +398,50 @@ ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, 
     }
     // Pieces of known walls (seen between people, at grazing angles, broken by missing returns) are wall, and so
     // are pieces on the line of a long wall of this scan, just beyond its end (the rest of that wall, farther).
-    std::vector<Segment> walls;
     for (const Segment& s : out.segments) {
       if (s.length() >= config.segment_min_length_m) walls.push_back(s);
     }
-    auto onWallLine = [&](const CircleDetection& d) {
-      const double extension = config.structure_line_extension_m;
-      if (extension <= 0.0) return false;
-      for (const Segment& w : walls) {
-        const Vec2 u = (w.b - w.a) / w.length();
-        // Along the wall's line, up to `extension` beyond its ends; across it, nine in ten returns within 3 sigma
-        // of the range noise (a leg beside the wall has none there).
-        size_t near = 0;
-        bool beside = true;
-        for (const Vec2& p : d.points) {
-          const Vec2 rel = p - w.a;
-          const double along = rel.dot(u);
-          if (along < -extension || along > w.length() + extension) {
-            beside = false;
-            break;
-          }
-          const double across = std::abs(rel.x() * u.y() - rel.y() * u.x());
-          if (across <= std::max(0.03, 3.0 * config.rangeNoise_m((p - laser_xy).norm()))) ++near;
+  }
+  auto onMemory = [&](const CircleDetection& d) {
+    if (structure == nullptr) return false;
+    if (structure->structureFraction(d.points, config.structure_min_scans) >= config.structure_max_fraction)
+      return true;
+    const double extension = config.structure_line_extension_m;
+    if (extension <= 0.0) return false;
+    for (const Segment& w : walls) {
+      const Vec2 u = (w.b - w.a) / w.length();
+      // Along the wall's line, up to `extension` beyond its ends; across it, nine in ten returns within 3 sigma
+      // of the range noise (a leg beside the wall has none there).
+      size_t near = 0;
+      bool beside = true;
+      for (const Vec2& p : d.points) {
+        const Vec2 rel = p - w.a;
+        const double along = rel.dot(u);
+        if (along < -extension || along > w.length() + extension) {
+          beside = false;
+          break;
         }
-        if (beside && 10 * near >= 9 * d.points.size()) return true;
+        const double across = std::abs(rel.x() * u.y() - rel.y() * u.x());
+        if (across <= std::max(0.03, 3.0 * config.rangeNoise_m((p - laser_xy).norm()))) ++near;
       }
-      return false;
-    };
+      if (beside && 10 * near >= 9 * d.points.size()) return true;
+    }
+    return false;
+  };
+  if (structure != nullptr || map.structure != nullptr) {
     std::vector<CircleDetection> kept;
     kept.reserve(out.circles.size());
     for (CircleDetection& d : out.circles) {
-      if (d.points.size() >= 2 &&
-          (structure->structureFraction(d.points, config.structure_min_scans) >= config.structure_max_fraction ||
-           onWallLine(d))) {
-        out.segments.push_back({d.points.front(), d.points.back()});
+      if (d.points.size() >= 2 && (onMap(d) || onMemory(d))) {
+        // Its outline as a polyline of its returns (a chord would lie behind a chair's near side by up to its
+        // radius), points closer than kOutlineStep_m to the last one kept skipped.
+        constexpr double kOutlineStep_m = 0.05;
+        Vec2 from = d.points.front();
+        for (size_t k = 1; k < d.points.size(); ++k) {
+          if (k + 1 < d.points.size() && (d.points[k] - from).norm() < kOutlineStep_m) continue;
+          out.segments.push_back({from, d.points[k]});
+          from = d.points[k];
+        }
       } else {
         kept.push_back(std::move(d));
       }

@@ -7,6 +7,7 @@
 
 #include "conversions.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
+#include "dqn_dovs/sim/map.h"
 #include "pipeline_steps.h"
 #include "ros_params.h"
 
@@ -38,12 +39,58 @@ ObstacleTrackerNode::ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh
   if (fixed_frame_.empty()) throw ParameterError("parameter '" + pnh_.resolveName("fixed_frame") + "' is empty");
   tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.1, 0.0, 2.0);
   publish_markers_ = param<bool>(pnh_, "publish_markers", true);
+  use_map_ = param<bool>(pnh_, "use_map", false);
+  map_unknown_is_occupied_ = param<bool>(pnh_, "map_unknown_is_occupied", false);
   tracker_ = std::make_unique<ObstacleTracker>(loadTrackerConfig(pnh_));
 
   obstacles_pub_ = nh_.advertise<TrackedObstacleArray>("obstacles", 5);
   markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("obstacles/markers", 5);
   scan_sub_ = nh_.subscribe("scan", 5, &ObstacleTrackerNode::onScan, this, ros::TransportHints().tcpNoDelay());
-  ROS_INFO("obstacle_tracker: tracking in frame '%s'", fixed_frame_.c_str());
+  if (use_map_) map_sub_ = nh_.subscribe("map", 1, &ObstacleTrackerNode::onMap, this);
+  ROS_INFO("obstacle_tracker: tracking in frame '%s'%s", fixed_frame_.c_str(),
+           use_map_ ? "; what the map shows is never tracked" : "");
+}
+
+void ObstacleTrackerNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
+  sim::OccupancyMap grid;
+  std::string error = occupancyMapFromMsg(*msg, grid);
+  if (error.empty() && msg->header.frame_id.empty()) error = "the map has no frame_id";
+  std::unique_ptr<KnownStructure> structure;
+  if (error.empty()) {
+    try {
+      structure = std::make_unique<KnownStructure>(sim::mapSegments(grid, map_unknown_is_occupied_),
+                                                   std::vector<Circle>{}, tracker_->config().map_tolerance_m);
+    } catch (const std::invalid_argument& e) {
+      error = e.what();
+    }
+  }
+  if (!error.empty()) {
+    ROS_ERROR("obstacle_tracker: map ignored (the previous one, if any, is kept): %s", error.c_str());
+    return;
+  }
+  map_ = std::move(structure);
+  map_frame_ = msg->header.frame_id;
+  ROS_INFO("obstacle_tracker: map of %d x %d cells at %.3f m in '%s': what it shows is never tracked", grid.width,
+           grid.height, grid.resolution_m, map_frame_.c_str());
+}
+
+MapStructureView ObstacleTrackerNode::mapView(const ros::Time& stamp) {
+  if (!map_) return {};
+  geometry_msgs::TransformStamped tf;
+  try {
+    tf = tf_waiter_.lookup(map_frame_, fixed_frame_, stamp, tf_timeout_s_);
+  } catch (const tf2::TransformException& e) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: map left out: no transform %s <- %s at the scan time: %s",
+                      map_frame_.c_str(), fixed_frame_.c_str(), e.what());
+    return {};
+  }
+  Pose2 fixed_in_map;
+  if (!poseFromTransform(tf.transform, fixed_in_map)) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: map left out: the %s <- %s transform has NaN/inf", map_frame_.c_str(),
+                      fixed_frame_.c_str());
+    return {};
+  }
+  return {map_.get(), fixed_in_map};
 }
 
 void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
@@ -75,7 +122,8 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
 
   TrackedObstacleArray out;
   std::string reset_note;
-  const std::string rejected = trackScan(*tracker_, scan, laser_pose, msg->header.stamp, fixed_frame_, out, reset_note);
+  const std::string rejected = trackScan(*tracker_, scan, laser_pose, msg->header.stamp, fixed_frame_, out, reset_note,
+                                         mapView(msg->header.stamp));
   if (!rejected.empty()) {
     ROS_WARN_THROTTLE(2.0, "obstacle_tracker: scan rejected: %s", rejected.c_str());
     return;

@@ -1,6 +1,7 @@
 // ROS wrapper of the ObstacleTracker: LaserScan + tf -> TrackedObstacleArray (+ rviz markers).
 #pragma once
 
+#include <nav_msgs/OccupancyGrid.h>
 #include <ros/ros.h>
 #include <sensor_msgs/LaserScan.h>
 #include <tf2_ros/buffer.h>
@@ -21,17 +22,24 @@ class ObstacleTrackerNode {
 
  private:
   void onScan(const sensor_msgs::LaserScan::ConstPtr& msg);
+  void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg);
+  /// The map as this scan sees it: empty without a map or without the map -> fixed_frame transform at `stamp`.
+  MapStructureView mapView(const ros::Time& stamp);
 
   ros::NodeHandle nh_, pnh_;
   std::string fixed_frame_;
   double tf_timeout_s_ = 0.1;
   bool publish_markers_ = true;
+  bool use_map_ = false;
+  bool map_unknown_is_occupied_ = false;
+  std::unique_ptr<KnownStructure> map_;  // the last map received, in map_frame_
+  std::string map_frame_;
   std::unique_ptr<ObstacleTracker> tracker_;
   tf2_ros::Buffer tf_buffer_;
   // The waiter before the listener: the listener's thread, which calls the waiter, stops first.
   TransformWaiter tf_waiter_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber scan_sub_;
+  ros::Subscriber scan_sub_, map_sub_;
   ros::Publisher obstacles_pub_, markers_pub_;
   ros::Time last_stamp_;
 };

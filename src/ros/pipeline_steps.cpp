@@ -9,9 +9,10 @@
 namespace dqn_dovs {
 
 std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
-                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note) {
+                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note,
+                      const MapStructureView& map) {
   reset_note.clear();
-  const TrackerResult result = tracker.update(scan, laser_pose);
+  const TrackerResult result = tracker.update(scan, laser_pose, map);
   if (result.status == TrackerStatus::kRejected) return result.message.empty() ? "rejected" : result.message;
   if (result.status == TrackerStatus::kReset) reset_note = result.message;
   out = trackedSceneToMsg(result.scene);

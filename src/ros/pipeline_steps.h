@@ -24,9 +24,11 @@ namespace dqn_dovs {
 /// obstacle_tracker_node's step after the scan check and the laser pose lookup: one tracker update.
 /// Returns why the scan was not used (the tracks are untouched, nothing is published), else "" with `out`
 /// filled (stamp = the scan's, frame = fixed_frame). `reset_note` gets the reason when the tracks were
-/// dropped first (time went backwards or jumped), else it is cleared.
+/// dropped first (time went backwards or jumped), else it is cleared. `map`: the map's structure as this scan sees
+/// it (ObstacleTracker::update), none by default.
 std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
-                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note);
+                      const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note,
+                      const MapStructureView& map = {});
 
 /// Everything dovs_node derives from one obstacles message.
 struct DovsStep {

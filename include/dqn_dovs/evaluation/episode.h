@@ -66,6 +66,10 @@ struct EpisodeConfig {
   /// arc that fits their learned prediction instead of at their present (speed, turn rate), among the world's walls.
   /// Empty: none (docs/planners.md, "A learned prediction of the people").
   std::string people_predictor;
+  /// The tracker is given the map a robot would have (the world's walls and furniture, static discs included, not
+  /// the people), placed by a perfect localisation: what lies on it is never tracked (KnownStructure). With the
+  /// tracker only.
+  bool tracker_map = false;
   std::string validate() const;
 };
 
@@ -150,7 +154,8 @@ class Episode {
   EpisodeConfig config_;
   sim::World world_;
   ObstacleTracker tracker_;
-  std::unique_ptr<PredictedArcs> predicted_arcs_;  ///< EpisodeConfig::people_predictor
+  std::unique_ptr<PredictedArcs> predicted_arcs_;    ///< EpisodeConfig::people_predictor
+  std::unique_ptr<KnownStructure> known_structure_;  ///< EpisodeConfig::tracker_map, in the world's frame
   DovsBuilder dovs_builder_;
   StateNormalization normalization_;
   LaserScan2 scan_;

@@ -13,6 +13,7 @@
 #include "dqn_dovs/common/geometry.h"
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/perception/ctrv_ekf.h"
+#include "dqn_dovs/perception/known_structure.h"
 #include "dqn_dovs/perception/static_map.h"
 
 namespace dqn_dovs {
@@ -104,6 +105,10 @@ struct TrackerConfig {
   /// range noise, at least 3 cm) and at most this far beyond its ends is the rest of that wall (m): a wall running away
   /// from the laser breaks into pieces near the end of the range. 0 disables.
   double structure_line_extension_m = 2.0;
+  /// With a map (ObstacleTracker::update's `map`): how far from its walls and furniture a return still lies on
+  /// them (m; KnownStructure): the map's and the localisation's error plus the scanner's noise. A detection with at
+  /// least structure_max_fraction of its returns on the map's structure is structure, never tracked.
+  double map_tolerance_m = 0.1;
 
   // --- filter -------------------------------------------------------------------------------------------
   /// Standard deviation of a detected centre, each axis (m).
@@ -273,9 +278,10 @@ class StaticMap;
 
 /// Clustering and classification of one scan seen from `laser_pose` (fixed frame). Assumes checkScan
 /// passed; invalid beams are skipped. With `structure`, the scan's wall pieces are added to it first, then
-/// circle detections lying on structure (TrackerConfig::structure_*) become segments; legs are paired last.
+/// circle detections lying on structure (TrackerConfig::structure_*) become segments; so do those lying on a
+/// map's structure when `map` holds one; legs are paired last.
 ScanDetections detectObstacles(const LaserScan2& scan, const Pose2& laser_pose, const TrackerConfig& config,
-                               StaticMap* structure = nullptr);
+                               StaticMap* structure = nullptr, const MapStructureView& map = {});
 
 /// How one update went.
 enum class TrackerStatus {
@@ -302,8 +308,10 @@ class ObstacleTracker {
   explicit ObstacleTracker(const TrackerConfig& config);
 
   /// Processes one scan. laser_pose: pose of the laser in the fixed frame at scan.stamp_s (so the robot's
-  /// own motion never appears as obstacle motion). Never throws on bad data: see TrackerResult.
-  TrackerResult update(const LaserScan2& scan, const Pose2& laser_pose);
+  /// own motion never appears as obstacle motion). `map`, when it holds a structure: the walls and furniture a
+  /// map gives, and where the fixed frame lies in it at this scan; what lies on them is never tracked
+  /// (KnownStructure). Never throws on bad data: see TrackerResult (a non-finite map pose leaves the map out).
+  TrackerResult update(const LaserScan2& scan, const Pose2& laser_pose, const MapStructureView& map = {});
 
   /// Drops every track and forgets the last stamp. Track ids keep increasing (an id is never reused).
   void reset();
