@@ -20,8 +20,11 @@
 # 0.9, clutter 0.9, junction 1.3 and doorway 3.5 CPU-s; at N = 5 / 15 junction 2.2 / 5.0, doorway 2.8 / 4.2,
 # corridor 0.8 / 0.8, clutter 0.3 / 0.6. So a doorway or junction run takes up to 2 min, the others under 40 s.
 # ORACLE=0 leaves it out (about 3 min).
+# The planners see people as the robot's pipeline shows them where legs are paired (every family but the room): moving
+# on the arc of the learned people prediction (dqn_dovs_eval --predict-people; launch/pipeline.launch's default).
 # Environment: EPISODES (50 per run and method), THREADS (2), ORACLE (1: with oracle; 0: dqn_dovs and s_dovs only),
-# MODEL (models/dqn_dovs.dqnw), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval), OUT_DIR
+# MODEL (models/dqn_dovs.dqnw), PEOPLE_PREDICTOR (models/people_predictor_tracks.dqnp; empty: none), DQN_DOVS_EVAL
+# (default install/lib/dqn_dovs/dqn_dovs_eval), OUT_DIR
 # (docs/benchmark_worlds), OUT_DOC (docs/benchmark_worlds.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,6 +35,7 @@ seed=11001  # fixed: the report's seed
 episodes="${EPISODES:-50}"
 threads="${THREADS:-2}"
 model="${MODEL:-models/dqn_dovs.dqnw}"
+predictor="${PEOPLE_PREDICTOR-models/people_predictor_tracks.dqnp}"
 exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
 out_dir="${OUT_DIR:-docs/benchmark_worlds}"
 out_doc="${OUT_DOC:-docs/benchmark_worlds.md}"
@@ -47,6 +51,12 @@ export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 
 [ -x "$exe" ] || { echo "benchmark_worlds: $exe not found; run 'make build' (or set DQN_DOVS_EVAL)" >&2; exit 2; }
 [ -f "$model" ] || { echo "benchmark_worlds: model $model not found" >&2; exit 2; }
+[ -z "$predictor" ] || [ -f "$predictor" ] || {
+  echo "benchmark_worlds: people predictor $predictor not found (PEOPLE_PREDICTOR= for none)" >&2
+  exit 2
+}
+predict=()
+[ -z "$predictor" ] || predict=(--predict-people "$predictor")
 [ -x .venv/bin/python ] || { echo "benchmark_worlds: .venv missing; run 'make setup'" >&2; exit 2; }
 
 total_runs=$(( ${#families[@]} * ${#counts[@]} + 6 ))
@@ -88,15 +98,19 @@ for family in "${families[@]}"; do
   for n in "${counts[@]}"; do
     keep=0
     [ "$n" = 10 ] && keep=1  # one dqn_dovs trajectory per family
-    evaluate "${family}_n$n" "$n" "$keep" --world "$family" --sensor sim
+    if [ "$family" = room ]; then
+      evaluate "${family}_n$n" "$n" "$keep" --world "$family" --sensor sim
+    else
+      evaluate "${family}_n$n" "$n" "$keep" --world "$family" --sensor sim "${predict[@]}"
+    fi
   done
 done
 for sensor in hokuyo urg04lx rplidar_a1; do
-  evaluate "crowd_n10_$sensor" 10 0 --world crowd --sensor "$sensor"
+  evaluate "crowd_n10_$sensor" 10 0 --world crowd --sensor "$sensor" "${predict[@]}"
 done
-evaluate crowd_n10_orca 10 0 --world crowd --sensor sim --people-model orca
-evaluate crowd_n10_constant 10 0 --world crowd --sensor sim --people-model constant
-evaluate crowd_n10_see_robot 10 0 --world crowd --sensor sim --people-see-robot
+evaluate crowd_n10_orca 10 0 --world crowd --sensor sim --people-model orca "${predict[@]}"
+evaluate crowd_n10_constant 10 0 --world crowd --sensor sim --people-model constant "${predict[@]}"
+evaluate crowd_n10_see_robot 10 0 --world crowd --sensor sim --people-see-robot "${predict[@]}"
 total_end=$(date +%s.%N)
 total_wall=$(echo "$total_end - $total_start" | bc)
 printf "=== benchmark-worlds: %d runs in %.1f s\n" "$total_runs" "$total_wall"

@@ -430,6 +430,8 @@ def how_made(runs: dict[str, Run], run_info: dict | None, runs_dir: str) -> list
             f"tune anything); {_joined([i.episodes for i in infos])} episodes per run and method, the same episodes "
             f"for every method; LIDAR + tracker in the loop; step {_joined([i.step_s for i in infos])} s, "
             f"limit {_joined([i.max_steps for i in infos])} steps",
+            f"- People prediction the planners saw: "
+            f"{_joined([f'`{i.people_predictor}` ({i.world})' if i.people_predictor else f'none ({i.world})' for i in infos])}",
             "- Regenerate: `make benchmark-worlds` (EPISODES=K for a shorter run)", "",
             "The runs (`wall`: the evaluation's own wall time, from run.json; a run the tool stopped shows its "
             "error):", ""]
