@@ -131,6 +131,15 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   route_error_.clear();
   previous_grid_.clear();  // the first decision's history channel is its own grid
   previous_choice_ = kNoPreviousChoice;
+  known_structure_.reset();
+  if (config_.tracker_map && !config_.perfect_info) {
+    // The map the robot is localised on, from its first scan.
+    std::vector<Circle> furniture;
+    for (const MovingObstacle& o : world_.scenario().obstacles) {
+      if (o.is_static) furniture.push_back({o.center, o.radius});
+    }
+    known_structure_ = std::make_unique<KnownStructure>(world_.walls(), furniture, config_.tracker.map_tolerance_m);
+  }
   // The robot senses, standing still, before it is given the goal: the tracker needs a few scans to
   // confirm tracks and estimate their velocities. Obstacles move meanwhile, the same for every planner.
   const int warmup_scans = static_cast<int>(std::round(config_.sensor_warmup_s / config_.scan_period_s));
@@ -142,14 +151,6 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   start_time_s_ = world_.time_s();
   // The goal is given now: a world with walls gets its route (the room of the paper none, as before).
   if (config_.route.enabled && !scenario.static_segments.empty()) planRoute();
-  known_structure_.reset();
-  if (config_.tracker_map && !config_.perfect_info) {
-    std::vector<Circle> furniture;
-    for (const MovingObstacle& o : world_.scenario().obstacles) {
-      if (o.is_static) furniture.push_back({o.center, o.radius});
-    }
-    known_structure_ = std::make_unique<KnownStructure>(world_.walls(), furniture, config_.tracker.map_tolerance_m);
-  }
   min_clearance_m_ = world_.minClearance_m();
   trajectory_.push_back(world_.robotPose());
   if (world_.collided()) {

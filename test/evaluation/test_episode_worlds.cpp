@@ -108,3 +108,49 @@ TEST(EpisodeWorlds, EachStateCarriesWhatThePreviousStepRan) {
 
 }  // namespace
 }  // namespace dqn_dovs
+
+namespace dqn_dovs {
+namespace {
+
+// EpisodeConfig::tracker_map: the tracker is given the world's walls and furniture, placed in the drifting odom
+// frame by the truth. A clutter of chairs, tables and shelves with nobody in it, the robot standing still under
+// high odometry drift: without the map some chair or piece of furniture is a track; with it none is, and the pieces
+// of it come out as segments.
+TEST(EpisodeWorlds, WithTheMapTheFurnitureIsNeverATrack) {
+  sim::WorldFamilyConfig w;
+  w.family = sim::WorldFamily::kClutter;
+  w.people = 0;
+  const sim::Scenario scenario = sim::generateWorld(w, 7);
+  size_t chairs = 0;
+  for (const MovingObstacle& o : scenario.obstacles) chairs += o.is_static ? 1 : 0;
+  ASSERT_GT(chairs, 0u) << "the clutter has chairs";
+  auto tracks = [&](bool with_map) {
+    EpisodeConfig config;
+    config.tracker_map = with_map;
+    config.tracker.pair_legs = true;
+    config.world.odometry = sim::OdometryConfig::level("high");
+    config.reward.max_steps = 30;
+    Episode episode(config);
+    episode.reset(scenario, 3);
+    size_t seen = 0, segments = 0;
+    while (!episode.done()) {
+      seen += episode.trackedScene().obstacles.size();
+      segments += episode.trackedScene().segments.size();
+      episode.step(Twist2{});
+    }
+    return std::make_pair(seen, segments);
+  };
+  const auto [without_tracks, without_segments] = tracks(false);
+  const auto [with_tracks, with_segments] = tracks(true);
+  EXPECT_GT(without_tracks, 0u);
+  EXPECT_EQ(with_tracks, 0u);
+  EXPECT_GT(with_segments, without_segments);
+
+  EpisodeConfig both;
+  both.tracker_map = true;
+  both.perfect_info = true;
+  EXPECT_NE(both.validate().find("tracker_map"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dqn_dovs
