@@ -212,6 +212,8 @@ def test_header_of_a_scenario_folder_with_perfect_information():
     predicted = rp.run_header(rp.RunInfo(**{**RUN, "people_predictor": "models/people_predictor_tracks.dqnp"}))
     assert ("Perception: LIDAR + tracker in the loop; moving obstacles on the arcs of the learned prediction "
             "`models/people_predictor_tracks.dqnp`; step 0.2 s") in predicted
+    mapped = rp.run_header(rp.RunInfo(**{**RUN, "tracker_map": True}))
+    assert "Perception: LIDAR + tracker in the loop; the tracker given the map's walls and furniture; step" in mapped
 
 
 def test_console_table(summary):
