@@ -414,6 +414,15 @@ def _joined(values: Sequence[object]) -> str:
     return ", ".join(str(v) for v in sorted(set(values)))
 
 
+def predictions(infos: Sequence[RunInfo]) -> str:
+    """Which learned people prediction the planners saw, and in which worlds: "`F` (crowd, ...); none (room)"."""
+    worlds: dict[str, set[str]] = {}
+    for i in infos:
+        worlds.setdefault(i.people_predictor, set()).add(i.world)
+    parts = [f"{f'`{p}`' if p else 'none'} ({_joined(w)})" for p, w in sorted(worlds.items(), key=lambda kv: kv[0] == "")]
+    return "; ".join(parts) if parts else "none"
+
+
 def how_made(runs: dict[str, Run], run_info: dict | None, runs_dir: str) -> list[str]:
     """The section on how the runs were made: the record, the setting, each run's command and wall time."""
     out = ["## How this was made", ""]
@@ -430,8 +439,7 @@ def how_made(runs: dict[str, Run], run_info: dict | None, runs_dir: str) -> list
             f"tune anything); {_joined([i.episodes for i in infos])} episodes per run and method, the same episodes "
             f"for every method; LIDAR + tracker in the loop; step {_joined([i.step_s for i in infos])} s, "
             f"limit {_joined([i.max_steps for i in infos])} steps",
-            f"- People prediction the planners saw: "
-            f"{_joined([f'`{i.people_predictor}` ({i.world})' if i.people_predictor else f'none ({i.world})' for i in infos])}",
+            f"- People prediction the planners saw: {predictions(infos)}",
             "- Regenerate: `make benchmark-worlds` (EPISODES=K for a shorter run)", "",
             "The runs (`wall`: the evaluation's own wall time, from run.json; a run the tool stopped shows its "
             "error):", ""]

@@ -51,7 +51,9 @@ def write_run(runs: Path, spec: wr.RunSpec, solved: dict[str, set[int]] | None =
            "episodes": EPISODES, "dynamic_fraction": 0.85, "world": spec.world, "sensor": spec.sensor,
            "people_model": spec.people_model, "people_see_robot": spec.people_see_robot, "perfect_info": False,
            "step_s": 0.2, "max_steps": 500, "wall_s": 1.25, "threads": 2, "methods": ["dqn_dovs", "s_dovs"],
-           "reference": "dqn_dovs", "goal_tolerance_m": 0.15}
+           "reference": "dqn_dovs", "goal_tolerance_m": 0.15,
+           # As make benchmark-worlds runs them: the learned people prediction wherever there are people.
+           "people_predictor": "" if spec.world == "room" else "models/people_predictor_tracks.dqnp"}
     (folder / "run.json").write_text(json.dumps(run))
     return folder
 
@@ -127,6 +129,8 @@ def test_how_it_was_made_lists_every_command(runs: Path, tmp_path: Path):
     assert f"`dqn_dovs_eval --world junction --obstacles 15 --out {runs / 'junction_n15'}`" in text
     assert "seed 11001" in text and "10 episodes per run and method" in text
     assert "run_info.json is missing" in text
+    assert ("People prediction the planners saw: `models/people_predictor_tracks.dqnp` (clutter, corridor, crowd, "
+            "doorway, junction); none (room)") in text
 
 
 def test_plot_has_a_panel_per_family_and_the_legend_inside(runs: Path, tmp_path: Path):
