@@ -33,7 +33,7 @@ using dqn_dovs::EvalConfig;
 const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--predict-people F]\n"
-    "                     [--tracker-map] [--threads N] [--out DIR]\n"
+    "                     [--tracker-map] [--dovs-map] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
@@ -52,6 +52,8 @@ const char* kUsage =
     "                      launch/pipeline.launch gives it where legs are paired; only people, not discs)\n"
     "  --tracker-map       the tracker is given the map a robot would have (walls and furniture, not people)\n"
     "                      placed by a perfect localisation; what lies on it is never tracked\n"
+    "  --dovs-map          the velocity space also takes that map's walls and furniture outlines within 4 m\n"
+    "                      (dovs_node use_map); both flags: a robot localised on its map\n"
     "  --threads N         worker threads (default 1); results do not depend on it\n"
     "  --out DIR           output folder (default eval_results)\n"
     "  --model PATH        weight file of dqn_dovs (default models/dqn_dovs.dqnw)\n"
@@ -205,6 +207,8 @@ Options parse(int argc, char** argv) {
       o.eval.episode.people_predictor = value();
     } else if (flag == "--tracker-map") {
       o.eval.episode.tracker_map = true;
+    } else if (flag == "--dovs-map") {
+      o.eval.episode.dovs_map = true;
     } else if (flag == "--threads") {
       o.eval.threads = static_cast<int>(parseInt(flag, value(), 1, 256));
     } else if (flag == "--out") {

@@ -347,6 +347,7 @@ class RunInfo:
     route: str = "off"  # runs made before routes existed drove at the goal itself
     people_predictor: str = ""  # the learned people prediction the planners saw (dqn_dovs_eval --predict-people)
     tracker_map: bool = False  # the tracker was given the map's walls and furniture (dqn_dovs_eval --tracker-map)
+    dovs_map: bool = False  # the velocity space took the map's walls near the robot (dqn_dovs_eval --dovs-map)
 
 
 def _type_ok(value: object, kind: type) -> bool:
@@ -365,7 +366,7 @@ _RUN_TYPES: dict[str, type] = {"command": str, "scenarios": str, "seed": int, "o
                                "reference": str, "goal_tolerance_m": float}
 _OPTIONAL_RUN_TYPES: dict[str, type] = {"world": str, "sensor": str, "people_model": str, "people_see_robot": bool,
                                         "odom_noise": str, "route": str, "people_predictor": str,
-                                        "tracker_map": bool}
+                                        "tracker_map": bool, "dovs_map": bool}
 _TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
                list: "a non-empty list of strings"}
 
@@ -409,6 +410,8 @@ def run_header(run: RunInfo) -> str:
         perception += f"; moving obstacles on the arcs of the learned prediction `{run.people_predictor}`"
     if run.tracker_map:
         perception += "; the tracker given the map's walls and furniture"
+    if run.dovs_map:
+        perception += "; the map's walls near the robot beside the scan's"
     world = ""
     if run.world != "room" or run.sensor != "sim" or run.odom_noise != "none":
         sees = "people give way to the robot" if run.people_see_robot else "the robot invisible to people"

@@ -53,6 +53,9 @@ std::string EpisodeConfig::validate() const {
   }
   if (!(sensor_warmup_s >= 0.0 && sensor_warmup_s <= 5.0)) return "sensor_warmup_s must be in [0, 5] s";
   if (tracker_map && perfect_info) return "tracker_map gives the tracker a map; with perfect_info there is no tracker";
+  if (dovs_map && perfect_info)
+    return "dovs_map adds the map's walls to the scan's; with perfect_info there is no scan";
+  if (!(std::isfinite(map_range_m) && map_range_m > 0.0)) return "map_range_m must be > 0 (m)";
   return {};
 }
 
@@ -132,13 +135,28 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   previous_grid_.clear();  // the first decision's history channel is its own grid
   previous_choice_ = kNoPreviousChoice;
   known_structure_.reset();
-  if (config_.tracker_map && !config_.perfect_info) {
-    // The map the robot is localised on, from its first scan.
+  map_segments_.clear();
+  if ((config_.tracker_map || config_.dovs_map) && !config_.perfect_info) {
+    // The map the robot is localised on, from its first scan: the walls and the furniture (static discs).
     std::vector<Circle> furniture;
     for (const MovingObstacle& o : world_.scenario().obstacles) {
       if (o.is_static) furniture.push_back({o.center, o.radius});
     }
-    known_structure_ = std::make_unique<KnownStructure>(world_.walls(), furniture, config_.tracker.map_tolerance_m);
+    if (config_.tracker_map) {
+      known_structure_ = std::make_unique<KnownStructure>(world_.walls(), furniture, config_.tracker.map_tolerance_m);
+    }
+    if (config_.dovs_map) {
+      // As an occupancy grid gives them: outlines, here an octagon around each disc.
+      map_segments_ = world_.walls();
+      for (const Circle& c : furniture) {
+        const double r = c.radius / std::cos(kPi / 8.0);
+        for (int k = 0; k < 8; ++k) {
+          const double a = kPi / 8.0 + kPi / 4.0 * k, b = a + kPi / 4.0;
+          map_segments_.push_back(
+              {c.center + r * Vec2(std::cos(a), std::sin(a)), c.center + r * Vec2(std::cos(b), std::sin(b))});
+        }
+      }
+    }
   }
   // The robot senses, standing still, before it is given the goal: the tracker needs a few scans to
   // confirm tracks and estimate their velocities. Obstacles move meanwhile, the same for every planner.
@@ -210,6 +228,14 @@ void Episode::buildContext() {
   } else {
     for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
     observation_.segments = tracker_.scene().segments;
+    // The map's walls near the robot join the scan's, as dovs_node adds them with use_map.
+    for (const Segment& w : map_segments_) {
+      const Segment s =
+          config_.world.odometry.enabled() ? Segment{odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)} : w;
+      if (pointSegmentDistance(observation_.robot_pose.position(), s) <= config_.map_range_m) {
+        observation_.segments.push_back(s);
+      }
+    }
   }
   // The learned prediction is of people: with perfect information the world's people (not the room's discs, whose
   // constant (v, w) it only blurs), with the tracker its tracks when it pairs legs into people (every track is one).

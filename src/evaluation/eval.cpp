@@ -393,6 +393,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"people_predictor\": " << jsonString(config.episode.people_predictor)
       << ",\n  \"tracker_map\": " << (config.episode.tracker_map ? "true" : "false")
+      << ",\n  \"dovs_map\": " << (config.episode.dovs_map ? "true" : "false")
       << ",\n  \"step_s\": " << jsonNumber(config.episode.world.robot.dt)
       << ",\n  \"max_steps\": " << config.episode.reward.max_steps << ",\n  \"wall_s\": " << jsonNumber(info.wall_s)
       << ",\n  \"threads\": " << config.threads << ",\n  \"methods\": [";

@@ -152,5 +152,52 @@ TEST(EpisodeWorlds, WithTheMapTheFurnitureIsNeverATrack) {
   EXPECT_NE(both.validate().find("tracker_map"), std::string::npos);
 }
 
+// EpisodeConfig::dovs_map: the map's walls and furniture outlines within map_range_m join the scan's segments, in the
+// drifting odom frame (placed by the truth), as dovs_node adds them with use_map.
+TEST(EpisodeWorlds, WithTheMapTheVelocitySpaceKnowsTheWallsNearTheRobot) {
+  sim::WorldFamilyConfig w;
+  w.family = sim::WorldFamily::kClutter;
+  w.people = 0;
+  const sim::Scenario scenario = sim::generateWorld(w, 7);
+  EpisodeConfig config;
+  config.dovs_map = true;
+  config.map_range_m = 3.0;
+  config.world.odometry = sim::OdometryConfig::level("high");
+  config.reward.max_steps = 25;
+  Episode episode(config);
+  episode.reset(scenario, 3);
+  EpisodeConfig scan_only = config;
+  scan_only.dovs_map = false;
+  Episode plain(scan_only);
+  plain.reset(scenario, 3);
+  while (!episode.done()) {
+    const Observation& o = episode.observation();
+    const Pose2 world_from_odom = episode.world().robotPose().compose(episode.world().odomPose().inverse());
+    const size_t scanned = episode.trackedScene().segments.size();
+    ASSERT_GE(o.segments.size(), scanned);
+    size_t walls_near = 0;
+    for (const Segment& wall : episode.world().walls()) {
+      walls_near += pointSegmentDistance(episode.world().robotPose().position(), wall) <= 3.0 ? 1 : 0;
+    }
+    size_t walls_given = 0;
+    for (size_t k = scanned; k < o.segments.size(); ++k) {
+      const Segment& s = o.segments[k];
+      EXPECT_LE(pointSegmentDistance(o.robot_pose.position(), s), 3.0 + 1e-9);
+      const Segment in_world{world_from_odom.toWorld(s.a), world_from_odom.toWorld(s.b)};
+      for (const Segment& wall : episode.world().walls()) {
+        if ((wall.a - in_world.a).norm() < 1e-6 && (wall.b - in_world.b).norm() < 1e-6) ++walls_given;
+      }
+    }
+    EXPECT_EQ(walls_given, walls_near) << "every wall within the range, where the world has it";
+    EXPECT_EQ(plain.observation().segments.size(), plain.trackedScene().segments.size());
+    episode.step(Twist2{0.2, 0.3});
+    plain.step(Twist2{0.2, 0.3});
+  }
+  EpisodeConfig both;
+  both.dovs_map = true;
+  both.perfect_info = true;
+  EXPECT_NE(both.validate().find("dovs_map"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dqn_dovs

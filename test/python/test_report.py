@@ -214,6 +214,8 @@ def test_header_of_a_scenario_folder_with_perfect_information():
             "`models/people_predictor_tracks.dqnp`; step 0.2 s") in predicted
     mapped = rp.run_header(rp.RunInfo(**{**RUN, "tracker_map": True}))
     assert "Perception: LIDAR + tracker in the loop; the tracker given the map's walls and furniture; step" in mapped
+    both = rp.run_header(rp.RunInfo(**{**RUN, "tracker_map": True, "dovs_map": True}))
+    assert "the tracker given the map's walls and furniture; the map's walls near the robot beside the scan's" in both
 
 
 def test_console_table(summary):

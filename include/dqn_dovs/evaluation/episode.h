@@ -70,6 +70,11 @@ struct EpisodeConfig {
   /// the people), placed by a perfect localisation: what lies on it is never tracked (KnownStructure). With the
   /// tracker only.
   bool tracker_map = false;
+  /// The velocity space also takes the map's walls and the outlines of its furniture within map_range_m of the
+  /// robot, placed by a perfect localisation, beside what the scan shows (dovs_node's use_map): a table edge seen
+  /// at a glancing angle, or not yet seen, is known all the same. With the tracker only.
+  bool dovs_map = false;
+  double map_range_m = 4.0;  ///< dovs_node's map_range
   std::string validate() const;
 };
 
@@ -156,6 +161,7 @@ class Episode {
   ObstacleTracker tracker_;
   std::unique_ptr<PredictedArcs> predicted_arcs_;    ///< EpisodeConfig::people_predictor
   std::unique_ptr<KnownStructure> known_structure_;  ///< EpisodeConfig::tracker_map, in the world's frame
+  std::vector<Segment> map_segments_;                ///< EpisodeConfig::dovs_map: walls and furniture outlines (world)
   DovsBuilder dovs_builder_;
   StateNormalization normalization_;
   LaserScan2 scan_;
