@@ -91,6 +91,9 @@ std::string WorldConfig::validate() const {
   if (!lidar_error.empty()) return "world parameter 'lidar': " + lidar_error;
   if (const std::string e = people.validate(); !e.empty()) return "world parameter 'people': " + e;
   if (const std::string e = odometry.validate(); !e.empty()) return "world parameter 'odometry': " + e;
+  if (!(std::isfinite(wall_thickness_m) && wall_thickness_m >= 0.0 && wall_thickness_m <= 1.0)) {
+    return bad("wall_thickness_m", wall_thickness_m, "must be in [0, 1] m");
+  }
   if (!(std::isfinite(border_turn_rate_rps) && border_turn_rate_rps > 0.0)) {
     return bad("border_turn_rate_rps", border_turn_rate_rps, "must be finite and > 0 rad/s");
   }
@@ -164,6 +167,22 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
   lidar_scene_.room_half_size_m = h;
   lidar_scene_.segments = scenario.static_segments;
   lidar_scene_.discs.clear();
+  // A wall's end that touches no other wall (within 1 cm) is free: the scanner sees its end face there.
+  if (config_.wall_thickness_m > 0.0) {
+    for (size_t k = 0; k < scenario.static_segments.size(); ++k) {
+      const Segment& s = scenario.static_segments[k];
+      const double length = (s.b - s.a).norm();
+      if (!(length > 0.0)) continue;
+      const Vec2 across = 0.5 * config_.wall_thickness_m * Vec2(-(s.b - s.a).y(), (s.b - s.a).x()) / length;
+      for (const Vec2& end : {s.a, s.b}) {
+        bool joined = false;
+        for (size_t j = 0; j < walls_.size() && !joined; ++j) {
+          joined = j != 4 + k && pointSegmentDistance(end, walls_[j]) < 0.01;
+        }
+        if (!joined) lidar_scene_.segments.push_back({end - across, end + across});
+      }
+    }
+  }
   checkCollision();  // a start pose inside an obstacle is a collision at t = 0
   if (collided() && config_.stop_on_collision) robot_stopped_ = true;
 }

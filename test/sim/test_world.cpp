@@ -397,3 +397,32 @@ TEST(World, WheelOdometryDriftsFromTheTruthReproduciblyAndLeavesTheScansAlone) {
 }
 
 }  // namespace dqn_dovs::sim
+
+namespace dqn_dovs::sim {
+namespace {
+
+// WorldConfig::wall_thickness_m: a free wall end shows the LIDAR its end face, so a wall seen exactly edge-on (a
+// jamb beside a robot standing in a doorway) still returns; a joined end (a corner) shows nothing more.
+TEST(World, TheLidarSeesTheEndFaceOfAWallItLooksAlong) {
+  Scenario s = emptyRoom({0.0, 0.0, 0.0});
+  s.static_segments = {{{1.0, 0.0}, {3.0, 0.0}},    // free at (1, 0): straight ahead of the laser, edge-on
+                       {{3.0, 0.0}, {3.0, -2.0}}};  // joined to it at (3, 0)
+  auto ahead = [&](double thickness) {
+    WorldConfig c;
+    c.lidar.noise_std_m = 0.0;
+    c.wall_thickness_m = thickness;
+    World world(s, c, 1);
+    const LaserScan2 scan = world.scan();
+    // The beam nearest straight ahead.
+    const long i = std::lround(-scan.angle_min / scan.angle_increment);
+    return static_cast<double>(scan.ranges[static_cast<size_t>(i)]);
+  };
+  EXPECT_NEAR(ahead(0.1), 1.0, 1e-6) << "the end face at x = 1";
+  EXPECT_NEAR(ahead(0.0), 3.0, 1e-6) << "thin walls: the beam runs along the wall to the one it joins";
+  WorldConfig bad;
+  bad.wall_thickness_m = -0.1;
+  EXPECT_NE(bad.validate().find("wall_thickness_m"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace dqn_dovs::sim

@@ -69,6 +69,10 @@ struct WorldConfig {
   PeopleConfig people;
   /// true: the LIDAR sees people's two legs (a scanner at leg height); false: their body discs.
   bool scan_legs = true;
+  /// A wall's thickness as the LIDAR sees it at each free end (joined to no other wall: a door's jamb, the end of a
+  /// partition): its end face, a segment this long across the wall (m). A segment seen edge-on returns nothing, and
+  /// a robot in a doorway would not see the jamb beside it. Contact stays with the wall's segment. 0: thin walls.
+  double wall_thickness_m = 0.1;
   /// true: on its first collision the robot is put back to its last collision-free sub-step pose, its
   /// velocity drops to zero and it ignores commands until reset(); false: it keeps driving through.
   bool stop_on_collision = true;
