@@ -121,18 +121,10 @@ void DovsNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
 
 void DovsNode::addMapWalls(TrackedObstacleArray& obstacles, const Pose2& robot, const ros::Time& stamp) {
   if (map_walls_.empty()) return;
-  geometry_msgs::TransformStamped tf;
-  try {
-    tf = tf_waiter_.lookup(fixed_frame_, map_frame_, stamp, tf_timeout_s_);
-  } catch (const tf2::TransformException& e) {
-    ROS_WARN_THROTTLE(2.0, "dovs: map walls left out: no transform %s <- %s at the obstacles' stamp: %s",
-                      fixed_frame_.c_str(), map_frame_.c_str(), e.what());
-    return;
-  }
   Pose2 map_in_fixed;
-  if (!poseFromTransform(tf.transform, map_in_fixed)) {
-    ROS_WARN_THROTTLE(2.0, "dovs: map walls left out: the %s <- %s transform has NaN/inf", fixed_frame_.c_str(),
-                      map_frame_.c_str());
+  const std::string why = tf_waiter_.lookupPose(fixed_frame_, map_frame_, stamp, tf_timeout_s_, map_in_fixed);
+  if (!why.empty()) {
+    ROS_WARN_THROTTLE(2.0, "dovs: map walls left out: %s (the obstacles' stamp)", why.c_str());
     return;
   }
   for (const Segment& wall : map_walls_) {
@@ -163,17 +155,11 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
                       odom_age, max_input_age_s_);
     return;
   }
-  geometry_msgs::TransformStamped tf;
-  try {
-    tf = tf_waiter_.lookup(fixed_frame_, base_frame_, msg->header.stamp, tf_timeout_s_);
-  } catch (const tf2::TransformException& e) {
-    ROS_WARN_THROTTLE(2.0, "dovs: no transform %s <- %s at the obstacles' stamp: %s", fixed_frame_.c_str(),
-                      base_frame_.c_str(), e.what());
-    return;
-  }
   Pose2 robot_pose;
-  if (!poseFromTransform(tf.transform, robot_pose)) {
-    ROS_WARN_THROTTLE(2.0, "dovs: robot transform has NaN/inf; not publishing");
+  const std::string why =
+      tf_waiter_.lookupPose(fixed_frame_, base_frame_, msg->header.stamp, tf_timeout_s_, robot_pose);
+  if (!why.empty()) {
+    ROS_WARN_THROTTLE(2.0, "dovs: not publishing: %s (the obstacles' stamp)", why.c_str());
     return;
   }
   const Twist2 odom_twist{last_odom_.twist.twist.linear.x, last_odom_.twist.twist.angular.z};

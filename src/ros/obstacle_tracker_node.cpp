@@ -1,7 +1,5 @@
 #include "obstacle_tracker_node.h"
 
-#include <tf2/exceptions.h>
-
 #include <boost/make_shared.hpp>
 #include <utility>
 
@@ -76,18 +74,10 @@ void ObstacleTrackerNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
 
 MapStructureView ObstacleTrackerNode::mapView(const ros::Time& stamp) {
   if (!map_) return {};
-  geometry_msgs::TransformStamped tf;
-  try {
-    tf = tf_waiter_.lookup(map_frame_, fixed_frame_, stamp, tf_timeout_s_);
-  } catch (const tf2::TransformException& e) {
-    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: map left out: no transform %s <- %s at the scan time: %s",
-                      map_frame_.c_str(), fixed_frame_.c_str(), e.what());
-    return {};
-  }
   Pose2 fixed_in_map;
-  if (!poseFromTransform(tf.transform, fixed_in_map)) {
-    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: map left out: the %s <- %s transform has NaN/inf", map_frame_.c_str(),
-                      fixed_frame_.c_str());
+  const std::string why = tf_waiter_.lookupPose(map_frame_, fixed_frame_, stamp, tf_timeout_s_, fixed_in_map);
+  if (!why.empty()) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: map left out of this scan: %s", why.c_str());
     return {};
   }
   return {map_.get(), fixed_in_map};
@@ -105,18 +95,11 @@ void ObstacleTrackerNode::onScan(const sensor_msgs::LaserScan::ConstPtr& msg) {
     ROS_WARN_THROTTLE(5.0, "obstacle_tracker: every beam of the scan is NaN/inf or out of range");
   }
 
-  geometry_msgs::TransformStamped tf;
-  try {
-    tf = tf_waiter_.lookup(fixed_frame_, msg->header.frame_id, msg->header.stamp, tf_timeout_s_);
-  } catch (const tf2::TransformException& e) {
-    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: no transform %s <- %s at the scan time: %s", fixed_frame_.c_str(),
-                      msg->header.frame_id.c_str(), e.what());
-    return;
-  }
   Pose2 laser_pose;
-  if (!poseFromTransform(tf.transform, laser_pose)) {
-    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: transform %s <- %s has NaN/inf; scan dropped", fixed_frame_.c_str(),
-                      msg->header.frame_id.c_str());
+  const std::string why =
+      tf_waiter_.lookupPose(fixed_frame_, msg->header.frame_id, msg->header.stamp, tf_timeout_s_, laser_pose);
+  if (!why.empty()) {
+    ROS_WARN_THROTTLE(2.0, "obstacle_tracker: scan dropped: %s (the scan's stamp)", why.c_str());
     return;
   }
 

@@ -1,8 +1,12 @@
 #include "transform_wait.h"
 
+#include <tf2/exceptions.h>
+
 #include <algorithm>
 #include <chrono>
 #include <limits>
+
+#include "conversions.h"
 
 namespace dqn_dovs {
 
@@ -46,6 +50,18 @@ geometry_msgs::TransformStamped TransformWaiter::lookup(const std::string& targe
     if (!answered) buffer_.cancelTransformableRequest(request);
   }
   return buffer_.lookupTransform(target, source, time);
+}
+
+std::string TransformWaiter::lookupPose(const std::string& target, const std::string& source, const ros::Time& time,
+                                        double timeout_s, Pose2& out) {
+  geometry_msgs::TransformStamped tf;
+  try {
+    tf = lookup(target, source, time, timeout_s);
+  } catch (const tf2::TransformException& e) {
+    return "no transform " + target + " <- " + source + " at that stamp: " + e.what();
+  }
+  if (!poseFromTransform(tf.transform, out)) return "the " + target + " <- " + source + " transform has NaN/inf";
+  return {};
 }
 
 }  // namespace dqn_dovs

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/common/geometry.h"
+
 namespace dqn_dovs {
 
 /// tf2's lookupTransform at a given time, waiting up to a timeout for data that has not arrived yet. The wait
@@ -29,6 +31,10 @@ class TransformWaiter {
   /// empty frame, extrapolation, older than the buffer) once the wait is over.
   geometry_msgs::TransformStamped lookup(const std::string& target, const std::string& source, const ros::Time& time,
                                          double timeout_s);
+  /// The same as a planar pose of `source` in `target` (`out`); "" when found, otherwise why not: "no transform
+  /// T <- S at that stamp: <the buffer's reason>" or "the T <- S transform has NaN/inf". Never throws.
+  std::string lookupPose(const std::string& target, const std::string& source, const ros::Time& time, double timeout_s,
+                         Pose2& out);
 
  private:
   void onTransformable(tf2::TransformableRequestHandle request);

@@ -116,11 +116,16 @@ namespace {
 // frame by the truth. A clutter of chairs, tables and shelves with nobody in it, the robot standing still under
 // high odometry drift: without the map some chair or piece of furniture is a track; with it none is, and the pieces
 // of it come out as segments.
-TEST(EpisodeWorlds, WithTheMapTheFurnitureIsNeverATrack) {
+/// A clutter of chairs, tables and shelves with nobody in it.
+sim::Scenario emptyClutter() {
   sim::WorldFamilyConfig w;
   w.family = sim::WorldFamily::kClutter;
   w.people = 0;
-  const sim::Scenario scenario = sim::generateWorld(w, 7);
+  return sim::generateWorld(w, 7);
+}
+
+TEST(EpisodeWorlds, WithTheMapTheFurnitureIsNeverATrack) {
+  const sim::Scenario scenario = emptyClutter();
   size_t chairs = 0;
   for (const MovingObstacle& o : scenario.obstacles) chairs += o.is_static ? 1 : 0;
   ASSERT_GT(chairs, 0u) << "the clutter has chairs";
@@ -155,10 +160,7 @@ TEST(EpisodeWorlds, WithTheMapTheFurnitureIsNeverATrack) {
 // EpisodeConfig::dovs_map: the map's walls and furniture outlines within map_range_m join the scan's segments, in the
 // drifting odom frame (placed by the truth), as dovs_node adds them with use_map.
 TEST(EpisodeWorlds, WithTheMapTheVelocitySpaceKnowsTheWallsNearTheRobot) {
-  sim::WorldFamilyConfig w;
-  w.family = sim::WorldFamily::kClutter;
-  w.people = 0;
-  const sim::Scenario scenario = sim::generateWorld(w, 7);
+  const sim::Scenario scenario = emptyClutter();
   EpisodeConfig config;
   config.dovs_map = true;
   config.map_range_m = 3.0;

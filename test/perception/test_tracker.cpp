@@ -647,26 +647,35 @@ struct ChairRun {
   std::vector<double> speeds;
   std::vector<double> centre_errors;
 };
+const Vec2 kChair(2.0, 0.5);
+const TrueDisc kWalkerByTheChair{{-1.0, 1.0, 0.0}, 0.6, 0.0, 0.25};
+
+/// 10 s of scans of the chair and the walker from the laser driving past: visit(t, result) after each update, the
+/// tracker told `map`.
+template <class Visit>
+void chairScene(ObstacleTracker& tracker, const MapStructureView& map, Visit visit) {
+  std::mt19937 rng(21);
+  SyntheticLidar lidar;
+  for (double t = 0.0; t <= 10.0; t += kScanPeriod) {
+    const Pose2 lp = integrateUnicycle({-2.0, -1.0, 0.0}, 0.3, 0.0, t);
+    const std::vector<Circle> circles{{kChair, 0.2}, {kWalkerByTheChair.at(t).position(), kWalkerByTheChair.radius}};
+    visit(t, tracker.update(syntheticScan(lidar, lp, circles, {}, t, rng), lp, map));
+  }
+}
+
 ChairRun chairPassedBy(double stationary_window_s) {
   TrackerConfig config;
   config.stationary_window_s = stationary_window_s;
   ObstacleTracker tracker{config};
-  const Vec2 chair(2.0, 0.5);
-  const TrueDisc walker{{-1.0, 1.0, 0.0}, 0.6, 0.0, 0.25};
-  std::mt19937 rng(21);
-  SyntheticLidar lidar;
   ChairRun run;
-  for (double t = 0.0; t <= 10.0; t += kScanPeriod) {
-    const Pose2 lp = integrateUnicycle({-2.0, -1.0, 0.0}, 0.3, 0.0, t);
-    const std::vector<Circle> circles{{chair, 0.2}, {walker.at(t).position(), walker.radius}};
-    const TrackerResult r = tracker.update(syntheticScan(lidar, lp, circles, {}, t, rng), lp);
+  chairScene(tracker, {}, [&](double, const TrackerResult& r) {
     for (const TrackedObstacle& o : r.scene.obstacles) {
-      if ((o.center - chair).norm() > 0.2 || o.age_s < 1.0) continue;
+      if ((o.center - kChair).norm() > 0.2 || o.age_s < 1.0) continue;
       run.speeds.push_back(o.speed);
-      run.centre_errors.push_back((o.center - chair).norm());
+      run.centre_errors.push_back((o.center - kChair).norm());
       EXPECT_EQ(o.is_static, o.speed < config.static_speed_threshold_mps);
     }
-  }
+  });
   return run;
 }
 
@@ -679,25 +688,18 @@ struct MapRun {
 };
 MapRun chairOnTheMap(const Pose2* map_pose) {
   ObstacleTracker tracker{TrackerConfig{}};
-  const Vec2 chair(2.0, 0.5);
   const Pose2 fixed_in_map{3.0, -1.0, 0.4};
-  const KnownStructure map({}, {{fixed_in_map.toWorld(chair), 0.2}}, 0.1);
-  const TrueDisc walker{{-1.0, 1.0, 0.0}, 0.6, 0.0, 0.25};
-  std::mt19937 rng(21);
-  SyntheticLidar lidar;
+  const KnownStructure map({}, {{fixed_in_map.toWorld(kChair), 0.2}}, 0.1);
   MapRun run;
-  for (double t = 0.0; t <= 10.0; t += kScanPeriod) {
-    const Pose2 lp = integrateUnicycle({-2.0, -1.0, 0.0}, 0.3, 0.0, t);
-    const std::vector<Circle> circles{{chair, 0.2}, {walker.at(t).position(), walker.radius}};
-    const MapStructureView view{map_pose ? &map : nullptr, map_pose ? *map_pose : Pose2{}};
-    const TrackerResult r = tracker.update(syntheticScan(lidar, lp, circles, {}, t, rng), lp, view);
-    ++run.scans;
-    for (const TrackedObstacle& o : r.scene.obstacles) {
-      if (o.age_s < 1.0) continue;
-      if ((o.center - chair).norm() < 0.2) ++run.chair_tracks;
-      if ((o.center - walker.at(t).position()).norm() < 0.2) ++run.walker_tracks;
-    }
-  }
+  chairScene(tracker, {map_pose ? &map : nullptr, map_pose ? *map_pose : Pose2{}},
+             [&](double t, const TrackerResult& r) {
+               ++run.scans;
+               for (const TrackedObstacle& o : r.scene.obstacles) {
+                 if (o.age_s < 1.0) continue;
+                 if ((o.center - kChair).norm() < 0.2) ++run.chair_tracks;
+                 if ((o.center - kWalkerByTheChair.at(t).position()).norm() < 0.2) ++run.walker_tracks;
+               }
+             });
   return run;
 }
 

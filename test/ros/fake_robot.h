@@ -66,17 +66,23 @@ inline bool waitFor(const std::function<bool()>& condition, double timeout_s, do
   return condition();
 }
 
-/// The transform odom -> base_footprint of a robot at pose `p`.
-inline geometry_msgs::TransformStamped baseInOdom(const ros::Time& stamp, const Pose2& p) {
+/// The transform parent -> child of a child frame at pose `p` in the parent's plane.
+inline geometry_msgs::TransformStamped planarTransform(const ros::Time& stamp, const std::string& parent,
+                                                       const std::string& child, const Pose2& p) {
   geometry_msgs::TransformStamped t;
   t.header.stamp = stamp;
-  t.header.frame_id = "odom";
-  t.child_frame_id = "base_footprint";
+  t.header.frame_id = parent;
+  t.child_frame_id = child;
   t.transform.translation.x = p.x;
   t.transform.translation.y = p.y;
   t.transform.rotation.z = std::sin(p.theta / 2.0);
   t.transform.rotation.w = std::cos(p.theta / 2.0);
   return t;
+}
+
+/// The transform odom -> base_footprint of a robot at pose `p`.
+inline geometry_msgs::TransformStamped baseInOdom(const ros::Time& stamp, const Pose2& p) {
+  return planarTransform(stamp, "odom", "base_footprint", p);
 }
 
 /// A robot standing at the odom origin at `stamp`: tf odom -> base_footprint (identity) and its odom message.

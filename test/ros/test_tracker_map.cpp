@@ -68,18 +68,9 @@ class TrackerMap : public ::testing::Test {
     map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
     obstacles_sub_ = nh_.subscribe("obstacles", 50, &TrackerMap::onObstacles, this);
     spinner_.start();
-    geometry_msgs::TransformStamped laser, odom;
-    laser.header.stamp = odom.header.stamp = ros::Time::now();
-    laser.header.frame_id = "odom";
-    laser.child_frame_id = "laser";
-    laser.transform.rotation.w = 1.0;
-    odom.header.frame_id = "map";
-    odom.child_frame_id = "odom";
-    odom.transform.translation.x = kOdomInMap.x;
-    odom.transform.translation.y = kOdomInMap.y;
-    odom.transform.rotation.z = std::sin(kOdomInMap.theta / 2.0);
-    odom.transform.rotation.w = std::cos(kOdomInMap.theta / 2.0);
-    static_tf_.sendTransform({laser, odom});
+    const ros::Time now = ros::Time::now();
+    static_tf_.sendTransform({dqn_dovs::test::planarTransform(now, "odom", "laser", Pose2{}),
+                              dqn_dovs::test::planarTransform(now, "map", "odom", kOdomInMap)});
     ASSERT_TRUE(dqn_dovs::test::waitFor(
         [&] { return scan_pub_.getNumSubscribers() > 0 && obstacles_sub_.getNumPublishers() > 0; }, 20.0, 0.05));
   }
