@@ -56,6 +56,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -182,12 +183,10 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
     ObstacleTracker tracker(tracker_config);
     // The map a robot would have: the walls and the furniture (the clutter's chairs), not the people; the tracker
     // works in the world's frame here, so the map's frame is its fixed frame.
-    std::vector<Circle> furniture;
-    for (const MovingObstacle& o : scenario.obstacles) {
-      if (o.is_static) furniture.push_back({o.center, o.radius});
-    }
-    const KnownStructure known(world.walls(), furniture, tracker_config.map_tolerance_m);
-    const MapStructureView map{with_map ? &known : nullptr, Pose2{}};
+    const std::vector<Circle> furniture = sim::furnitureOf(scenario);
+    std::optional<KnownStructure> known;
+    if (with_map) known.emplace(world.walls(), furniture, tracker_config.map_tolerance_m);
+    const MapStructureView map{known ? &*known : nullptr, Pose2{}};
     evaluator.beginEpisode();
     std::vector<int> visible_streak(world.groundTruthObstacles().size(), 0);
     Vec2 goal = scenario.goal;

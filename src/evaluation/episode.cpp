@@ -138,10 +138,7 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   map_segments_.clear();
   if ((config_.tracker_map || config_.dovs_map) && !config_.perfect_info) {
     // The map the robot is localised on, from its first scan: the walls and the furniture (static discs).
-    std::vector<Circle> furniture;
-    for (const MovingObstacle& o : world_.scenario().obstacles) {
-      if (o.is_static) furniture.push_back({o.center, o.radius});
-    }
+    const std::vector<Circle> furniture = sim::furnitureOf(world_.scenario());
     if (config_.tracker_map) {
       known_structure_ = std::make_unique<KnownStructure>(world_.walls(), furniture, config_.tracker.map_tolerance_m);
     }
@@ -270,11 +267,7 @@ void Episode::buildContext() {
 
 void Episode::planRoute() {
   // The map the robot would have: the walls and the furniture (static discs included), not the people.
-  const sim::Scenario& s = world_.scenario();
-  std::vector<Circle> furniture;
-  for (const MovingObstacle& o : s.obstacles) {
-    if (o.is_static) furniture.push_back({o.center, o.radius});
-  }
+  const std::vector<Circle> furniture = sim::furnitureOf(world_.scenario());
   const Vec2 start = world_.odomPose().position();
   Vec2 lo = start.cwiseMin(world_.goal()), hi = start.cwiseMax(world_.goal());
   for (const Segment& w : world_.walls()) {

@@ -176,6 +176,14 @@ void saveDovsScenario(const Scenario& scenario, const std::string& path) {
   if (!out) fail(path, "write error");
 }
 
+std::vector<Circle> furnitureOf(const Scenario& scenario) {
+  std::vector<Circle> out;
+  for (const MovingObstacle& o : scenario.obstacles) {
+    if (o.is_static) out.push_back({o.center, o.radius});
+  }
+  return out;
+}
+
 void applyDynamicFraction(Scenario& scenario, double dynamic_fraction) {
   if (!(dynamic_fraction >= 0.0 && dynamic_fraction <= 1.0)) {
     std::ostringstream os;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <unordered_map>
 
 namespace dqn_dovs::sim {
 namespace {
@@ -167,24 +168,53 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
   lidar_scene_.room_half_size_m = h;
   lidar_scene_.segments = scenario.static_segments;
   lidar_scene_.discs.clear();
-  // A wall's end that touches no other wall (within 1 cm) is free: the scanner sees its end face there.
-  if (config_.wall_thickness_m > 0.0) {
-    for (size_t k = 0; k < scenario.static_segments.size(); ++k) {
-      const Segment& s = scenario.static_segments[k];
-      const double length = (s.b - s.a).norm();
-      if (!(length > 0.0)) continue;
-      const Vec2 across = 0.5 * config_.wall_thickness_m * Vec2(-(s.b - s.a).y(), (s.b - s.a).x()) / length;
-      for (const Vec2& end : {s.a, s.b}) {
-        bool joined = false;
-        for (size_t j = 0; j < walls_.size() && !joined; ++j) {
-          joined = j != 4 + k && pointSegmentDistance(end, walls_[j]) < 0.01;
-        }
-        if (!joined) lidar_scene_.segments.push_back({end - across, end + across});
-      }
-    }
-  }
+  if (config_.wall_thickness_m > 0.0) addWallEndFaces();
   checkCollision();  // a start pose inside an obstacle is a collision at t = 0
   if (collided() && config_.stop_on_collision) robot_stopped_ = true;
+}
+
+void World::addWallEndFaces() {
+  // A wall's end that touches no other wall (within kJoin) is free: the scanner sees its end face there. The walls
+  // are bucketed by the grid cells their bounding boxes cover, so each end is tested only against the walls near it
+  // (a map's outlines are thousands of short pieces).
+  constexpr double kJoin = 0.01, kCell = 0.5;
+  auto cellOf = [](double v) { return static_cast<int64_t>(std::floor(v / kCell)); };
+  auto key = [](int64_t i, int64_t j) { return (i << 32) ^ (j & 0xFFFFFFFFLL); };
+  std::unordered_map<int64_t, std::vector<size_t>> cells;
+  std::vector<size_t> long_walls;  // spanning more than 50 cells: tested against every end instead
+  for (size_t j = 0; j < walls_.size(); ++j) {
+    const Segment& w = walls_[j];
+    if (!w.a.allFinite() || !w.b.allFinite()) continue;
+    const Vec2 lo = w.a.cwiseMin(w.b) - Vec2::Constant(kJoin), hi = w.a.cwiseMax(w.b) + Vec2::Constant(kJoin);
+    if ((hi - lo).maxCoeff() > 50.0 * kCell) {
+      long_walls.push_back(j);
+      continue;
+    }
+    for (int64_t i = cellOf(lo.x()); i <= cellOf(hi.x()); ++i) {
+      for (int64_t k = cellOf(lo.y()); k <= cellOf(hi.y()); ++k) cells[key(i, k)].push_back(j);
+    }
+  }
+  const std::vector<size_t> none;
+  auto bucket = [&](int64_t k) -> const std::vector<size_t>& {
+    const auto it = cells.find(k);
+    return it == cells.end() ? none : it->second;
+  };
+  const std::vector<Segment>& segments = scenario_.static_segments;
+  for (size_t k = 0; k < segments.size(); ++k) {
+    const Segment& s = segments[k];
+    const double length = (s.b - s.a).norm();
+    if (!(length > 0.0) || !std::isfinite(length)) continue;
+    const Vec2 across = 0.5 * config_.wall_thickness_m * Vec2(-(s.b - s.a).y(), (s.b - s.a).x()) / length;
+    const size_t self = 4 + k;  // walls_: the room's four, then the scenario's segments
+    for (const Vec2& end : {s.a, s.b}) {
+      auto touches = [&](const std::vector<size_t>& list) {
+        return std::any_of(list.begin(), list.end(),
+                           [&](size_t j) { return j != self && pointSegmentDistance(end, walls_[j]) < kJoin; });
+      };
+      const bool joined = touches(long_walls) || touches(bucket(key(cellOf(end.x()), cellOf(end.y()))));
+      if (!joined) lidar_scene_.segments.push_back({end - across, end + across});
+    }
+  }
 }
 
 double World::borderEventTime(const SimObstacle& o, double dt_s) const {

@@ -62,6 +62,9 @@ void saveDovsScenario(const Scenario& scenario, const std::string& path);
 /// the others are left unchanged. Throws ScenarioError unless dynamic_fraction is in [0, 1].
 void applyDynamicFraction(Scenario& scenario, double dynamic_fraction);
 
+/// The scenario's furniture as a map would show it: its static discs (not the moving ones, not the people).
+std::vector<Circle> furnitureOf(const Scenario& scenario);
+
 /// Which obstacles the generator creates.
 enum class ObstacleType {
   kNone,     ///< no obstacles at all

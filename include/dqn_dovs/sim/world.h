@@ -183,6 +183,8 @@ class World {
   void startBorderTurn(SimObstacle& o) const;
   /// Earliest time in [0, dt_s] at which the obstacle, moving nominally, reaches the border while heading
   /// out of the room; a negative value when it does not within dt_s.
+  /// The end faces of the walls' free ends, for the LIDAR (WorldConfig::wall_thickness_m).
+  void addWallEndFaces();
   double borderEventTime(const SimObstacle& o, double dt_s) const;
   /// Fills collision_ (first contact only) and returns true when the robot overlaps something now.
   bool checkCollision();
