@@ -25,7 +25,8 @@ class StaticMap {
 
   /// Marks the cells along `segment` as seen in the scan of stamp_s (at most one count per cell and scan).
   void addSegment(const Segment& segment, double stamp_s);
-  /// Marks the cells along `segment` as permanent structure (e.g. from a map): never forgotten.
+  /// Marks the cells along `segment` as permanent structure, in the fixed frame: never forgotten. (A map that
+  /// localisation places anew at each scan is KnownStructure, known_structure.h.)
   void addPermanentSegment(const Segment& segment);
   /// Whether `p` lies on a cell seen as wall in at least min_scans scans (or permanent).
   bool isStructure(const Vec2& p, int min_scans) const;
