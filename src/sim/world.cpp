@@ -179,8 +179,10 @@ void World::addWallEndFaces() {
   // (a map's outlines are thousands of short pieces).
   constexpr double kJoin = 0.01, kCell = 0.5;
   auto cellOf = [](double v) { return static_cast<int64_t>(std::floor(v / kCell)); };
-  auto key = [](int64_t i, int64_t j) { return (i << 32) ^ (j & 0xFFFFFFFFLL); };
-  std::unordered_map<int64_t, std::vector<size_t>> cells;
+  auto key = [](int64_t i, int64_t j) {
+    return (static_cast<uint64_t>(i) << 32) ^ static_cast<uint64_t>(static_cast<uint32_t>(j));
+  };
+  std::unordered_map<uint64_t, std::vector<size_t>> cells;
   std::vector<size_t> long_walls;  // spanning more than 50 cells: tested against every end instead
   for (size_t j = 0; j < walls_.size(); ++j) {
     const Segment& w = walls_[j];
@@ -195,7 +197,7 @@ void World::addWallEndFaces() {
     }
   }
   const std::vector<size_t> none;
-  auto bucket = [&](int64_t k) -> const std::vector<size_t>& {
+  auto bucket = [&](uint64_t k) -> const std::vector<size_t>& {
     const auto it = cells.find(k);
     return it == cells.end() ? none : it->second;
   };
