@@ -55,7 +55,7 @@ export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
   echo "benchmark_worlds: people predictor $predictor not found (PEOPLE_PREDICTOR= for none)" >&2
   exit 2
 }
-predict=()
+predict=(--predict-people none)
 [ -z "$predictor" ] || predict=(--predict-people "$predictor")
 [ -x .venv/bin/python ] || { echo "benchmark_worlds: .venv missing; run 'make setup'" >&2; exit 2; }
 

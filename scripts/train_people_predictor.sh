@@ -30,7 +30,7 @@ for spec in $worlds; do
       if [ "$seed" = 22601 ]; then train+=("$dir"); else valid+=("$dir"); fi
       [ -f "$dir/paths.json" ] && continue
       "$eval_tool" --generate "$seed" --obstacles "$n" --episodes "$k" --threads 2 --world "$family" \
-        --sensor "$sensor" --methods oracle --no-report --trajectories 1000 --out "$dir" | tail -1
+        --sensor "$sensor" --methods oracle --predict-people none --no-report --trajectories 1000 --out "$dir" | tail -1
     done
   done
 done

@@ -47,9 +47,10 @@ const char* kUsage =
     "  --episodes K        episodes 1..K per obstacle count (default 100)\n"
     "  --dynamic-fraction  fraction of moving obstacles in [0, 1] (default 0.85)\n"
     "  --perfect-info      planners see the simulator's ground truth instead of the tracker's output\n"
-    "  --predict-people F  the moving obstacles the planners see move on the arc that fits a learned\n"
-    "                      prediction (a people predictor file: models/people_predictor_tracks.dqnp, as\n"
-    "                      launch/pipeline.launch gives it where legs are paired; only people, not discs)\n"
+    "  --predict-people F  the people the planners see move on the arc that fits a learned prediction (a\n"
+    "                      people predictor file; only people, never the room's discs). Default auto: as the\n"
+    "                      launch files do, models/people_predictor_tracks.dqnp in worlds with people (every\n"
+    "                      --world but room), none in the room; none: their present velocity everywhere\n"
     "  --tracker-map       the tracker is given the map a robot would have (walls and furniture, not people)\n"
     "                      placed by a perfect localisation; what lies on it is never tracked\n"
     "  --dovs-map          the velocity space also takes that map's walls and furniture outlines within 4 m\n"
@@ -149,10 +150,27 @@ void setNamedValues(const std::string& flag, const std::string& text, Set set) {
   }
 }
 
+/// The people predictor file of --predict-people: `auto` is what the launch files give dovs_node (the package's
+/// predictor learned from tracks wherever legs are paired into people, i.e. every world but the paper's room), `none`
+/// nothing. A missing default file is named with the way to run without it.
+std::string resolvePeoplePredictor(const std::string& choice, const std::string& world) {
+  if (choice == "none") return "";
+  if (choice != "auto") return choice;
+  if (world == "room") return "";
+  const std::string file = dqn_dovs::kDefaultPeoplePredictor;
+  if (!std::filesystem::is_regular_file(file)) {
+    throw UsageError("--predict-people auto: the default people predictor '" + file +
+                     "' is not there (run from the "
+                     "package's root, name a file, or pass --predict-people none)");
+  }
+  return file;
+}
+
 struct Options {
   EvalConfig eval;
   std::string out_dir = "eval_results";
   std::string reference;
+  std::string predict_people = "auto";  ///< a file, auto or none (resolved after the world options)
   int trajectories = 3;
   bool help = false;
   bool report = true;
@@ -204,7 +222,8 @@ Options parse(int argc, char** argv) {
     } else if (flag == "--perfect-info") {
       o.eval.episode.perfect_info = true;
     } else if (flag == "--predict-people") {
-      o.eval.episode.people_predictor = value();
+      o.predict_people = value();
+      if (o.predict_people.empty()) throw UsageError("--predict-people needs a file, auto or none");
     } else if (flag == "--tracker-map") {
       o.eval.episode.tracker_map = true;
     } else if (flag == "--dovs-map") {
@@ -264,6 +283,7 @@ Options parse(int argc, char** argv) {
   if (have_generate) o.eval.scenarios_dir.clear();
   if (o.eval.world != "room" && !have_generate) throw UsageError("--world " + o.eval.world + " needs --generate SEED");
   dqn_dovs::applyWorldOptions(o.eval);
+  o.eval.episode.people_predictor = resolvePeoplePredictor(o.predict_people, o.eval.world);
   for (const std::string& text : tracker_overrides) {
     setNamedValues("--tracker", text, [&](const std::string& n, const std::string& v) {
       return dqn_dovs::setTrackerParameter(o.eval.episode.tracker, n, v);

@@ -192,3 +192,43 @@ def test_tracker_overrides_follow_config_tracker_yaml_and_bad_ones_are_named(tmp
     assert_refused(run, "--tracker", {"person_radius=-1": "person_radius",
                                       "radius=0.3": "unknown tracker parameter 'radius'",
                                       "pair_legs=maybe": "not true or false", "confirm_hits": "NAME=VALUE"})
+
+
+def test_people_are_predicted_by_default_where_legs_are_paired_as_on_the_robot(tmp_path):
+    """--predict-people auto (the default) is what launch/pipeline.launch gives dovs_node: the package's predictor in
+    worlds with people, none in the room; `none` turns it off; a missing default file is named."""
+    def run(world, *extra, cwd=ROOT):
+        out = tmp_path / f"{world}_{len(list(tmp_path.iterdir()))}"
+        cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs", "--generate", "31", "--obstacles", "10",
+               "--episodes", "3", "--world", world, "--sensor", "urg04lx", "--trajectories", "0", "--no-report",
+               "--out", str(out), *extra]
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=cwd)
+        return proc, out
+
+    def records(out):
+        predictor = json.load(open(out / "run.json"))["people_predictor"]
+        rows = [(r["episode"], r["outcome"], r["steps"], r["path_length_m"]) for r in csv.DictReader(open(out / "results.csv"))]
+        return predictor, rows
+
+    proc, default = run("crowd")
+    assert proc.returncode == 0, proc.stderr
+    proc, explicit = run("crowd", "--predict-people", "models/people_predictor_tracks.dqnp")
+    assert proc.returncode == 0, proc.stderr
+    proc, off = run("crowd", "--predict-people", "none")
+    assert proc.returncode == 0, proc.stderr
+    assert records(default) == records(explicit)
+    assert records(default)[0] == "models/people_predictor_tracks.dqnp"
+    assert records(off)[0] == ""
+    assert records(off)[1] != records(default)[1], "the prediction changed none of the crowd's episodes"
+
+    proc, room = run("room")
+    assert proc.returncode == 0, proc.stderr
+    assert records(room)[0] == ""
+
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    proc, _ = run("crowd", cwd=elsewhere)
+    assert proc.returncode == 2
+    assert "models/people_predictor_tracks.dqnp" in proc.stderr and "--predict-people none" in proc.stderr
+    proc, _ = run("crowd", "--predict-people", "none", cwd=elsewhere)
+    assert proc.returncode == 0, proc.stderr

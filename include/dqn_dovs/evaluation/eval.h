@@ -24,6 +24,10 @@ class EvalError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The people predictor the launch files give dovs_node where legs are paired (launch/pipeline.launch), relative to
+/// the package's root: dqn_dovs_eval's `--predict-people auto` in every world with people.
+constexpr const char* kDefaultPeoplePredictor = "models/people_predictor_tracks.dqnp";
+
 /// What to evaluate and how. Defaults live here only.
 struct EvalConfig {
   /// Planner names (makePlanner), in the order of the tables.
