@@ -269,18 +269,10 @@ void Episode::planRoute() {
   // The map the robot would have: the walls and the furniture (static discs included), not the people.
   const std::vector<Circle> furniture = sim::furnitureOf(world_.scenario());
   const Vec2 start = world_.odomPose().position();
-  Vec2 lo = start.cwiseMin(world_.goal()), hi = start.cwiseMax(world_.goal());
-  for (const Segment& w : world_.walls()) {
-    lo = lo.cwiseMin(w.a).cwiseMin(w.b);
-    hi = hi.cwiseMax(w.a).cwiseMax(w.b);
-  }
-  const double margin = 2.0 * config_.route.resolution_m;
   RouteConfig planner = config_.route.planner;
   planner.robot_radius_m = config_.world.robot.radius;
-  route_planner_ =
-      std::make_unique<RoutePlanner>(routeGridFromGeometry(world_.walls(), furniture, lo - Vec2::Constant(margin),
-                                                           hi + Vec2::Constant(margin), config_.route.resolution_m),
-                                     planner);
+  route_planner_ = std::make_unique<RoutePlanner>(
+      knownWorldGrid(world_.walls(), furniture, {start, world_.goal()}, config_.route.resolution_m), planner);
   // Without a route (start and goal not connected on the grid) the robot drives at the goal itself.
   route_error_ = route_guide_.plan(*route_planner_, start, world_.goal(), world_.time_s());
 }

@@ -636,6 +636,22 @@ RouteGrid routeGridFromGeometry(const std::vector<Segment>& segments, const std:
   return grid;
 }
 
+RouteGrid knownWorldGrid(const std::vector<Segment>& walls, const std::vector<Circle>& furniture,
+                         const std::vector<Vec2>& also_cover, double resolution_m) {
+  if (walls.empty() && also_cover.empty()) throw RouteError("known world grid: no walls and no point to cover");
+  Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Vec2& p : also_cover) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  for (const Segment& w : walls) {
+    lo = lo.cwiseMin(w.a).cwiseMin(w.b);
+    hi = hi.cwiseMax(w.a).cwiseMax(w.b);
+  }
+  const Vec2 margin = Vec2::Constant(2.0 * resolution_m);
+  return routeGridFromGeometry(walls, furniture, lo - margin, hi + margin, resolution_m);
+}
+
 std::string RouteGuideConfig::validate() const {
   if (!(std::isfinite(lookahead_m) && lookahead_m > 0.0)) return bad("lookahead_m", lookahead_m, "must be > 0 m");
   if (!(std::isfinite(replan_off_route_m) && replan_off_route_m > 0.0))

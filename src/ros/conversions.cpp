@@ -96,6 +96,17 @@ std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::Occupan
   return {};
 }
 
+nav_msgs::OccupancyGrid occupancyGridToMsg(const RouteGrid& grid) {
+  nav_msgs::OccupancyGrid msg;
+  msg.info.resolution = static_cast<float>(grid.resolution_m);
+  msg.info.width = static_cast<uint32_t>(grid.width);
+  msg.info.height = static_cast<uint32_t>(grid.height);
+  msg.info.origin = poseToMsg(grid.origin);
+  msg.data.resize(grid.cells.size());
+  for (size_t i = 0; i < grid.cells.size(); ++i) msg.data[i] = grid.cells[i] < 0 ? -1 : grid.cells[i];
+  return msg;
+}
+
 bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out) {
   const auto& q = t.rotation;
   if (!std::isfinite(t.translation.x) || !std::isfinite(t.translation.y) || !std::isfinite(q.x) ||

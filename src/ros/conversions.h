@@ -14,6 +14,7 @@
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/common/types.h"
+#include "dqn_dovs/planning/route.h"
 #include "dqn_dovs/sim/map.h"
 
 namespace dqn_dovs {
@@ -30,6 +31,10 @@ void laserScanToMsg(const LaserScan2& scan, sensor_msgs::LaserScan& msg);
 /// map_server thresholds them). Returns why the message is unusable (empty or unknown frame, a resolution that
 /// is not a positive number, no cells, a data size other than width x height, a non-finite origin), else "".
 std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::OccupancyMap& out);
+
+/// An occupancy grid of known geometry as a message (frame, stamps set by the caller): occupied 100, free 0,
+/// unknown -1, rows bottom first, as map_server publishes a map.
+nav_msgs::OccupancyGrid occupancyGridToMsg(const RouteGrid& grid);
 
 /// Planar pose of a transform (yaw only). Returns false when the transform has NaN/inf.
 bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out);

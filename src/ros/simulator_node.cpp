@@ -2,6 +2,7 @@
 
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <rosgraph_msgs/Clock.h>
 #include <sensor_msgs/LaserScan.h>
@@ -15,6 +16,7 @@
 #include "dqn_dovs/SimStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/evaluation/eval.h"
+#include "dqn_dovs/planning/route.h"
 #include "dqn_dovs/sim/worlds.h"
 #include "ros_params.h"
 
@@ -117,6 +119,8 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   cmd_timeout_s_ = paramInRange(pnh_, "cmd_timeout", 0.5, 0.05, 10.0);
   dynamic_fraction_ = paramInRange(pnh_, "dynamic_fraction", 0.85, 0.0, 1.0);
   publish_clock_ = param<bool>(pnh_, "publish_clock", false);
+  publish_map_ = param<bool>(pnh_, "publish_map", false);
+  map_resolution_m_ = paramInRange(pnh_, "map_resolution", 0.05, 0.01, 1.0);
 
   world_config_.robot = loadRobotLimits(pnh_);
   world_config_.lidar = loadLidarConfig(pnh_);
@@ -178,8 +182,15 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   goal_pub_ = nh_.advertise<geometry_msgs::PoseStamped>(publish_goal ? "move_base_simple/goal" : "sim/goal", 1, true);
   status_pub_ = nh_.advertise<SimStatus>("sim/status", 10);
   if (publish_clock_) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  // Latched, as map_server publishes it: the map a robot would be given of this world.
+  if (publish_map_) map_pub_ = nh_.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
 
-  loadScenario(scenario, static_cast<uint64_t>(seed));
+  try {
+    loadScenario(scenario, static_cast<uint64_t>(seed));
+  } catch (const RouteError& e) {
+    throw ParameterError("parameter '" + pnh_.resolveName("publish_map") + "': no map of scenario '" + scenario.name +
+                         "': " + e.what());
+  }
 
   cmd_sub_ = nh_.subscribe("cmd_vel", 5, &SimulatorNode::onCmdVel, this, ros::TransportHints().tcpNoDelay());
   reset_srv_ = pnh_.advertiseService("reset", &SimulatorNode::onReset, this);
@@ -224,11 +235,18 @@ ros::Time SimulatorNode::simNow() const {
 }
 
 void SimulatorNode::loadScenario(const sim::Scenario& scenario, uint64_t seed) {
+  auto world = std::make_unique<sim::World>(scenario, world_config_, seed);
+  // The map first: a world that has none (RouteError) leaves the running scenario as it was.
+  nav_msgs::OccupancyGrid map;
+  if (publish_map_) {
+    map = occupancyGridToMsg(knownWorldGrid(world->walls(), sim::furnitureOf(scenario),
+                                            {world->robotPose().position(), scenario.goal}, map_resolution_m_));
+  }
   if (world_) clock_offset_s_ += world_->time_s() + period_s_;          // time never goes backwards across resets
   if (clock_offset_s_ == 0.0 && publish_clock_) clock_offset_s_ = 1.0;  // ros::Time(0) means "unset"
   scenario_ = scenario;
   seed_ = seed;
-  world_ = std::make_unique<sim::World>(scenario_, world_config_, seed_);
+  world_ = std::move(world);
   command_ = Twist2{};
   command_stamp_s_ = -1e9;
   next_scan_s_ = 0.0;
@@ -240,6 +258,14 @@ void SimulatorNode::loadScenario(const sim::Scenario& scenario, uint64_t seed) {
   goal.header.frame_id = truth_frame_;
   goal.pose = poseToMsg(Pose2{scenario_.goal.x(), scenario_.goal.y(), 0.0});
   goal_pub_.publish(goal);
+  if (publish_map_) {
+    // The walls and the furniture, never the people, in the room frame: what map_server would give from a
+    // building's map (odometry drifts from it; localisation's map -> odom closes the loop).
+    map.header.stamp = goal.header.stamp;
+    map.header.frame_id = truth_frame_;
+    map.info.map_load_time = goal.header.stamp;
+    map_pub_.publish(map);
+  }
 }
 
 void SimulatorNode::onCmdVel(const geometry_msgs::Twist::ConstPtr& msg) {

@@ -1,6 +1,6 @@
 // ROS wrapper of the simulator core: steps the world at a fixed period; cmd_vel in; scan, odom (the wheel
-// odometry, drifting when asked), tf, the ground truth (robot and obstacles) and (optionally) /clock out; services
-// to reset and to load a scenario.
+// odometry, drifting when asked), tf, the ground truth (robot and obstacles), (optionally) the map a robot would be
+// given of the world and /clock out; services to reset and to load a scenario.
 #pragma once
 
 #include <geometry_msgs/Twist.h>
@@ -47,6 +47,8 @@ class SimulatorNode {
   double dynamic_fraction_ = 0.85;
   double obstacle_radius_m_ = 0.2;
   bool publish_clock_ = false;
+  bool publish_map_ = false;  // the known walls and furniture as a latched occupancy grid on `map`
+  double map_resolution_m_ = 0.05;
   sim::WorldConfig world_config_;
   sim::GeneratorConfig generator_config_;
   std::string world_family_ = "room";
@@ -63,7 +65,7 @@ class SimulatorNode {
 
   ros::Subscriber cmd_sub_;
   ros::Publisher scan_pub_, odom_pub_, truth_odom_pub_, truth_pub_, truth_markers_pub_, clock_pub_, goal_pub_,
-      status_pub_;
+      status_pub_, map_pub_;
   ros::ServiceServer reset_srv_, load_srv_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
 };

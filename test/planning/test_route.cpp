@@ -452,6 +452,39 @@ TEST(RouteGridFromGeometryTest, BadInputIsNamed) {
             std::string::npos);
 }
 
+TEST(RouteGridFromGeometryTest, AKnownWorldsGridCoversItsWallsStartAndGoal) {
+  // A corridor's two walls, a chair in it, a goal beyond the walls' ends and a start below them.
+  const std::vector<Segment> walls = {{Vec2(0, 0), Vec2(6, 0)}, {Vec2(0, 2), Vec2(6, 2)}};
+  const std::vector<Circle> chairs = {{Vec2(3.0, 1.0), 0.3}};
+  const RouteGrid g = knownWorldGrid(walls, chairs, {Vec2(1.0, -1.0), Vec2(8.0, 1.0)}, 0.05);
+  auto at = [&](const Vec2& p) {
+    const int i = static_cast<int>(std::floor((p.x() - g.origin.x) / g.resolution_m));
+    const int j = static_cast<int>(std::floor((p.y() - g.origin.y) / g.resolution_m));
+    EXPECT_TRUE(i >= 0 && j >= 0 && i < g.width && j < g.height) << "(" << p.x() << ", " << p.y() << ") off the grid";
+    return g.cells[size_t(j) * g.width + i];
+  };
+  // The box of the walls, the start and the goal, two cells more on every side.
+  EXPECT_NEAR(g.origin.x, -0.1, 1e-9);
+  EXPECT_NEAR(g.origin.y, -1.1, 1e-9);
+  EXPECT_NEAR(g.origin.x + g.width * g.resolution_m, 8.1, 0.05 + 1e-9);
+  EXPECT_NEAR(g.origin.y + g.height * g.resolution_m, 2.1, 0.05 + 1e-9);
+  EXPECT_EQ(at(Vec2(1.0, -1.0)), 0) << "the start";
+  EXPECT_EQ(at(Vec2(8.0, 1.0)), 0) << "the goal";
+  EXPECT_EQ(at(Vec2(2.0, 0.0)), kOccupied) << "a wall";
+  EXPECT_EQ(at(Vec2(3.0, 1.0)), kOccupied) << "the chair";
+  EXPECT_EQ(at(Vec2(1.0, 1.0)), 0);
+  // It is routeGridFromGeometry over that box: the evaluation's episodes and simulator_node's map agree.
+  const RouteGrid same = routeGridFromGeometry(walls, chairs, Vec2(-0.1, -1.1), Vec2(8.1, 2.1), 0.05);
+  EXPECT_EQ(g.cells, same.cells);
+  EXPECT_EQ(g.width, same.width);
+  try {
+    knownWorldGrid({}, chairs, {}, 0.05);
+    ADD_FAILURE() << "nothing to cover was accepted";
+  } catch (const RouteError& e) {
+    EXPECT_NE(std::string(e.what()).find("no walls and no point to cover"), std::string::npos) << e.what();
+  }
+}
+
 TEST(RouteGuideTest, GivesTheSubgoalOfThePrimitivesAndTheGoalItselfAtTheEnd) {
   const RoutePlanner planner(twoRooms(1.0), config());
   const Vec2 start(2.0, 1.0), goal(8.0, 1.0);

@@ -208,6 +208,12 @@ bool routeBlocked(const Route& route, const RouteFollower& from, const std::vect
 RouteGrid routeGridFromGeometry(const std::vector<Segment>& segments, const std::vector<Circle>& discs, const Vec2& lo,
                                 const Vec2& hi, double resolution_m);
 
+/// The map a robot would be given of a known world: routeGridFromGeometry over the box of the walls and of
+/// `also_cover` (the robot's start, its goal), grown by two cells. What the evaluation plans routes on and what
+/// simulator_node publishes as its map. Throws RouteError as routeGridFromGeometry (and for nothing to cover).
+RouteGrid knownWorldGrid(const std::vector<Segment>& walls, const std::vector<Circle>& furniture,
+                         const std::vector<Vec2>& also_cover, double resolution_m);
+
 /// Settings of RouteGuide: planner_node's route/* parameters. Defaults live here only.
 struct RouteGuideConfig {
   /// The subgoal is this much route ahead of the robot's projection, m (route/lookahead).
