@@ -1,6 +1,7 @@
 #include "bag_replay.h"
 
 #include <geometry_msgs/PoseStamped.h>
+#include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -70,9 +71,30 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
   ReplayResult result;
   std::optional<nav_msgs::Odometry> odom;
   std::optional<Vec2> goal;
-  rosbag::View view(
-      bag, rosbag::TopicQuery(std::vector<std::string>{config.scan_topic, config.odom_topic, config.goal_topic}));
+  // The last usable map, as each node keeps it (a malformed one is ignored and the previous one kept).
+  std::unique_ptr<KnownStructure> tracker_structure;
+  std::string tracker_map_frame, dovs_map_frame;
+  std::vector<Segment> map_walls;
+  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{config.scan_topic, config.odom_topic,
+                                                                     config.goal_topic, config.map_topic}));
   for (const rosbag::MessageInstance& m : view) {
+    if (m.getTopic() == config.map_topic) {
+      const auto msg = m.instantiate<nav_msgs::OccupancyGrid>();
+      if (!msg) continue;
+      std::unique_ptr<KnownStructure> structure;
+      if (config.tracker_map &&
+          trackerMapFromMsg(*msg, config.tracker_map_unknown_is_occupied, config.tracker.map_tolerance_m, structure)
+              .empty()) {
+        tracker_structure = std::move(structure);
+        tracker_map_frame = msg->header.frame_id;
+      }
+      std::vector<Segment> walls;
+      if (config.dovs_map && mapWallsFromMsg(*msg, config.dovs_map_unknown_is_occupied, walls).empty()) {
+        map_walls = std::move(walls);
+        dovs_map_frame = msg->header.frame_id;
+      }
+      continue;
+    }
     if (m.getTopic() == config.odom_topic) {
       const auto msg = m.instantiate<nav_msgs::Odometry>();
       if (msg && std::isfinite(msg->twist.twist.linear.x) && std::isfinite(msg->twist.twist.angular.z)) odom = *msg;
@@ -96,11 +118,18 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     const auto laser_pose = lookupPose(tf, config.fixed_frame, scan_msg->header.frame_id, stamp);
     TrackedObstacleArray obstacles;
     std::string reset_note;
+    MapStructureView map_view;
+    if (tracker_structure) {
+      if (const auto fixed_in_map = lookupPose(tf, tracker_map_frame, config.fixed_frame, stamp)) {
+        map_view = {tracker_structure.get(), *fixed_in_map};
+      }
+    }
     if (!laserScanFromMsg(*scan_msg, scan).empty() || !laser_pose ||
-        !trackScan(tracker, scan, *laser_pose, stamp, config.fixed_frame, obstacles, reset_note).empty()) {
+        !trackScan(tracker, scan, *laser_pose, stamp, config.fixed_frame, obstacles, reset_note, map_view).empty()) {
       ++result.scans_dropped;
       continue;
     }
+    result.scans_with_map += map_view.structure != nullptr;
     result.scans.push_back(
         {stamp.toSec(), static_cast<int>(obstacles.obstacles.size()), static_cast<int>(obstacles.segments.size())});
     for (const auto& o : obstacles.obstacles) {
@@ -112,6 +141,12 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     if (!odom || std::abs((stamp - odom->header.stamp).toSec()) > config.max_input_age_s) continue;
     const auto robot_pose = lookupPose(tf, config.fixed_frame, config.base_frame, stamp);
     if (!robot_pose) continue;
+    if (!map_walls.empty()) {
+      if (const auto map_in_fixed = lookupPose(tf, config.fixed_frame, dovs_map_frame, stamp)) {
+        addMapWalls(map_walls, *map_in_fixed, *robot_pose, config.dovs_map_range_m, obstacles);
+        ++result.steps_with_map_walls;
+      }
+    }
     DovsStep step;
     const Twist2 odom_twist{odom->twist.twist.linear.x, odom->twist.twist.angular.z};
     if (!buildDovsStep(obstacles, *robot_pose, odom_twist, goal, config.limits, normalization, config.shield,

@@ -47,7 +47,15 @@ struct ReplayConfig {
   std::string model_path;
   /// dovs_node's `people_predictor` ("": moving tracks at their present velocity).
   std::string people_predictor;
+  /// obstacle_tracker_node's `use_map` and `map_unknown_is_occupied`: the bag's map is what the tracker never tracks.
+  bool tracker_map = false;
+  bool tracker_map_unknown_is_occupied = false;
+  /// dovs_node's `use_map`, `map_range` (m) and `map_unknown_is_occupied`: the map's walls join the scan's.
+  bool dovs_map = false;
+  double dovs_map_range_m = 4.0;
+  bool dovs_map_unknown_is_occupied = false;
   /// Topics in the bag.
+  std::string map_topic = "/map";
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   std::string goal_topic = "/move_base_simple/goal";
@@ -85,7 +93,9 @@ struct ReplayResult {
   std::vector<ScanRow> scans;
   std::vector<TrackRow> tracks;
   std::vector<DecisionRow> decisions;
-  int scans_dropped = 0;  ///< malformed, no transform, or rejected by the tracker
+  int scans_dropped = 0;         ///< malformed, no transform, or rejected by the tracker
+  int scans_with_map = 0;        ///< scans tracked with the map (tracker_map, a map and its transform at hand)
+  int steps_with_map_walls = 0;  ///< velocity spaces built with the map's walls (dovs_map)
 };
 
 /// Replays `bag_path`. Throws ReplayError when the bag cannot be read, WeightFileError for a bad model,

@@ -107,16 +107,16 @@ void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
 }
 
 void DovsNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
-  sim::OccupancyMap map;
-  const std::string error = occupancyMapFromMsg(*msg, map);
+  std::vector<Segment> walls;
+  const std::string error = mapWallsFromMsg(*msg, map_unknown_is_occupied_, walls);
   if (!error.empty()) {
     ROS_ERROR("dovs: map ignored (the previous one, if any, is kept): %s", error.c_str());
     return;
   }
-  map_walls_ = sim::mapSegments(map, map_unknown_is_occupied_);
+  map_walls_ = std::move(walls);
   map_frame_ = msg->header.frame_id;
-  ROS_INFO("dovs: map of %d x %d cells at %.3f m in '%s': %zu wall segments", map.width, map.height, map.resolution_m,
-           map_frame_.c_str(), map_walls_.size());
+  ROS_INFO("dovs: map of %u x %u cells at %.3f m in '%s': %zu wall segments", msg->info.width, msg->info.height,
+           msg->info.resolution, map_frame_.c_str(), map_walls_.size());
 }
 
 void DovsNode::addMapWalls(TrackedObstacleArray& obstacles, const Pose2& robot, const ros::Time& stamp) {
@@ -127,16 +127,7 @@ void DovsNode::addMapWalls(TrackedObstacleArray& obstacles, const Pose2& robot, 
     ROS_WARN_THROTTLE(2.0, "dovs: map walls left out: %s (the obstacles' stamp)", why.c_str());
     return;
   }
-  for (const Segment& wall : map_walls_) {
-    const Segment s{map_in_fixed.toWorld(wall.a), map_in_fixed.toWorld(wall.b)};
-    if (pointSegmentDistance(robot.position(), s) > map_range_m_) continue;
-    ObstacleSegment m;
-    m.first_point.x = s.a.x();
-    m.first_point.y = s.a.y();
-    m.last_point.x = s.b.x();
-    m.last_point.y = s.b.y();
-    obstacles.segments.push_back(m);
-  }
+  dqn_dovs::addMapWalls(map_walls_, map_in_fixed, robot, map_range_m_, obstacles);
 }
 
 void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {

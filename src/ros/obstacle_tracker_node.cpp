@@ -50,26 +50,17 @@ ObstacleTrackerNode::ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh
 }
 
 void ObstacleTrackerNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
-  sim::OccupancyMap grid;
-  std::string error = occupancyMapFromMsg(*msg, grid);
-  if (error.empty() && msg->header.frame_id.empty()) error = "the map has no frame_id";
   std::unique_ptr<KnownStructure> structure;
-  if (error.empty()) {
-    try {
-      structure = std::make_unique<KnownStructure>(sim::mapSegments(grid, map_unknown_is_occupied_),
-                                                   std::vector<Circle>{}, tracker_->config().map_tolerance_m);
-    } catch (const std::invalid_argument& e) {
-      error = e.what();
-    }
-  }
+  const std::string error =
+      trackerMapFromMsg(*msg, map_unknown_is_occupied_, tracker_->config().map_tolerance_m, structure);
   if (!error.empty()) {
     ROS_ERROR("obstacle_tracker: map ignored (the previous one, if any, is kept): %s", error.c_str());
     return;
   }
   map_ = std::move(structure);
   map_frame_ = msg->header.frame_id;
-  ROS_INFO("obstacle_tracker: map of %d x %d cells at %.3f m in '%s': what it shows is never tracked", grid.width,
-           grid.height, grid.resolution_m, map_frame_.c_str());
+  ROS_INFO("obstacle_tracker: map of %u x %u cells at %.3f m in '%s': what it shows is never tracked", msg->info.width,
+           msg->info.height, msg->info.resolution, map_frame_.c_str());
 }
 
 MapStructureView ObstacleTrackerNode::mapView(const ros::Time& stamp) {

@@ -5,8 +5,43 @@
 #include <stdexcept>
 
 #include "conversions.h"
+#include "dqn_dovs/sim/map.h"
 
 namespace dqn_dovs {
+
+std::string trackerMapFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_is_occupied, double tolerance_m,
+                              std::unique_ptr<KnownStructure>& out) {
+  sim::OccupancyMap grid;
+  if (std::string error = occupancyMapFromMsg(msg, grid); !error.empty()) return error;
+  try {
+    out = std::make_unique<KnownStructure>(sim::mapSegments(grid, unknown_is_occupied), std::vector<Circle>{},
+                                           tolerance_m);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return {};
+}
+
+std::string mapWallsFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_is_occupied, std::vector<Segment>& out) {
+  sim::OccupancyMap grid;
+  if (std::string error = occupancyMapFromMsg(msg, grid); !error.empty()) return error;
+  out = sim::mapSegments(grid, unknown_is_occupied);
+  return {};
+}
+
+void addMapWalls(const std::vector<Segment>& map_walls, const Pose2& map_in_fixed, const Pose2& robot, double range_m,
+                 TrackedObstacleArray& obstacles) {
+  for (const Segment& wall : map_walls) {
+    const Segment s{map_in_fixed.toWorld(wall.a), map_in_fixed.toWorld(wall.b)};
+    if (pointSegmentDistance(robot.position(), s) > range_m) continue;
+    ObstacleSegment m;
+    m.first_point.x = s.a.x();
+    m.first_point.y = s.a.y();
+    m.last_point.x = s.b.x();
+    m.last_point.y = s.b.y();
+    obstacles.segments.push_back(m);
+  }
+}
 
 std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
                       const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note,

@@ -3,10 +3,13 @@
 // functions, so a replayed bag makes exactly the decisions the running pipeline makes.
 #pragma once
 
+#include <nav_msgs/OccupancyGrid.h>
 #include <ros/time.h>
 
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
@@ -14,6 +17,7 @@
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
 #include "dqn_dovs/evaluation/people_predictor.h"
+#include "dqn_dovs/perception/known_structure.h"
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/policy/dovs_decision.h"
@@ -29,6 +33,21 @@ namespace dqn_dovs {
 std::string trackScan(ObstacleTracker& tracker, const LaserScan2& scan, const Pose2& laser_pose, const ros::Time& stamp,
                       const std::string& fixed_frame, TrackedObstacleArray& out, std::string& reset_note,
                       const MapStructureView& map = {});
+
+/// obstacle_tracker_node's map (use_map): what an occupancy grid shows, as the tracker's known structure (its walls
+/// as segments, in the grid's frame, within tolerance_m). Returns why the grid is unusable (occupancyMapFromMsg's
+/// reasons, a bad tolerance), else "" with `out` set.
+std::string trackerMapFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_is_occupied, double tolerance_m,
+                              std::unique_ptr<KnownStructure>& out);
+
+/// dovs_node's map (use_map): the walls of an occupancy grid as segments in its frame. Returns why the grid is
+/// unusable, else "" with `out` set.
+std::string mapWallsFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_is_occupied, std::vector<Segment>& out);
+
+/// dovs_node's step before the velocity space with use_map: the map's walls (map frame) that come within range_m of
+/// `robot` (fixed frame), placed in the fixed frame by `map_in_fixed`, appended to the obstacles' segments.
+void addMapWalls(const std::vector<Segment>& map_walls, const Pose2& map_in_fixed, const Pose2& robot, double range_m,
+                 TrackedObstacleArray& obstacles);
 
 /// Everything dovs_node derives from one obstacles message.
 struct DovsStep {

@@ -33,6 +33,13 @@ dqn_dovs::ReplayConfig loadConfig() {
   c.max_input_age_s = dqn_dovs::param<double>(dovs_ns, "max_input_age", 0.5);
   c.model_path = dqn_dovs::param<std::string>(planner_ns, "model_path", "");
   c.people_predictor = dqn_dovs::param<std::string>(dovs_ns, "people_predictor", "");
+  // The goal the velocity space was built for: planner/local_goal where the planner followed a route.
+  c.goal_topic = pnh.param<std::string>("goal_topic", c.goal_topic);
+  c.tracker_map = dqn_dovs::param<bool>(tracker_ns, "use_map", false);
+  c.tracker_map_unknown_is_occupied = dqn_dovs::param<bool>(tracker_ns, "map_unknown_is_occupied", false);
+  c.dovs_map = dqn_dovs::param<bool>(dovs_ns, "use_map", false);
+  c.dovs_map_range_m = dqn_dovs::param<double>(dovs_ns, "map_range", 4.0);
+  c.dovs_map_unknown_is_occupied = dqn_dovs::param<bool>(dovs_ns, "map_unknown_is_occupied", false);
   return c;
 }
 
@@ -56,6 +63,15 @@ TEST(BagReplay, SameDecisionsEveryRunAndAsStored) {
         return a.v < b.v;
       })->v;
   EXPECT_GT(top_speed, 0.2) << "the recorded robot hardly moved";
+  if (config.tracker_map) {
+    EXPECT_GT(first.scans_with_map, static_cast<int>(first.scans.size() * 9 / 10))
+        << "the tracker had the bag's map for only " << first.scans_with_map << " of " << first.scans.size()
+        << " scans";
+  }
+  if (config.dovs_map) {
+    EXPECT_GT(first.steps_with_map_walls, static_cast<int>(first.decisions.size() * 9 / 10))
+        << "the velocity space had the map's walls for only " << first.steps_with_map_walls << " steps";
+  }
 
   if (pnh.param("regenerate", false)) {
     dqn_dovs::writeReplayCsv(first, tracks_csv, decisions_csv);
