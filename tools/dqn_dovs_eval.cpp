@@ -159,9 +159,8 @@ std::string resolvePeoplePredictor(const std::string& choice, const std::string&
   if (world == "room") return "";
   const std::string file = dqn_dovs::kDefaultPeoplePredictor;
   if (!std::filesystem::is_regular_file(file)) {
-    throw UsageError("--predict-people auto: the default people predictor '" + file +
-                     "' is not there (run from the "
-                     "package's root, name a file, or pass --predict-people none)");
+    throw UsageError("--predict-people auto: the default people predictor '" + file + "' is not there " +
+                     "(run from the package's root, name a file, or pass --predict-people none)");
   }
   return file;
 }
