@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Records a replay regression bag: simulator_node + the pipeline with the shipped model (launch/sim.launch, sim
 # time, real time) on one scenario, topics scan, odom, tf, tf_static, the goal, the planner's local goals (the
-# route's subgoals in worlds with walls) and the map (when the simulator
-# publishes one), for DURATION simulated seconds (default 14), lz4-compressed. After recording a new bag,
-# regenerate the expectations with scripts/regenerate_bag_expectations.sh.
+# route's subgoals in worlds with walls) and the map (when the simulator publishes one), for DURATION simulated
+# seconds (default 14), lz4-compressed. After recording a new bag, regenerate the expectations with
+# scripts/regenerate_bag_expectations.sh.
 #   scripts/record_test_bag.sh [SCENARIO.dovs] [OUT.bag]      test/data/replay.bag: a shared scenario, the room
 #   SIM_ARGS="world:=clutter seed:=3 obstacles:=6 odom_noise:=low tracker_map:=true dovs_map:=true" \
 #     scripts/record_test_bag.sh - test/data/replay_people_map.bag   a generated building world with people and map

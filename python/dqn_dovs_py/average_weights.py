@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dqn_dovs_py.export import WeightFile, WeightFileError, _atomic_write, load_weights, serialize
+from dqn_dovs_py.export import WeightFile, WeightFileError, atomic_write, load_weights, serialize
 
 
 def _layout(w: WeightFile) -> tuple:
@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         weights = [float(x) for x in args.weights.split(",")] if args.weights else None
         result = average(args.files, weights)
-        _atomic_write(Path(args.out), serialize(result, args.out))
+        atomic_write(Path(args.out), serialize(result, args.out))
     except (ValueError, WeightFileError, OSError) as exc:
         print(f"average_weights: {exc}", file=sys.stderr)
         return 2

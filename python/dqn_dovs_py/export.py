@@ -238,13 +238,14 @@ def export_model(model: DuelingQNet, path: str | os.PathLike, normalization: Map
     if onnx and onnx_path_for(path) == path:
         raise ValueError(f"{path}: the weight file needs another suffix than .onnx (the ONNX model goes beside it)")
     data = serialize(weights_from_model(model, normalization, metadata), str(path))
-    _atomic_write(path, data)
+    atomic_write(path, data)
     if onnx:
         write_onnx(data, onnx_path_for(path), str(path))
     return path
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
+def atomic_write(path: Path, data: bytes) -> None:
+    """Writes `data` beside `path` and renames it into place, so a reader never sees half a file."""
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_bytes(data)
     os.replace(tmp, path)
@@ -499,7 +500,7 @@ def write_onnx(data: bytes, out: str | os.PathLike, weights_path: str = "<memory
         entry.key, entry.value = key, value
     onnx.checker.check_model(proto)
     try:
-        _atomic_write(out, proto.SerializeToString())
+        atomic_write(out, proto.SerializeToString())
     except OSError as exc:
         raise OnnxExportError(out, f"cannot write: {exc.strerror}") from exc
     return out
