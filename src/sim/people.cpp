@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -16,6 +17,21 @@ bool finitePositive(double x) { return std::isfinite(x) && x > 0.0; }
 
 /// Step length (m) of a person walking at `speed` (m/s): longer strides when faster.
 double stepLength(double speed) { return 0.3 + 0.3 * std::min(speed, 1.5); }
+
+/// How much closer to its destination a person must come to count as making progress (PeopleConfig::stall_time_s).
+constexpr double kProgressStep_m = 0.1;
+
+/// True when a body of `radius` walking straight from a to b keeps clear of every wall.
+bool straightWalkIsClear(const Vec2& a, const Vec2& b, double radius, const std::vector<Segment>& walls) {
+  const Segment path{a, b};
+  for (const Segment& w : walls) {
+    if (segmentsCross(a, b, w) || pointSegmentDistance(a, w) < radius || pointSegmentDistance(b, w) < radius ||
+        pointSegmentDistance(w.a, path) < radius || pointSegmentDistance(w.b, path) < radius) {
+      return false;
+    }
+  }
+  return true;
+}
 
 }  // namespace
 
@@ -51,6 +67,9 @@ std::string PeopleConfig::validate() const {
   positive("wall_range_m", wall_range_m);
   positive("max_speed_factor", max_speed_factor);
   positive("arrival_radius_m", arrival_radius_m);
+  positive("stall_time_s", stall_time_s);
+  positive("stall_radius_m", stall_radius_m);
+  positive("give_way_s", give_way_s);
   positive("leg_radius_m", leg_radius_m);
   positive("physics_step_s", physics_step_s);
   positive("orca_time_horizon_s", orca_time_horizon_s);
@@ -85,6 +104,10 @@ Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config) 
     if (!ok) {
       throw SimConfigError("person " + std::to_string(i) +
                            ": position, heading, destinations and wait must be finite, radius and speed > 0");
+    }
+    if (!s.pass_through.empty() && s.pass_through.size() != s.destinations.size()) {
+      throw SimConfigError("person " + std::to_string(i) + ": " + std::to_string(s.pass_through.size()) +
+                           " pass-through flags for " + std::to_string(s.destinations.size()) + " destinations");
     }
     Person p;
     p.spec = s;
@@ -205,10 +228,46 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
     // Destinations and waits.
     if (p.waiting_s > 0.0) {
       p.waiting_s = std::max(0.0, p.waiting_s - dt);
-    } else if (!p.spec.destinations.empty() &&
-               (p.spec.destinations[p.destination] - p.position).norm() < config_.arrival_radius_m) {
-      p.destination = (p.destination + 1) % p.spec.destinations.size();
-      p.waiting_s = p.spec.wait_s;
+    } else if (!p.spec.destinations.empty()) {
+      const size_t n = p.spec.destinations.size(), following = (p.destination + 1) % n;
+      const double distance = (p.spec.destinations[p.destination] - p.position).norm();
+      const bool via = !p.spec.pass_through.empty() && p.spec.pass_through[p.destination];
+      if (distance < p.closest_m - kProgressStep_m) {
+        p.closest_m = distance;
+        p.stalled_s = 0.0;
+      } else {
+        p.stalled_s += dt;
+      }
+      bool reached =
+          distance < config_.arrival_radius_m ||
+          (via && straightWalkIsClear(p.position, p.spec.destinations[following], p.spec.body_radius_m, walls));
+      bool give_way = false;
+      if (!reached && p.stalled_s >= config_.stall_time_s) {
+        // Stalled: near a stop, near enough will do (someone stands on it); anywhere else (two people meeting in a
+        // door or a narrow corridor) give way for a moment, then try again.
+        if (!via && distance <= config_.stall_radius_m) {
+          reached = true;
+        } else {
+          give_way = true;
+        }
+      }
+      const size_t previous = (p.destination + n - 1) % n;
+      if (reached) {
+        p.destination = following;
+        p.waiting_s = via ? 0.0 : p.spec.wait_s;
+      } else if (give_way) {
+        p.waiting_s = config_.give_way_s;
+      } else if (!via && !p.spec.pass_through.empty() && p.spec.pass_through[previous] &&
+                 !straightWalkIsClear(p.position, p.spec.destinations[p.destination], 0.5 * p.spec.body_radius_m,
+                                      walls)) {
+        // Pushed off the way through the waypoint (a wall or a door's jamb now stands in the way to the stop):
+        // back to the waypoint.
+        p.destination = previous;
+      } else {
+        continue;
+      }
+      p.closest_m = std::numeric_limits<double>::infinity();
+      p.stalled_s = 0.0;
     }
   }
 }

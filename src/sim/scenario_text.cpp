@@ -1,4 +1,5 @@
 // The text scenario format (version 2): see scenario.h.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -18,12 +19,12 @@ constexpr const char* kHeader = "dqn_dovs scenario 2";
 
 /// The numbers of one line after its keyword; ScenarioError naming the file and line when one is not a finite
 /// number.
-std::vector<double> numbers(std::istringstream& in, const std::string& where, bool allow_static) {
+std::vector<double> numbers(std::istringstream& in, const std::string& where, const char* flag_word) {
   std::vector<double> out;
   std::string word;
   while (in >> word) {
-    if (allow_static && word == "static") {
-      out.push_back(std::nan("static"));  // a flag, handled by the caller
+    if (flag_word != nullptr && word == flag_word) {
+      out.push_back(std::nan(""));  // a flag ('static', 'via'), handled by the caller
       continue;
     }
     const std::optional<double> parsed = parseNumber(word);
@@ -95,7 +96,10 @@ Scenario parseScenarioText(const std::string& text, const std::string& path) {
       }
       continue;
     }
-    const std::vector<double> v = numbers(in, where, item == "obstacle");
+    const std::vector<double> v = numbers(in, where,
+                                          item == "obstacle" ? "static"
+                                          : item == "person" ? "via"
+                                                             : nullptr);
     if (item == "room") {
       need(v, 1, item, where);
       if (!(v[0] > 0.0)) throw ScenarioError(where + ": the room's half size must be > 0 m");
@@ -136,8 +140,13 @@ Scenario parseScenarioText(const std::string& text, const std::string& path) {
         s.static_segments.push_back({Vec2(v[i], v[i + 1]), Vec2(v[j], v[j + 1])});
       }
     } else if (item == "person") {
-      if (v.size() < 7 || (v.size() - 7) % 2 != 0) {
-        throw ScenarioError(where + ": 'person' takes X Y HEADING RADIUS SPEED WAIT GROUP then x y pairs");
+      const bool flags_in_place = std::none_of(v.begin(), v.begin() + std::min<std::ptrdiff_t>(7, v.size()),
+                                               [](double x) { return std::isnan(x); });
+      const size_t flags =
+          static_cast<size_t>(std::count_if(v.begin(), v.end(), [](double x) { return std::isnan(x); }));
+      if (v.size() < 7 || !flags_in_place || (v.size() - 7 - flags) % 2 != 0) {
+        throw ScenarioError(
+            where + ": 'person' takes X Y HEADING RADIUS SPEED WAIT GROUP then x y pairs, each may follow 'via'");
       }
       PersonSpec p;
       p.position = Vec2(v[0], v[1]);
@@ -149,7 +158,16 @@ Scenario parseScenarioText(const std::string& text, const std::string& path) {
       if (!(p.body_radius_m > 0.0 && p.preferred_speed_mps > 0.0 && p.wait_s >= 0.0 && v[6] == std::floor(v[6]))) {
         throw ScenarioError(where + ": a person needs radius > 0, speed > 0, wait >= 0 and an integer group");
       }
-      for (size_t i = 7; i < v.size(); i += 2) p.destinations.push_back(Vec2(v[i], v[i + 1]));
+      for (size_t i = 7; i < v.size(); i += 2) {
+        const bool via = std::isnan(v[i]);
+        if (via) ++i;
+        if (i + 1 >= v.size() || std::isnan(v[i]) || std::isnan(v[i + 1])) {
+          throw ScenarioError(where + ": 'via' must be followed by a destination's x y");
+        }
+        p.destinations.push_back(Vec2(v[i], v[i + 1]));
+        p.pass_through.push_back(via);
+      }
+      if (std::none_of(p.pass_through.begin(), p.pass_through.end(), [](bool b) { return b; })) p.pass_through.clear();
       s.people.push_back(p);
       placed.push_back({p.position, "a person", where});
     } else {
@@ -179,7 +197,10 @@ void saveScenarioText(const Scenario& s, const std::string& path) {
   for (const PersonSpec& p : s.people) {
     out << "person " << p.position.x() << " " << p.position.y() << " " << p.heading_rad << " " << p.body_radius_m << " "
         << p.preferred_speed_mps << " " << p.wait_s << " " << p.group;
-    for (const Vec2& d : p.destinations) out << " " << d.x() << " " << d.y();
+    for (size_t k = 0; k < p.destinations.size(); ++k) {
+      const bool via = k < p.pass_through.size() && p.pass_through[k];
+      out << (via ? " via " : " ") << p.destinations[k].x() << " " << p.destinations[k].y();
+    }
     out << "\n";
     finite = finite && p.position.allFinite() && std::isfinite(p.heading_rad + p.body_radius_m + p.preferred_speed_mps);
   }

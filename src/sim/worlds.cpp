@@ -206,12 +206,13 @@ class Builder {
           s.people.back().group = p.group;
           p.preferred_speed_mps = leader->preferred_speed_mps;
           p.destinations = leader->destinations;
+          p.pass_through = leader->pass_through;
           p.wait_s = leader->wait_s;
           break;
         }
         const std::vector<Vec2> stops = reachableStops(p.position, r);
         if (!stops.empty()) {
-          p.destinations = route(p.position, stops);
+          route(p.position, stops, p);
           break;
         }
         if (placement + 1 == kPlacements) {
@@ -260,18 +261,26 @@ class Builder {
     return clear(a, layout_.hub) && clear(layout_.hub, b);
   }
 
-  /// The stops with the hub inserted wherever consecutive stops (cyclically, and from `from`) change region.
-  std::vector<Vec2> route(const Vec2& from, const std::vector<Vec2>& stops) const {
-    std::vector<Vec2> out;
+  /// The person's destinations: the stops with the hub inserted, as a waypoint passed on the way, wherever
+  /// consecutive stops (cyclically, and from `from`) change region.
+  void route(const Vec2& from, const std::vector<Vec2>& stops, PersonSpec& person) const {
+    person.destinations.clear();
+    person.pass_through.clear();
+    auto add = [&](const Vec2& q, bool hub) {
+      person.destinations.push_back(q);
+      person.pass_through.push_back(hub);
+    };
     int region = regionOf(from);
     for (const Vec2& q : stops) {
       const int next = regionOf(q);
-      if (next != region) out.push_back(layout_.hub);
-      out.push_back(q);
+      if (next != region) add(layout_.hub, true);
+      add(q, false);
       region = next;
     }
-    if (regionOf(stops.front()) != region) out.push_back(layout_.hub);
-    return out;
+    if (regionOf(stops.front()) != region) add(layout_.hub, true);
+    if (std::none_of(person.pass_through.begin(), person.pass_through.end(), [](bool hub) { return hub; })) {
+      person.pass_through.clear();  // one room: no waypoints
+    }
   }
 
   Scenario build() {

@@ -1,5 +1,6 @@
 // People: legs and gait, walking to destinations with waits, the social force model (avoidance, walls, groups,
-// seeing the robot), the constant model, determinism and bad input.
+// seeing the robot), doors passed on the way, stops settled for when occupied, the constant model, determinism
+// and bad input.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -172,6 +173,89 @@ TEST(People, SameInputSameTrajectories) {
   EXPECT_EQ(a.asObstacles().size(), 6u);
 }
 
+/// Two rooms split by a wall along x = 0 with a 1 m door at |y| < 0.5.
+const std::vector<Segment> kDoorWalls = {{Vec2(0, -4), Vec2(0, -0.5)}, {Vec2(0, 0.5), Vec2(0, 4)}};
+
+/// A person who walks from `from` through the door (a waypoint) to a stop `to` in the other room and back.
+PersonSpec throughTheDoor(Vec2 from, Vec2 to, bool door_is_waypoint) {
+  PersonSpec s = walker(from, Vec2::Zero());
+  s.body_radius_m = 0.25;
+  s.destinations = {Vec2::Zero(), to, Vec2::Zero(), from};
+  if (door_is_waypoint) s.pass_through = {true, false, true, false};
+  s.wait_s = 1.0;
+  return s;
+}
+
+/// Stops (not waypoints) reached by everyone in `seconds`.
+int stopsReached(Crowd& crowd, const std::vector<Segment>& walls, double seconds) {
+  int stops = 0;
+  std::vector<size_t> destination(crowd.people().size(), 0);
+  for (int k = 0; k < static_cast<int>(seconds / 0.05); ++k) {
+    crowd.step(0.05, walls, kFarRobot, Vec2::Zero());
+    for (size_t i = 0; i < crowd.people().size(); ++i) {
+      const Person& p = crowd.people()[i];
+      if (p.destination == destination[i]) continue;
+      if (destination[i] % 2 == 1) ++stops;  // 1 and 3 are the stops
+      destination[i] = p.destination;
+    }
+  }
+  return stops;
+}
+
+TEST(People, PeopleGoThroughADoorFromBothSidesInsteadOfQueuingForItsCentre) {
+  // Three people on each side, every one bound for the other room and back.
+  auto crowd = [](bool waypoints) {
+    std::vector<PersonSpec> people;
+    for (int i = 0; i < 3; ++i) {
+      people.push_back(throughTheDoor({-2.5, -1.5 + 1.5 * i}, {2.5, 1.5 - 1.5 * i}, waypoints));
+      people.push_back(throughTheDoor({2.5, -1.2 + 1.5 * i}, {-2.5, 1.2 - 1.5 * i}, waypoints));
+    }
+    return Crowd(people, PeopleConfig{});
+  };
+  Crowd passing = crowd(true), queuing = crowd(false);
+  const int passed = stopsReached(passing, kDoorWalls, 60.0), queued = stopsReached(queuing, kDoorWalls, 60.0);
+  // 2 x 5 m at ~1 m/s and two 1 s waits: about 12 s per round trip; through a door shared both ways, at least
+  // one round trip each in a minute. With the door's centre a stop to reach (the crowd jams around it) far fewer.
+  EXPECT_GE(passed, 12) << "queued: " << queued;
+  EXPECT_LT(queued, passed / 2) << "passed: " << passed;
+  for (const Person& p : passing.people()) {
+    for (const Segment& w : kDoorWalls) EXPECT_GT(pointSegmentDistance(p.position, w), 0.5 * p.spec.body_radius_m);
+  }
+}
+
+TEST(People, SomeonePushedOffTheWayThroughADoorGoesBackToIt) {
+  // Already past the door in its plan (its stop is in the west room) but standing in the east room: straight at
+  // the stop is into the wall, so it goes back to the door first.
+  PersonSpec s = walker({1.0, 2.0}, {-2.5, 2.0});
+  s.destinations = {Vec2(-2.5, 2.0), Vec2::Zero()};
+  s.pass_through = {false, true};
+  Crowd crowd({s}, PeopleConfig{});
+  double reached = -1.0;
+  for (int k = 1; k <= 400 && reached < 0; ++k) {
+    crowd.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+    if ((crowd.people()[0].position - Vec2(-2.5, 2.0)).norm() < PeopleConfig{}.arrival_radius_m) reached = 0.05 * k;
+  }
+  EXPECT_GT(reached, 0.0) << "stuck at " << crowd.people()[0].position.transpose();
+}
+
+TEST(People, AStopThatCannotBeReachedIsSettledForFromNearEnough) {
+  // The stop lies 0.2 m behind a wall's face (as when someone else stands on it): a body of 0.25 m comes no nearer
+  // than 0.45 m, outside arrival_radius_m.
+  const std::vector<Segment> walls = {{Vec2(-2, 0), Vec2(2, 0)}};
+  PersonSpec s = walker({0, 3}, {0, -0.2});
+  s.destinations.push_back({-1.5, 3});
+  const PeopleConfig config;
+  Crowd crowd({s}, config);
+  double moved_on = -1.0;
+  for (int k = 1; k <= 400 && moved_on < 0; ++k) {
+    crowd.step(0.05, walls, kFarRobot, Vec2::Zero());
+    if (crowd.people()[0].destination == 1) moved_on = 0.05 * k;
+  }
+  ASSERT_GT(moved_on, 0.0) << "still pushing toward the stop";
+  EXPECT_GT(moved_on, config.stall_time_s);
+  EXPECT_LT(moved_on, 3.0 + config.stall_time_s + 2.0);  // ~3 s of walking, then stalled
+}
+
 TEST(People, BadInputIsNamed) {
   PeopleConfig c;
   c.relaxation_time_s = 0.0;
@@ -192,6 +276,17 @@ TEST(People, BadInputIsNamed) {
   EXPECT_EQ(parsePeopleModel("orca"), PeopleModel::kOrca);
   Crowd crowd({walker({0, 0}, {1, 0})}, PeopleConfig{});
   EXPECT_THROW(crowd.step(std::nan(""), {}, kFarRobot, Vec2::Zero()), SimConfigError);
+  PersonSpec flagged = walker({0, 0}, {1, 0});
+  flagged.pass_through = {true, false};  // two flags for one destination
+  try {
+    Crowd({flagged}, PeopleConfig{});
+    FAIL() << "no error for mismatched pass-through flags";
+  } catch (const SimConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("2 pass-through flags for 1 destinations"), std::string::npos) << e.what();
+  }
+  c = PeopleConfig();
+  c.stall_time_s = 0.0;
+  EXPECT_NE(c.validate().find("stall_time_s"), std::string::npos);
 }
 
 }  // namespace

@@ -56,6 +56,7 @@ TEST(ScenarioText, EveryFamilyRoundTripsExactly) {
       EXPECT_EQ(b.people[i].preferred_speed_mps, a.people[i].preferred_speed_mps);
       EXPECT_EQ(b.people[i].group, a.people[i].group);
       EXPECT_EQ(b.people[i].destinations, a.people[i].destinations);
+      EXPECT_EQ(b.people[i].pass_through, a.people[i].pass_through);
     }
   }
 }
@@ -100,6 +101,8 @@ TEST(ScenarioText, MalformedFilesAreNamedWithTheLine) {
             std::string::npos);
   EXPECT_NE(errorOf(head + "obstacle 1 0 0 0 0 -0.2\n").find("radius must be > 0"), std::string::npos);
   EXPECT_NE(errorOf(head + "person 1 0 0 0.25 1 0 0.5\n").find("integer group"), std::string::npos);
+  EXPECT_NE(errorOf(head + "person 1 0 0 0.25 1 0 -1 2 2 via\n").find("'via' must be followed by"), std::string::npos);
+  EXPECT_NE(errorOf(head + "person 1 0 0 0.25 via 1 0 -1 2 2\n").find("each may follow 'via'"), std::string::npos);
   EXPECT_NE(errorOf(head + "map nowhere.yaml\n").find("line 4: map 'nowhere.yaml': cannot open"), std::string::npos);
   EXPECT_NE(errorOf("dqn_dovs scenario 2\nrobot 0 0 0\n").find("needs a 'robot' and a 'goal'"), std::string::npos);
   EXPECT_THROW(loadScenarioFile("/nonexistent.scenario"), ScenarioError);

@@ -87,6 +87,36 @@ TEST(Worlds, PeopleAndPlansInFreeSpaceWithRoutesThatCrossNoWall) {
   }
 }
 
+TEST(Worlds, DoorsAndJunctionCentresAreWaypointsAndPeopleKeepWalking) {
+  WorldConfig config;
+  for (WorldFamily f : {WorldFamily::kDoorway, WorldFamily::kJunction}) {
+    int stops = 0, hubs = 0, people = 0;
+    for (uint64_t seed = 1; seed <= 5; ++seed) {
+      Scenario s = generateWorld(family(f, 6), seed);
+      for (const PersonSpec& p : s.people) {
+        if (p.pass_through.empty()) continue;  // a plan within one room
+        ASSERT_EQ(p.pass_through.size(), p.destinations.size()) << s.name;
+        for (size_t k = 0; k < p.destinations.size(); ++k) hubs += p.pass_through[k];
+      }
+      World world(s, config, seed);
+      const auto& crowd = world.crowd().people();
+      std::vector<size_t> destination(crowd.size(), 0);
+      for (int k = 0; k < 300; ++k) {  // 60 s with the robot parked
+        world.step({0.0, 0.0}, 0.2);
+        for (size_t i = 0; i < crowd.size(); ++i) {
+          if (crowd[i].destination == destination[i]) continue;
+          stops += crowd[i].spec.pass_through.empty() || !crowd[i].spec.pass_through[destination[i]];
+          destination[i] = crowd[i].destination;
+        }
+      }
+      people += static_cast<int>(crowd.size());
+    }
+    EXPECT_GT(hubs, 0) << worldFamilyName(f);
+    // People who queue for the door's centre reach about one stop a minute; walking through it, several.
+    EXPECT_GT(static_cast<double>(stops) / people, 2.0) << worldFamilyName(f);
+  }
+}
+
 TEST(Worlds, NobodyWalksThroughAWallInTheSimulator) {
   WorldConfig config;
   for (WorldFamily f : kBuildings) {

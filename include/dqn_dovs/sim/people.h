@@ -18,6 +18,7 @@
 // Deterministic: the same people, walls, configuration and robot motion give the same trajectories.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,10 @@ struct PersonSpec {
   double preferred_speed_mps = 1.0;  ///< walking speed when unhindered, 0.5..1.3 m/s
   /// Places to walk to in turn (cycled); empty: walk straight along heading_rad at the preferred speed.
   std::vector<Vec2> destinations;
+  /// Per destination (empty: none): a waypoint on the way (a door, a junction's centre), not a stop. Nobody waits
+  /// there, and it is passed as soon as the next destination can be walked to in a straight line clear of every
+  /// wall by the body's radius (people go through a door; they do not queue for its centre point).
+  std::vector<bool> pass_through;
   /// Pause at each destination, s.
   double wait_s = 0.0;
   /// People with the same group id >= 0 walk together (the social force model pulls them to their centroid).
@@ -64,8 +69,16 @@ struct PeopleConfig {
   double group_radius_m = 0.6;         ///< a group member closer than this to the centroid feels no pull
   double max_speed_factor = 1.3;       ///< speed limit as a multiple of the preferred speed
   double arrival_radius_m = 0.3;       ///< a destination closer than this is reached
-  double leg_radius_m = 0.06;          ///< leg disc radius at the scan height
-  double hip_half_width_m = 0.1;       ///< lateral offset of each leg from the centre line
+  /// A person who has come no closer to its destination (by 0.1 m) for stall_time_s is stalled. Within
+  /// stall_radius_m of a stop it counts the stop as reached (someone else stands there: a group's shared stop, a
+  /// crowded spot; people settle for near enough instead of pushing forever); anywhere else (two people meeting in
+  /// a door or a narrow corridor, or short of a waypoint) it stops driving for give_way_s, so that the other can
+  /// pass, then tries again.
+  double stall_time_s = 4.0;
+  double stall_radius_m = 1.5;
+  double give_way_s = 2.0;
+  double leg_radius_m = 0.06;     ///< leg disc radius at the scan height
+  double hip_half_width_m = 0.1;  ///< lateral offset of each leg from the centre line
   /// Height of the LIDAR's scan plane (m): legs pivot at the hip, so the lower the scan the closer the legs.
   double scan_height_m = 0.3;
   double hip_height_m = 0.9;          ///< height of the hip joint (m)
@@ -84,9 +97,11 @@ struct Person {
   Vec2 position = Vec2::Zero();
   Vec2 velocity = Vec2::Zero();
   double heading_rad = 0.0;
-  size_t destination = 0;       ///< index into spec.destinations
-  double waiting_s = 0.0;       ///< pause left at the current destination, s
-  double gait_phase_rad = 0.0;  ///< advances with the distance walked
+  size_t destination = 0;                                      ///< index into spec.destinations
+  double waiting_s = 0.0;                                      ///< pause left at the current destination, s
+  double gait_phase_rad = 0.0;                                 ///< advances with the distance walked
+  double closest_m = std::numeric_limits<double>::infinity();  ///< nearest it has come to its destination
+  double stalled_s = 0.0;  ///< time since it last came 0.1 m closer to it (PeopleConfig::stall_time_s)
 };
 
 /// The people of one episode.

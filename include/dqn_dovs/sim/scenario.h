@@ -128,7 +128,8 @@ Scenario generateScenario(const GeneratorConfig& config, uint64_t seed);
 ///   name NAME | room HALF_SIZE | robot X Y THETA | goal X Y
 ///   obstacle X Y HEADING SPEED TURN_RATE RADIUS [static]
 ///   wall X1 Y1 X2 Y2 | polygon X1 Y1 X2 Y2 X3 Y3 ... (closed) | map FILE.yaml (its walls; path relative to the file)
-///   person X Y HEADING RADIUS SPEED WAIT GROUP [DX DY ...] (destinations, walked in turn)
+///   person X Y HEADING RADIUS SPEED WAIT GROUP [[via] DX DY ...] (destinations, walked in turn; `via` marks a
+///   waypoint passed on the way, PersonSpec::pass_through)
 /// Units: m, rad, m/s, rad/s, s; GROUP -1 for none. Throws ScenarioError naming the file, the line and the reason
 /// (an unknown item, a missing or non-numeric value, NaN/inf, a non-positive radius or room size, a map that cannot
 /// be read; the robot, goal, obstacles and people must lie strictly inside the room).
