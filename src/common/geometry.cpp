@@ -46,4 +46,17 @@ bool segmentsCross(const Vec2& p, const Vec2& q, const Segment& s) {
   return t >= 0.0 && t <= 1.0 && u >= 0.0 && u <= 1.0;
 }
 
+double segmentSegmentDistance(const Segment& s, const Segment& t) {
+  auto cross = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
+  const Vec2 r = s.b - s.a, q = t.b - t.a;
+  const double denom = cross(r, q);
+  if (std::abs(denom) > 1e-9) {
+    const double u = cross(t.a - s.a, q) / denom;
+    const double v = cross(t.a - s.a, r) / denom;
+    if (u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0) return 0.0;
+  }
+  return std::min({pointSegmentDistance(s.a, t), pointSegmentDistance(s.b, t), pointSegmentDistance(t.a, s),
+                   pointSegmentDistance(t.b, s)});
+}
+
 }  // namespace dqn_dovs

@@ -20,18 +20,6 @@ inline Vec2 rotate(const Vec2& v, double angle) {
   return {c * v.x() - s * v.y(), s * v.x() + c * v.y()};
 }
 
-double segmentSegmentDistance(const Segment& s, const Segment& t) {
-  const Vec2 r = s.b - s.a, q = t.b - t.a;
-  const double denom = cross(r, q);
-  if (std::abs(denom) > kEps) {
-    const double u = cross(t.a - s.a, q) / denom;
-    const double v = cross(t.a - s.a, r) / denom;
-    if (u >= 0.0 && u <= 1.0 && v >= 0.0 && v <= 1.0) return 0.0;
-  }
-  return std::min({pointSegmentDistance(s.a, t), pointSegmentDistance(s.b, t), pointSegmentDistance(t.a, s),
-                   pointSegmentDistance(t.b, s)});
-}
-
 /// A point of the velocity obstacle's boundary and the boundary normal pointing out of the obstacle there.
 struct BoundaryCandidate {
   Vec2 point;

@@ -24,14 +24,12 @@ constexpr double kProgressStep_m = 0.1;
 /// True when a body of `radius` walking straight from a to b keeps clear of every wall.
 bool straightWalkIsClear(const Vec2& a, const Vec2& b, double radius, const std::vector<Segment>& walls) {
   const Segment path{a, b};
-  for (const Segment& w : walls) {
-    if (segmentsCross(a, b, w) || pointSegmentDistance(a, w) < radius || pointSegmentDistance(b, w) < radius ||
-        pointSegmentDistance(w.a, path) < radius || pointSegmentDistance(w.b, path) < radius) {
-      return false;
-    }
-  }
-  return true;
+  return std::none_of(walls.begin(), walls.end(),
+                      [&](const Segment& w) { return segmentSegmentDistance(path, w) < radius; });
 }
+
+/// Whether destination k of a person is a waypoint (PersonSpec::pass_through).
+bool isWaypoint(const PersonSpec& spec, size_t k) { return !spec.pass_through.empty() && spec.pass_through[k]; }
 
 }  // namespace
 
@@ -231,7 +229,7 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
     } else if (!p.spec.destinations.empty()) {
       const size_t n = p.spec.destinations.size(), following = (p.destination + 1) % n;
       const double distance = (p.spec.destinations[p.destination] - p.position).norm();
-      const bool via = !p.spec.pass_through.empty() && p.spec.pass_through[p.destination];
+      const bool via = isWaypoint(p.spec, p.destination);
       if (distance < p.closest_m - kProgressStep_m) {
         p.closest_m = distance;
         p.stalled_s = 0.0;
@@ -257,7 +255,7 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
         p.waiting_s = via ? 0.0 : p.spec.wait_s;
       } else if (give_way) {
         p.waiting_s = config_.give_way_s;
-      } else if (!via && !p.spec.pass_through.empty() && p.spec.pass_through[previous] &&
+      } else if (!via && isWaypoint(p.spec, previous) &&
                  !straightWalkIsClear(p.position, p.spec.destinations[p.destination], 0.5 * p.spec.body_radius_m,
                                       walls)) {
         // Pushed off the way through the waypoint (a wall or a door's jamb now stands in the way to the stop):

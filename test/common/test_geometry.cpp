@@ -171,5 +171,15 @@ TEST(Geometry, SegmentsCrossIncludingTheirEnds) {
   EXPECT_FALSE(segmentsCross(Vec2(0.5, -1.0), Vec2(0.5, 1.0), wall));   // parallel
 }
 
+TEST(Geometry, SegmentSegmentDistance) {
+  const Segment wall{Vec2(0.0, -1.0), Vec2(0.0, 1.0)};
+  EXPECT_DOUBLE_EQ(segmentSegmentDistance({Vec2(-1.0, 0.0), Vec2(1.0, 0.5)}, wall), 0.0);     // crossing
+  EXPECT_DOUBLE_EQ(segmentSegmentDistance({Vec2(0.5, -1.0), Vec2(0.5, 1.0)}, wall), 0.5);     // parallel
+  EXPECT_NEAR(segmentSegmentDistance({Vec2(-1.0, 1.3), Vec2(1.0, 1.3)}, wall), 0.3, 1e-12);   // past its end
+  EXPECT_NEAR(segmentSegmentDistance({Vec2(-1.0, 0.0), Vec2(-0.2, 0.0)}, wall), 0.2, 1e-12);  // stops short
+  EXPECT_DOUBLE_EQ(segmentSegmentDistance(wall, {Vec2(-1.0, 0.0), Vec2(-0.2, 0.0)}),
+                   segmentSegmentDistance({Vec2(-1.0, 0.0), Vec2(-0.2, 0.0)}, wall));  // symmetric
+}
+
 }  // namespace
 }  // namespace dqn_dovs

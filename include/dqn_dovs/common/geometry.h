@@ -134,4 +134,7 @@ Vec2 closestPointOnSegment(const Vec2& p, const Segment& s);
 /// True when the segment from p to q meets segment s (ends included; parallel segments never meet).
 bool segmentsCross(const Vec2& p, const Vec2& q, const Segment& s);
 
+/// Distance between segments s and t (0 when they meet).
+double segmentSegmentDistance(const Segment& s, const Segment& t);
+
 }  // namespace dqn_dovs
