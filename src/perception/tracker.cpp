@@ -67,6 +67,11 @@ std::string TrackerConfig::validate() const {
     return badField("structure_max_fraction", structure_max_fraction, "must be in (0, 1]");
   if (leg_min_points < 1) return badField("leg_min_points", leg_min_points, "must be >= 1");
   if (!positive(lone_leg_std_m)) return badField("lone_leg_std_m", lone_leg_std_m, "must be > 0 (m)");
+  if (!nonNegative(merged_legs_max_span_m))
+    return badField("merged_legs_max_span_m", merged_legs_max_span_m, "must be >= 0 (m); 0 disables");
+  if (!positive(merged_legs_max_radius_m))
+    return badField("merged_legs_max_radius_m", merged_legs_max_radius_m, "must be > 0 (m)");
+  if (!positive(merged_legs_std_m)) return badField("merged_legs_std_m", merged_legs_std_m, "must be > 0 (m)");
   if (!nonNegative(structure_line_extension_m))
     return badField("structure_line_extension_m", structure_line_extension_m, "must be >= 0 (m); 0 disables");
   if (!nonNegative(map_tolerance_m)) return badField("map_tolerance_m", map_tolerance_m, "must be >= 0 (m)");
@@ -153,6 +158,9 @@ const std::vector<TrackerField>& trackerFields() {
       {"leg_pair_max_distance", &TrackerConfig::leg_pair_max_distance_m},
       {"person_radius", &TrackerConfig::person_radius_m},
       {"lone_leg_std", &TrackerConfig::lone_leg_std_m},
+      {"merged_legs_max_span", &TrackerConfig::merged_legs_max_span_m},
+      {"merged_legs_max_radius", &TrackerConfig::merged_legs_max_radius_m},
+      {"merged_legs_std", &TrackerConfig::merged_legs_std_m},
       {"structure_memory", &TrackerConfig::structure_memory_s},
       {"structure_cell", &TrackerConfig::structure_cell_m},
       {"structure_min_scans", nullptr, &TrackerConfig::structure_min_scans},

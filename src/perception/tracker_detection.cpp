@@ -175,34 +175,52 @@ void classifyGroup(const std::vector<Vec2>& pts, const std::vector<std::pair<siz
 /// People at leg height (TrackerConfig::pair_legs): leg-sized detections paired into person detections, nearest
 /// pairs first; lone legs become persons of person_radius_m. Other detections are left as they are.
 void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles) {
-  auto isLeg = [&](const CircleDetection& d) {
-    if (d.points.size() < 2) return false;
-    if (static_cast<int>(d.points.size()) < config.min_cluster_points)  // a far leg's fragment: by its extent
-      return (d.points.back() - d.points.front()).norm() <= 2.0 * config.leg_max_radius_m;
-    // By the extent of its returns (a free fit on a leg's handful of returns can be far off in radius), and
-    // curved: a short flat piece is a fragment of a wall or a piece of furniture between occluders.
+  // Whether the returns bulge like an arc: a short flat piece is a fragment of a wall or a piece of furniture
+  // between occluders, not a leg.
+  auto curved = [&](const CircleDetection& d, double length) {
     const Vec2 chord = d.points.back() - d.points.front();
-    const double length = chord.norm();
-    if (length > 2.0 * config.leg_max_radius_m || length < 1e-9) return false;
     const Vec2 normal(-chord.y() / length, chord.x() / length);
     double sagitta = 0.0;
     for (const Vec2& p : d.points) sagitta = std::max(sagitta, std::abs((p - d.points.front()).dot(normal)));
     return sagitta >= config.min_arc_sagitta_ratio * length;
   };
-  std::vector<size_t> legs;
-  for (size_t i = 0; i < circles.size(); ++i) {
-    if (isLeg(circles[i])) legs.push_back(i);
-  }
-  if (legs.empty()) return;
-  // A leg's centre: a free fit's when its radius is a leg's, otherwise (the fit is off, or a fallback placement
-  // sits fallback_radius_m behind the arc) a leg radius behind the middle of its returns.
-  auto legCentre = [&](const CircleDetection& d) {
-    if (d.free_fit && d.circle.radius <= config.leg_max_radius_m) return d.circle.center;
+  auto span = [](const CircleDetection& d) { return (d.points.back() - d.points.front()).norm(); };
+  auto isLeg = [&](const CircleDetection& d) {
+    if (d.points.size() < 2) return false;
+    if (static_cast<int>(d.points.size()) < config.min_cluster_points)  // a far leg's fragment: by its extent
+      return span(d) <= 2.0 * config.leg_max_radius_m;
+    // By the extent of its returns (a free fit on a leg's handful of returns can be far off in radius), and
+    // curved.
+    const double length = span(d);
+    return length <= 2.0 * config.leg_max_radius_m && length >= 1e-9 && curved(d, length);
+  };
+  // Both legs of one person in one cluster (one partly behind the other, or touching): wider than a leg, no wider
+  // than merged_legs_max_span_m, curved, and smaller than a body: a circle fitted to it, when the fit succeeded,
+  // has a radius of at most merged_legs_max_radius_m (a chair or a disc seen in part fits its own, larger radius).
+  auto isMergedLegs = [&](const CircleDetection& d) {
+    if (static_cast<int>(d.points.size()) < config.min_cluster_points) return false;
+    const double length = span(d);
+    return length > 2.0 * config.leg_max_radius_m && length <= config.merged_legs_max_span_m && curved(d, length) &&
+           (!d.free_fit || d.circle.radius <= config.merged_legs_max_radius_m);
+  };
+  // A point a leg's radius (0.6 leg_max_radius_m) behind the middle of the returns, away from the laser (toward
+  // the fitted centre, which lies behind a convex arc).
+  auto behindReturns = [&](const CircleDetection& d) {
     Vec2 mid = Vec2::Zero();
     for (const Vec2& p : d.points) mid += p;
     mid /= static_cast<double>(d.points.size());
     const Vec2 behind = d.circle.center - mid;
     return behind.norm() > 1e-9 ? Vec2(mid + config.leg_max_radius_m * 0.6 * behind.normalized()) : mid;
+  };
+  std::vector<size_t> legs;
+  for (size_t i = 0; i < circles.size(); ++i) {
+    if (isLeg(circles[i])) legs.push_back(i);
+  }
+  // A leg's centre: a free fit's when its radius is a leg's, otherwise (the fit is off, or a fallback placement
+  // sits fallback_radius_m behind the arc) a leg radius behind the middle of its returns.
+  auto legCentre = [&](const CircleDetection& d) {
+    if (d.free_fit && d.circle.radius <= config.leg_max_radius_m) return d.circle.center;
+    return behindReturns(d);
   };
   struct Pair {
     double distance;
@@ -245,6 +263,16 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
   for (size_t i = 0; i < circles.size(); ++i) {
     // Unpaired leg fragments are dropped.
     if (used[i] || static_cast<int>(circles[i].points.size()) < config.min_cluster_points) continue;
+    if (isMergedLegs(circles[i])) {
+      // The body's centre lies between the two legs, about a leg's radius behind their returns; a circle fitted to
+      // the two merged arcs puts it a body's radius behind them instead.
+      CircleDetection person;
+      person.circle = {behindReturns(circles[i]), config.person_radius_m};
+      person.fit_rms_m = std::max(circles[i].fit_rms_m, config.merged_legs_std_m);
+      person.free_fit = true;
+      out.push_back(person);
+      continue;
+    }
     out.push_back(std::move(circles[i]));
   }
   circles = std::move(out);

@@ -89,6 +89,16 @@ struct TrackerConfig {
   /// Standard deviation of a person's centre placed on a lone leg (m): the body is anywhere within about half
   /// a stride of it, so the filter leans on its prediction until both legs are seen again.
   double lone_leg_std_m = 0.12;
+  /// Both legs of a person in one cluster (one partly behind the other as seen from the laser, or touching): a
+  /// curved cluster wider than a leg (2 leg_max_radius_m) and at most this wide is one person, centred a leg's
+  /// radius behind the middle of its returns (m; 0 disables: it is then fitted as a circle, whose centre lies a
+  /// body's radius behind the legs).
+  double merged_legs_max_span_m = 0.35;
+  /// ... and whose fitted circle, when the fit succeeded, has at most this radius (m): a chair or a disc seen in
+  /// part fits its own, larger radius; two legs fit a small one.
+  double merged_legs_max_radius_m = 0.18;
+  /// Standard deviation of a person's centre placed on two merged legs (m).
+  double merged_legs_std_m = 0.06;
 
   // --- static structure ---------------------------------------------------------------------------------
   /// Memory of the walls seen (StaticMap): a circle detection with at least structure_max_fraction of its
