@@ -32,8 +32,8 @@ using dqn_dovs::EvalConfig;
 
 const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
-    "                     [--episodes K] [--dynamic-fraction F] [--perfect-info] [--predict-people F]\n"
-    "                     [--tracker-map] [--dovs-map] [--threads N] [--out DIR]\n"
+    "                     [--episodes K] [--dynamic-fraction F] [--perfect-info | --track-truth WHAT]\n"
+    "                     [--predict-people F] [--tracker-map] [--dovs-map] [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
@@ -47,6 +47,9 @@ const char* kUsage =
     "  --episodes K        episodes 1..K per obstacle count (default 100)\n"
     "  --dynamic-fraction  fraction of moving obstacles in [0, 1] (default 0.85)\n"
     "  --perfect-info      planners see the simulator's ground truth instead of the tracker's output\n"
+    "  --track-truth WHAT  diagnostic of what the tracker costs: each track within 0.5 m of a true body takes\n"
+    "                      its true motion (motion: speed, heading, turn rate) or its whole true state (state);\n"
+    "                      false tracks stay, untracked bodies stay unseen (default none)\n"
     "  --predict-people F  the people the planners see move on the arc that fits a learned prediction (a\n"
     "                      people predictor file; only people, never the room's discs). Default auto: as the\n"
     "                      launch files do, models/people_predictor_tracks.dqnp in worlds with people (every\n"
@@ -220,6 +223,13 @@ Options parse(int argc, char** argv) {
       o.eval.dynamic_fraction = parseDouble(flag, value(), 0.0, 1.0);
     } else if (flag == "--perfect-info") {
       o.eval.episode.perfect_info = true;
+    } else if (flag == "--track-truth") {
+      const std::string what = value();
+      try {
+        o.eval.episode.track_truth = dqn_dovs::parseTrackTruth(what);
+      } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--track-truth: ") + e.what());
+      }
     } else if (flag == "--predict-people") {
       o.predict_people = value();
       if (o.predict_people.empty()) throw UsageError("--predict-people needs a file, auto or none");

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
+
+#include "dqn_dovs/perception/hungarian.h"
 
 namespace dqn_dovs {
 
@@ -56,7 +59,28 @@ std::string EpisodeConfig::validate() const {
   if (dovs_map && perfect_info)
     return "dovs_map adds the map's walls to the scan's; with perfect_info there is no scan";
   if (!(std::isfinite(map_range_m) && map_range_m > 0.0)) return "map_range_m must be > 0 (m)";
+  if (track_truth != TrackTruth::kNone && perfect_info)
+    return "track_truth corrects the tracker's tracks; with perfect_info there is no tracker";
   return {};
+}
+
+const char* trackTruthName(TrackTruth t) {
+  switch (t) {
+    case TrackTruth::kNone:
+      return "none";
+    case TrackTruth::kMotion:
+      return "motion";
+    case TrackTruth::kState:
+      return "state";
+  }
+  return "unknown";
+}
+
+TrackTruth parseTrackTruth(const std::string& name) {
+  for (TrackTruth t : {TrackTruth::kNone, TrackTruth::kMotion, TrackTruth::kState}) {
+    if (name == trackTruthName(t)) return t;
+  }
+  throw std::invalid_argument("track truth '" + name + "' is none of none, motion, state");
 }
 
 const char* outcomeName(Outcome o) {
@@ -212,18 +236,23 @@ void Episode::buildContext() {
     }
     return walls;
   };
-  if (config_.perfect_info) {
-    observation_.obstacles = world_.groundTruthObstacles();
-    observation_.segments = walls_in_odom();
+  // The true bodies seen from the odom frame (where the robot believes it is): every pose through odom <- world.
+  auto truth_in_odom = [&]() {
+    std::vector<MovingObstacle> truth = world_.groundTruthObstacles();
     if (config_.world.odometry.enabled()) {
-      // The truth seen from the odom frame (where the robot believes it is): every pose through odom <- world.
-      for (MovingObstacle& o : observation_.obstacles) {
+      for (MovingObstacle& o : truth) {
         o.center = odom_from_world.toWorld(o.center);
         o.heading = normalizeAngle(o.heading + odom_from_world.theta);
       }
     }
+    return truth;
+  };
+  if (config_.perfect_info) {
+    observation_.obstacles = truth_in_odom();
+    observation_.segments = walls_in_odom();
   } else {
     for (const TrackedObstacle& t : tracker_.scene().obstacles) observation_.obstacles.push_back(t.toMovingObstacle());
+    if (config_.track_truth != TrackTruth::kNone) giveTracksTruth(truth_in_odom(), config_.track_truth);
     observation_.segments = tracker_.scene().segments;
     // The map's walls near the robot join the scan's, as dovs_node adds them with use_map.
     for (const Segment& w : map_segments_) {
@@ -263,6 +292,33 @@ void Episode::buildContext() {
                       previous_choice_);
   if (normalization_.grid_channels == kHistoryGridChannels)  // one step of history: this decision's first channel
     previous_grid_.assign(state_.data(), state_.data() + kStateGridCells);
+}
+
+void Episode::giveTracksTruth(const std::vector<MovingObstacle>& truth, TrackTruth what) {
+  std::vector<MovingObstacle>& tracks = observation_.obstacles;
+  if (tracks.empty() || truth.empty()) return;
+  Eigen::MatrixXd cost(static_cast<Eigen::Index>(tracks.size()), static_cast<Eigen::Index>(truth.size()));
+  for (size_t i = 0; i < tracks.size(); ++i) {
+    for (size_t j = 0; j < truth.size(); ++j) {
+      const double d = (tracks[i].center - truth[j].center).norm();
+      cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+          d < kTrackTruthMatch_m ? d : std::numeric_limits<double>::infinity();
+    }
+  }
+  const std::vector<int> match = solveGatedAssignment(cost, 2.0 * kTrackTruthMatch_m);
+  for (size_t i = 0; i < tracks.size(); ++i) {
+    if (match[i] < 0) continue;
+    const MovingObstacle& body = truth[static_cast<size_t>(match[i])];
+    MovingObstacle& t = tracks[i];
+    if (what == TrackTruth::kState) {
+      t = body;
+    } else {
+      t.heading = body.heading;
+      t.speed = body.speed;
+      t.turn_rate = body.turn_rate;
+      t.is_static = body.is_static;
+    }
+  }
 }
 
 void Episode::planRoute() {

@@ -391,6 +391,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"people_see_robot\": " << (config.people_see_robot ? "true" : "false")
       << ",\n  \"odom_noise\": " << jsonString(config.odom_noise) << ",\n  \"route\": " << jsonString(config.route)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
+      << ",\n  \"track_truth\": " << jsonString(trackTruthName(config.episode.track_truth))
       << ",\n  \"people_predictor\": " << jsonString(config.episode.people_predictor)
       << ",\n  \"tracker_map\": " << (config.episode.tracker_map ? "true" : "false")
       << ",\n  \"dovs_map\": " << (config.episode.dovs_map ? "true" : "false")

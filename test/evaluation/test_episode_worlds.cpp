@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "dqn_dovs/dovs/actions.h"
@@ -199,6 +201,83 @@ TEST(EpisodeWorlds, WithTheMapTheVelocitySpaceKnowsTheWallsNearTheRobot) {
   both.dovs_map = true;
   both.perfect_info = true;
   EXPECT_NE(both.validate().find("dovs_map"), std::string::npos);
+}
+
+// EpisodeConfig::track_truth (a diagnostic of what the tracker costs): the tracks the planners see take the true
+// motion, or the whole true state, of the body each follows, in the drifting odom frame; tracks that follow
+// nothing stay as the tracker gives them, and the tracker itself is untouched.
+TEST(EpisodeWorlds, TracksGivenTheTruthTakeItFromTheBodyTheyFollow) {
+  sim::WorldFamilyConfig w;
+  w.family = sim::WorldFamily::kCrowd;
+  w.people = 8;
+  const sim::Scenario scenario = sim::generateWorld(w, 5);
+  auto make = [&](TrackTruth what) {
+    EpisodeConfig config;
+    config.tracker.pair_legs = true;
+    config.world.odometry = sim::OdometryConfig::level("high");
+    config.reward.max_steps = 40;
+    config.track_truth = what;
+    auto episode = std::make_unique<Episode>(config);
+    episode->reset(scenario, 9);
+    return episode;
+  };
+  auto plain = make(TrackTruth::kNone), motion = make(TrackTruth::kMotion), state = make(TrackTruth::kState);
+  size_t tracks = 0, given_state = 0, given_motion = 0, motion_changed = 0;
+  while (!plain->done()) {
+    const std::vector<MovingObstacle>& seen = plain->observation().obstacles;
+    const TrackedScene& scene = plain->trackedScene();
+    ASSERT_EQ(seen.size(), scene.obstacles.size());
+    ASSERT_EQ(motion->observation().obstacles.size(), seen.size());
+    ASSERT_EQ(state->observation().obstacles.size(), seen.size());
+    const sim::World& world = plain->world();
+    const Pose2 odom_from_world = world.odomPose().compose(world.robotPose().inverse());
+    std::vector<MovingObstacle> truth = world.groundTruthObstacles();
+    for (MovingObstacle& b : truth) b.center = odom_from_world.toWorld(b.center);
+    for (size_t k = 0; k < seen.size(); ++k) {
+      ++tracks;
+      // The tracker is the same in the three episodes: only what the planners see differs.
+      ASSERT_EQ(motion->trackedScene().obstacles[k].center, scene.obstacles[k].center);
+      ASSERT_EQ(state->trackedScene().obstacles[k].center, scene.obstacles[k].center);
+      const MovingObstacle& m = motion->observation().obstacles[k];
+      const MovingObstacle& s = state->observation().obstacles[k];
+      EXPECT_EQ(m.center, seen[k].center) << "motion keeps the track's centre";
+      EXPECT_EQ(m.radius, seen[k].radius);
+      if (s.center != seen[k].center) {
+        // Given a body's state: it is one of the bodies within the match distance of the track.
+        bool found = false;
+        for (const MovingObstacle& b : truth) {
+          if ((b.center - s.center).norm() < 1e-9 && (b.center - seen[k].center).norm() < kTrackTruthMatch_m) {
+            found = true;
+            EXPECT_EQ(s.radius, b.radius);
+            EXPECT_EQ(s.speed, b.speed);
+          }
+        }
+        EXPECT_TRUE(found) << "track " << k << " took a state that is no body's within reach";
+        ++given_state;
+        // The same track in the motion episode took that body's motion.
+        EXPECT_EQ(m.speed, s.speed);
+        EXPECT_EQ(m.turn_rate, s.turn_rate);
+        ++given_motion;
+        motion_changed += m.speed != seen[k].speed ? 1 : 0;
+      } else {
+        EXPECT_EQ(s.speed, seen[k].speed) << "a track that follows no body stays as it is";
+        EXPECT_EQ(m.speed, seen[k].speed);
+      }
+    }
+    plain->step(Twist2{0.2, 0.1});
+    motion->step(Twist2{0.2, 0.1});
+    state->step(Twist2{0.2, 0.1});
+  }
+  EXPECT_GT(tracks, 50u);
+  EXPECT_GT(given_state, tracks / 2) << "most tracks follow a person";
+  EXPECT_GT(motion_changed, given_motion / 2) << "the truth's speed is not the tracker's";
+
+  EpisodeConfig both;
+  both.track_truth = TrackTruth::kMotion;
+  both.perfect_info = true;
+  EXPECT_NE(both.validate().find("track_truth"), std::string::npos);
+  EXPECT_EQ(parseTrackTruth("state"), TrackTruth::kState);
+  EXPECT_THROW(parseTrackTruth("velocity"), std::invalid_argument);
 }
 
 }  // namespace

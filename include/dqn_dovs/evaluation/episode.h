@@ -52,6 +52,21 @@ struct EpisodeRouteConfig {
   std::string validate() const;
 };
 
+/// A diagnostic of what the tracker costs the planners (docs/planners.md, "What the tracker costs: measured"):
+/// each confirmed track within kTrackTruthMatch_m of a true body (one to one, nearest first by total distance)
+/// is given part of that body's true state before the planners see it. Tracks that match no body (false tracks)
+/// stay as they are; bodies no track follows (hidden, not yet confirmed, out of the field of view) stay unseen.
+/// Not deployable: it reads the simulator.
+enum class TrackTruth {
+  kNone = 0,    ///< the tracks as the tracker gives them
+  kMotion = 1,  ///< the true speed, heading, turn rate and static flag; the track's centre and radius
+  kState = 2,   ///< the true centre, radius and motion: the truth of exactly the bodies that are tracked
+};
+constexpr double kTrackTruthMatch_m = 0.5;
+const char* trackTruthName(TrackTruth t);
+/// Parses none / motion / state; throws std::invalid_argument naming the value otherwise.
+TrackTruth parseTrackTruth(const std::string& name);
+
 struct EpisodeConfig {
   sim::WorldConfig world;  ///< simulator (robot limits live in world.robot)
   TrackerConfig tracker;   ///< obstacle tracker used when perfect_info is false
@@ -75,6 +90,8 @@ struct EpisodeConfig {
   /// at a glancing angle, or not yet seen, is known all the same. With the tracker only.
   bool dovs_map = false;
   double map_range_m = 4.0;  ///< dovs_node's map_range
+  /// With the tracker only: how much of the truth its tracks are given (TrackTruth; a diagnostic).
+  TrackTruth track_truth = TrackTruth::kNone;
   std::string validate() const;
 };
 
@@ -148,6 +165,8 @@ class Episode {
   void sense();         // scan + tracker update at the current world time
   void buildContext();  // observation -> DOVS, actions, state
   void planRoute();     // the grid of the known static geometry and the route from the robot to the goal
+  // EpisodeConfig::track_truth: the observation's tracks take `what` of the true body each follows.
+  void giveTracksTruth(const std::vector<MovingObstacle>& truth, TrackTruth what);
   /// The obstacle points the robot sees now (odom frame), for the route's blocked check: the last scan's returns,
   /// or with perfect information points around the true bodies.
   std::vector<Vec2> routeScanPoints() const;
