@@ -407,6 +407,8 @@ int main(int argc, char** argv) {
         figures[key + "false_tracks_per_scan"] = r.summary.false_tracks_per_scan;
         figures[key + "missed_rate"] = r.summary.missed_rate;
         figures[key + "heading_err_deg_median"] = r.summary.heading_err_deg_median;
+        // The arcs the velocity space is built on bend with it (docs/tracker.md, "Which part of the tracks").
+        figures[key + "turn_rate_rmse_rps"] = r.summary.turn_rate_rmse_rps;
         // Where the centre and speed errors come from: tracks younger than 1 s, tracks measured at this scan,
         // tracks coasting without a measurement (docs/tracker.md, "Metrics").
         figures[key + "pos_rmse_young_m"] = r.summary.pos_rmse_young_m;

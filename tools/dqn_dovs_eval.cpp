@@ -33,7 +33,8 @@ using dqn_dovs::EvalConfig;
 const char* kUsage =
     "usage: dqn_dovs_eval [--methods M1,M2,...] [--scenarios DIR | --generate SEED] [--obstacles A-B]\n"
     "                     [--episodes K] [--dynamic-fraction F] [--perfect-info | --track-truth WHAT]\n"
-    "                     [--predict-people F] [--tracker-map] [--dovs-map] [--threads N] [--out DIR]\n"
+    "                     [--predict-people F] [--tracker-map] [--dovs-map] [--sensor-warmup S]\n"
+    "                     [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
@@ -47,13 +48,16 @@ const char* kUsage =
     "  --episodes K        episodes 1..K per obstacle count (default 100)\n"
     "  --dynamic-fraction  fraction of moving obstacles in [0, 1] (default 0.85)\n"
     "  --perfect-info      planners see the simulator's ground truth instead of the tracker's output\n"
+    "  --sensor-warmup S   the robot senses S s standing still before each episode starts, while everything\n"
+    "                      else moves (default 0.3; tracks are then 0.3 s old at the start)\n"
     "  --track-truth WHAT  diagnostic of what the tracker costs: each track within 0.5 m of a true body takes\n"
     "                      its true motion (motion: speed, heading, turn rate) or its whole true state (state);\n"
     "                      false tracks stay, untracked bodies stay unseen (default none)\n"
     "  --predict-people F  the people the planners see move on the arc that fits a learned prediction (a\n"
     "                      people predictor file; only people, never the room's discs). Default auto: as the\n"
     "                      launch files do, models/people_predictor_tracks.dqnp in worlds with people (every\n"
-    "                      --world but room), none in the room; none: their present velocity everywhere\n"
+    "                      --world but room; with --perfect-info models/people_predictor.dqnp, learned from\n"
+    "                      true paths), none in the room; none: their present velocity everywhere\n"
     "  --tracker-map       the tracker is given the map a robot would have (walls and furniture, not people)\n"
     "                      placed by a perfect localisation; what lies on it is never tracked\n"
     "  --dovs-map          the velocity space also takes that map's walls and furniture outlines within 4 m\n"
@@ -154,13 +158,14 @@ void setNamedValues(const std::string& flag, const std::string& text, Set set) {
 }
 
 /// The people predictor file of --predict-people: `auto` is what the launch files give dovs_node (the package's
-/// predictor learned from tracks wherever legs are paired into people, i.e. every world but the paper's room), `none`
-/// nothing. A missing default file is named with the way to run without it.
-std::string resolvePeoplePredictor(const std::string& choice, const std::string& world) {
+/// predictor learned from tracks wherever legs are paired into people, i.e. every world but the paper's room), or
+/// with perfect information the one learned from true paths, what it then reads; `none` nothing. A missing default
+/// file is named with the way to run without it.
+std::string resolvePeoplePredictor(const std::string& choice, const std::string& world, bool perfect_info) {
   if (choice == "none") return "";
   if (choice != "auto") return choice;
   if (world == "room") return "";
-  const std::string file = dqn_dovs::kDefaultPeoplePredictor;
+  const std::string file = perfect_info ? dqn_dovs::kTruePathPeoplePredictor : dqn_dovs::kDefaultPeoplePredictor;
   if (!std::filesystem::is_regular_file(file)) {
     throw UsageError("--predict-people auto: the default people predictor '" + file + "' is not there " +
                      "(run from the package's root, name a file, or pass --predict-people none)");
@@ -223,6 +228,8 @@ Options parse(int argc, char** argv) {
       o.eval.dynamic_fraction = parseDouble(flag, value(), 0.0, 1.0);
     } else if (flag == "--perfect-info") {
       o.eval.episode.perfect_info = true;
+    } else if (flag == "--sensor-warmup") {
+      o.eval.episode.sensor_warmup_s = parseDouble(flag, value(), 0.0, 5.0);
     } else if (flag == "--track-truth") {
       const std::string what = value();
       try {
@@ -289,10 +296,12 @@ Options parse(int argc, char** argv) {
     }
   }
   if (have_scenarios && have_generate) throw UsageError("--scenarios and --generate exclude each other");
+  if (o.eval.episode.perfect_info && o.eval.episode.track_truth != dqn_dovs::TrackTruth::kNone)
+    throw UsageError("--track-truth corrects the tracker's tracks; with --perfect-info there is no tracker");
   if (have_generate) o.eval.scenarios_dir.clear();
   if (o.eval.world != "room" && !have_generate) throw UsageError("--world " + o.eval.world + " needs --generate SEED");
   dqn_dovs::applyWorldOptions(o.eval);
-  o.eval.episode.people_predictor = resolvePeoplePredictor(o.predict_people, o.eval.world);
+  o.eval.episode.people_predictor = resolvePeoplePredictor(o.predict_people, o.eval.world, o.eval.episode.perfect_info);
   for (const std::string& text : tracker_overrides) {
     setNamedValues("--tracker", text, [&](const std::string& n, const std::string& v) {
       return dqn_dovs::setTrackerParameter(o.eval.episode.tracker, n, v);

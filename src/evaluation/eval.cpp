@@ -392,6 +392,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"odom_noise\": " << jsonString(config.odom_noise) << ",\n  \"route\": " << jsonString(config.route)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"track_truth\": " << jsonString(trackTruthName(config.episode.track_truth))
+      << ",\n  \"sensor_warmup_s\": " << jsonNumber(config.episode.sensor_warmup_s)
       << ",\n  \"people_predictor\": " << jsonString(config.episode.people_predictor)
       << ",\n  \"tracker_map\": " << (config.episode.tracker_map ? "true" : "false")
       << ",\n  \"dovs_map\": " << (config.episode.dovs_map ? "true" : "false")

@@ -196,7 +196,8 @@ def test_tracker_overrides_follow_config_tracker_yaml_and_bad_ones_are_named(tmp
 
 def test_people_are_predicted_by_default_where_legs_are_paired_as_on_the_robot(tmp_path):
     """--predict-people auto (the default) is what launch/pipeline.launch gives dovs_node: the package's predictor in
-    worlds with people, none in the room; `none` turns it off; a missing default file is named."""
+    worlds with people, none in the room; with perfect information the one learned from true paths; `none` turns it
+    off; a missing default file is named."""
     def run(world, *extra, cwd=ROOT):
         out = tmp_path / f"{world}_{len(list(tmp_path.iterdir()))}"
         cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs", "--generate", "31", "--obstacles", "10",
@@ -221,6 +222,13 @@ def test_people_are_predicted_by_default_where_legs_are_paired_as_on_the_robot(t
     assert records(off)[0] == ""
     assert records(off)[1] != records(default)[1], "the prediction changed none of the crowd's episodes"
 
+    proc, truth = run("crowd", "--perfect-info")
+    assert proc.returncode == 0, proc.stderr
+    proc, truth_explicit = run("crowd", "--perfect-info", "--predict-people", "models/people_predictor.dqnp")
+    assert proc.returncode == 0, proc.stderr
+    assert records(truth) == records(truth_explicit)
+    assert records(truth)[0] == "models/people_predictor.dqnp"
+
     proc, room = run("room")
     assert proc.returncode == 0, proc.stderr
     assert records(room)[0] == ""
@@ -232,3 +240,34 @@ def test_people_are_predicted_by_default_where_legs_are_paired_as_on_the_robot(t
     assert "models/people_predictor_tracks.dqnp" in proc.stderr and "--predict-people none" in proc.stderr
     proc, _ = run("crowd", "--predict-people", "none", cwd=elsewhere)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_the_tracks_can_be_given_the_truth_and_the_warmup_set(tmp_path):
+    """--track-truth (what the tracker costs the planners) and --sensor-warmup are recorded, change the episodes, and
+    bad values are named."""
+    def run(name, *extra):
+        out = tmp_path / name
+        cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs", "--generate", "28", "--obstacles", "10",
+               "--episodes", "6", "--trajectories", "0", "--no-report", "--out", str(out), *extra]
+        return subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT), out
+
+    def rows(out):
+        return [(r["outcome"], r["steps"], r["path_length_m"]) for r in csv.DictReader(open(out / "results.csv"))]
+
+    runs = {}
+    for name, extra in (("plain", ()), ("motion", ("--track-truth", "motion")), ("state", ("--track-truth", "state")),
+                        ("warm", ("--sensor-warmup", "1.5"))):
+        proc, out = run(name, *extra)
+        assert proc.returncode == 0, proc.stderr
+        runs[name] = out
+    info = {k: json.load(open(v / "run.json")) for k, v in runs.items()}
+    assert [info[k]["track_truth"] for k in ("plain", "motion", "state")] == ["none", "motion", "state"]
+    assert info["warm"]["sensor_warmup_s"] == 1.5 and info["plain"]["sensor_warmup_s"] == 0.3
+    for name in ("motion", "state", "warm"):
+        assert rows(runs[name]) != rows(runs["plain"]), f"{name} changed none of the episodes"
+
+    for extra, message in ((["--track-truth", "velocity"], "'velocity' is none of none, motion, state"),
+                           (["--track-truth", "state", "--perfect-info"], "with --perfect-info there is no tracker"),
+                           (["--sensor-warmup", "9"], "--sensor-warmup")):
+        proc, _ = run("bad", *extra)
+        assert proc.returncode == 2 and message in proc.stderr, proc.stderr

@@ -27,6 +27,9 @@ class EvalError : public std::runtime_error {
 /// The people predictor the launch files give dovs_node where legs are paired (launch/pipeline.launch), relative to
 /// the package's root: dqn_dovs_eval's `--predict-people auto` in every world with people.
 constexpr const char* kDefaultPeoplePredictor = "models/people_predictor_tracks.dqnp";
+/// The predictor learned from the people's true paths: `--predict-people auto` with perfect information, whose
+/// histories are true paths too (docs/tracker.md, "Which part of the tracks costs the planners").
+constexpr const char* kTruePathPeoplePredictor = "models/people_predictor.dqnp";
 
 /// What to evaluate and how. Defaults live here only.
 struct EvalConfig {
