@@ -52,10 +52,10 @@ struct EpisodeRouteConfig {
   std::string validate() const;
 };
 
-/// A diagnostic of what the tracker costs the planners (docs/planners.md, "What the tracker costs: measured"):
-/// each confirmed track within kTrackTruthMatch_m of a true body (one to one, nearest first by total distance)
-/// is given part of that body's true state before the planners see it. Tracks that match no body (false tracks)
-/// stay as they are; bodies no track follows (hidden, not yet confirmed, out of the field of view) stay unseen.
+/// A diagnostic of what the tracker costs the planners (docs/tracker.md, "Which part of the tracks costs the
+/// planners"): each confirmed track within kTrackTruthMatch_m of a true body (one to one, nearest first by total
+/// distance) is given part of that body's true state before the planners see it. Tracks that match no body (false
+/// tracks) stay as they are; bodies no track follows (hidden, not yet confirmed, out of the field of view) stay unseen.
 /// Not deployable: it reads the simulator.
 enum class TrackTruth {
   kNone = 0,    ///< the tracks as the tracker gives them
