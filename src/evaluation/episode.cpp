@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -296,16 +295,10 @@ void Episode::buildContext() {
 
 void Episode::giveTracksTruth(const std::vector<MovingObstacle>& truth, TrackTruth what) {
   std::vector<MovingObstacle>& tracks = observation_.obstacles;
-  if (tracks.empty() || truth.empty()) return;
-  Eigen::MatrixXd cost(static_cast<Eigen::Index>(tracks.size()), static_cast<Eigen::Index>(truth.size()));
-  for (size_t i = 0; i < tracks.size(); ++i) {
-    for (size_t j = 0; j < truth.size(); ++j) {
-      const double d = (tracks[i].center - truth[j].center).norm();
-      cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
-          d < kTrackTruthMatch_m ? d : std::numeric_limits<double>::infinity();
-    }
-  }
-  const std::vector<int> match = solveGatedAssignment(cost, 2.0 * kTrackTruthMatch_m);
+  std::vector<Vec2> track_centres, body_centres;
+  for (const MovingObstacle& t : tracks) track_centres.push_back(t.center);
+  for (const MovingObstacle& b : truth) body_centres.push_back(b.center);
+  const std::vector<int> match = matchWithin(track_centres, body_centres, kTrackTruthMatch_m);
   for (size_t i = 0; i < tracks.size(); ++i) {
     if (match[i] < 0) continue;
     const MovingObstacle& body = truth[static_cast<size_t>(match[i])];

@@ -125,6 +125,19 @@ std::vector<int> solveGatedAssignment(const Eigen::MatrixXd& cost, double max_co
   return row_to_col;
 }
 
+std::vector<int> matchWithin(const std::vector<Vec2>& rows, const std::vector<Vec2>& cols, double max_distance_m) {
+  if (rows.empty() || cols.empty()) return std::vector<int>(rows.size(), -1);
+  Eigen::MatrixXd cost(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(cols.size()));
+  for (size_t i = 0; i < rows.size(); ++i) {
+    for (size_t j = 0; j < cols.size(); ++j) {
+      const double d = (rows[i] - cols[j]).norm();
+      cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+          d <= max_distance_m ? d : std::numeric_limits<double>::infinity();
+    }
+  }
+  return solveGatedAssignment(cost, 2.0 * max_distance_m);
+}
+
 double assignmentCost(const Eigen::MatrixXd& cost, const std::vector<int>& row_to_col) {
   double total = 0.0;
   for (size_t i = 0; i < row_to_col.size(); ++i) {

@@ -32,19 +32,10 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
   ++scans_;
   truth_minutes_ += static_cast<double>(truths.size()) * period_s / 60.0;
   const size_t nt = truths.size(), no = scene.obstacles.size();
-  std::vector<int> truth_to_obs(nt, -1);
-  if (nt > 0 && no > 0) {
-    Eigen::MatrixXd cost(nt, no);
-    for (size_t i = 0; i < nt; ++i) {
-      for (size_t j = 0; j < no; ++j) {
-        const double d = (truths[i].center - scene.obstacles[j].center).norm();
-        cost(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
-            std::isfinite(d) && d < config_.match_distance_m ? d : std::numeric_limits<double>::infinity();
-      }
-    }
-    // Every pair inside the gate is cheaper than two loose ends: maximum matching, then least total distance.
-    truth_to_obs = solveGatedAssignment(cost, 2.0 * config_.match_distance_m);
-  }
+  std::vector<Vec2> truth_centres, track_centres;
+  for (const MovingObstacle& t : truths) truth_centres.push_back(t.center);
+  for (const TrackedObstacle& o : scene.obstacles) track_centres.push_back(o.center);
+  const std::vector<int> truth_to_obs = matchWithin(truth_centres, track_centres, config_.match_distance_m);
   std::vector<bool> obs_matched(no, false);
   for (size_t i = 0; i < nt; ++i) {
     const bool should_see = counts_for_missed.empty() || (i < counts_for_missed.size() && counts_for_missed[i]);

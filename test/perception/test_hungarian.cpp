@@ -116,6 +116,19 @@ TEST(Hungarian, GatePrefersOneGoodPairOverTwoPoorOnes) {
   EXPECT_EQ(a[1], -1);
 }
 
+TEST(Hungarian, PointsArePairedWithinReachAsManyAsPossibleThenNearest) {
+  // Row 0 is nearest to column 0 (0.4 m), but taking it would leave row 1, which reaches only column 0 (0.45 m),
+  // alone: both rows are paired. Out of row 1's reach, row 0 takes its nearest. Row 2 reaches nothing; an empty side
+  // pairs nothing.
+  const std::vector<Vec2> rows{{0.0, 0.0}, {0.85, 0.0}, {5.0, 5.0}};
+  const std::vector<Vec2> cols{{0.4, 0.0}, {-0.45, 0.0}};
+  EXPECT_EQ(matchWithin(rows, cols, 0.5), std::vector<int>({1, 0, -1}));
+  EXPECT_EQ(matchWithin(rows, cols, 0.42), std::vector<int>({0, -1, -1}));
+  EXPECT_EQ(matchWithin(rows, {}, 0.5), std::vector<int>({-1, -1, -1}));
+  EXPECT_TRUE(matchWithin({}, cols, 0.5).empty());
+  EXPECT_THROW(matchWithin(rows, cols, 0.0), AssignmentError);
+}
+
 TEST(Hungarian, EmptyAndBadInput) {
   EXPECT_TRUE(solveAssignment(Eigen::MatrixXd(0, 3)).empty());
   EXPECT_EQ(solveAssignment(Eigen::MatrixXd(2, 0)), std::vector<int>({-1, -1}));

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/common/geometry.h"
+
 namespace dqn_dovs {
 
 /// Bad input to an assignment solver (NaN costs, a negative gate, ...).
@@ -26,6 +28,12 @@ std::vector<int> solveAssignment(const Eigen::MatrixXd& cost);
 /// cheaper than leaving both of its ends alone. Returns, for each row, its column or -1.
 /// Throws AssignmentError when max_cost is not finite and positive or a cost is NaN.
 std::vector<int> solveGatedAssignment(const Eigen::MatrixXd& cost, double max_cost);
+
+/// Pairs points of `rows` with points of `cols` no farther apart than max_distance_m: as many pairs as possible, then
+/// the least total distance (solveGatedAssignment on the distances with a gate of 2 max_distance_m, so every pair
+/// within reach is cheaper than its two loose ends). Returns, for each row, its column or -1. Used to match tracks to
+/// the true bodies they follow (scoring, diagnostics). Throws AssignmentError when max_distance_m is not positive.
+std::vector<int> matchWithin(const std::vector<Vec2>& rows, const std::vector<Vec2>& cols, double max_distance_m);
 
 /// Total cost of an assignment as returned above (pairs only); -1 entries are skipped.
 double assignmentCost(const Eigen::MatrixXd& cost, const std::vector<int>& row_to_col);

@@ -10,7 +10,7 @@ namespace dqn_dovs {
 
 /// Thresholds of the scoring.
 struct TrackingMetricsConfig {
-  /// A track and a true obstacle can only be matched when their centres are closer than this (m).
+  /// A track and a true obstacle can only be matched when their centres are no farther apart than this (m).
   double match_distance_m = 0.5;
   /// Speed, heading and turn-rate errors (and static speeds) are scored only for tracks at least this old (s).
   double min_track_age_s = 1.0;
