@@ -65,8 +65,116 @@ CtrvCovariance ctrvProcessNoise(const CtrvState& x, double dt, double accel_std,
   return g * q.asDiagonal() * g.transpose();
 }
 
+CtrvEkf CtrvEkf::start(MotionModel model, const Vec2& position, const Eigen::Matrix2d& position_cov,
+                       const Vec2& velocity, double speed_var, double heading_var, double turn_rate_var) {
+  const double speed = velocity.norm();
+  CtrvEkf f;
+  f.model_ = model;
+  if (model == MotionModel::kCtrv) {
+    f.x_ << position.x(), position.y(), speed > 1e-9 ? std::atan2(velocity.y(), velocity.x()) : 0.0, speed, 0.0;
+    f.p_ = CtrvCovariance::Zero();
+    f.p_.topLeftCorner<2, 2>() = position_cov;
+    f.p_(kCtrvHeading, kCtrvHeading) = std::min(heading_var, kPi * kPi);
+    f.p_(kCtrvSpeed, kCtrvSpeed) = speed_var;
+    f.p_(kCtrvTurnRate, kCtrvTurnRate) = turn_rate_var;
+    return f;
+  }
+  f.xc_ << position, velocity;
+  f.pc_ = CvCovariance::Zero();
+  f.pc_.topLeftCorner<2, 2>() = position_cov;
+  if (heading_var >= kPi * kPi || speed < 1e-6) {
+    // No direction known: the velocity's spread is the same in every direction.
+    f.pc_.bottomRightCorner<2, 2>() = speed_var * Eigen::Matrix2d::Identity();
+    f.syncFromCv();
+  } else {
+    f.reopen(Vec2::Zero(), heading_var, speed_var, 0.0);
+  }
+  return f;
+}
+
+void CtrvEkf::reopen(const Vec2& position_var, double heading_var, double speed_var, double turn_rate_var) {
+  if (model_ == MotionModel::kCtrv) {
+    p_(kCtrvX, kCtrvX) += position_var.x();
+    p_(kCtrvY, kCtrvY) += position_var.y();
+    p_(kCtrvHeading, kCtrvHeading) += heading_var;
+    p_(kCtrvSpeed, kCtrvSpeed) += speed_var;
+    p_(kCtrvTurnRate, kCtrvTurnRate) += turn_rate_var;
+    return;
+  }
+  pc_(0, 0) += position_var.x();
+  pc_(1, 1) += position_var.y();
+  const Vec2 v = xc_.tail<2>();
+  const double speed = v.norm();
+  if (speed < 1e-6) {
+    pc_.bottomRightCorner<2, 2>() += speed_var * Eigen::Matrix2d::Identity();
+  } else {
+    // Along the motion the speed's spread, across it the heading's (times the speed).
+    const Vec2 u = v / speed, n(-u.y(), u.x());
+    pc_.bottomRightCorner<2, 2>() += speed_var * u * u.transpose() + speed * speed * heading_var * n * n.transpose();
+  }
+  syncFromCv();
+}
+
+Vec2 CtrvEkf::velocity() const {
+  if (model_ == MotionModel::kConstantVelocity) return xc_.tail<2>();
+  return x_(kCtrvSpeed) * Vec2(std::cos(x_(kCtrvHeading)), std::sin(x_(kCtrvHeading)));
+}
+
+void CtrvEkf::syncFromCv() {
+  pc_ = 0.5 * (pc_ + pc_.transpose());
+  const double vx = xc_(2), vy = xc_(3);
+  const double speed = std::hypot(vx, vy);
+  x_ << xc_(0), xc_(1), speed > 1e-9 ? std::atan2(vy, vx) : x_(kCtrvHeading), speed, 0.0;
+  Eigen::Matrix<double, 5, 4> j = Eigen::Matrix<double, 5, 4>::Zero();
+  j(kCtrvX, 0) = 1.0;
+  j(kCtrvY, 1) = 1.0;
+  p_ = CtrvCovariance::Zero();
+  if (speed > 1e-6) {
+    j(kCtrvHeading, 2) = -vy / (speed * speed);
+    j(kCtrvHeading, 3) = vx / (speed * speed);
+    j(kCtrvSpeed, 2) = vx / speed;
+    j(kCtrvSpeed, 3) = vy / speed;
+    p_ = j * pc_ * j.transpose();
+    p_(kCtrvHeading, kCtrvHeading) = std::min(p_(kCtrvHeading, kCtrvHeading), kPi * kPi);
+  } else {
+    p_ = j * pc_ * j.transpose();
+    p_(kCtrvHeading, kCtrvHeading) = kPi * kPi;
+    p_(kCtrvSpeed, kCtrvSpeed) = 0.5 * (pc_(2, 2) + pc_(3, 3));
+  }
+}
+
+bool CtrvEkf::cvUpdate(const Eigen::Matrix<double, 2, 4>& h, const Vec2& nu, const Eigen::Matrix2d& r) {
+  const Eigen::Matrix2d s = h * pc_ * h.transpose() + r;
+  const double det = s.determinant();
+  if (!(det > 0.0) || !std::isfinite(det) || !nu.allFinite()) return false;
+  const Eigen::Matrix<double, 4, 2> k = pc_ * h.transpose() * s.inverse();
+  const CvCovariance i_kh = CvCovariance::Identity() - k * h;
+  const CvState x_new = xc_ + k * nu;
+  const CvCovariance p_new = i_kh * pc_ * i_kh.transpose() + k * r * k.transpose();
+  if (!x_new.allFinite() || !p_new.allFinite()) return false;
+  xc_ = x_new;
+  pc_ = p_new;
+  syncFromCv();
+  return true;
+}
+
 void CtrvEkf::predict(double dt, double accel_std, double turn_accel_std) {
   if (!(dt > 0.0)) return;
+  if (model_ == MotionModel::kConstantVelocity) {
+    CvCovariance f = CvCovariance::Identity();
+    f(0, 2) = dt;
+    f(1, 3) = dt;
+    // White acceleration in every direction, piecewise constant over dt.
+    const double a2 = accel_std * accel_std;
+    CvCovariance q = CvCovariance::Zero();
+    q(0, 0) = q(1, 1) = 0.25 * dt * dt * dt * dt * a2;
+    q(0, 2) = q(2, 0) = q(1, 3) = q(3, 1) = 0.5 * dt * dt * dt * a2;
+    q(2, 2) = q(3, 3) = dt * dt * a2;
+    xc_ = f * xc_;
+    pc_ = f * pc_ * f.transpose() + q;
+    syncFromCv();
+    return;
+  }
   const CtrvCovariance f = ctrvJacobian(x_, dt);
   const CtrvCovariance q = ctrvProcessNoise(x_, dt, accel_std, turn_accel_std);
   x_ = ctrvPredictState(x_, dt);
@@ -90,6 +198,11 @@ double CtrvEkf::mahalanobis2(const Vec2& z, const Eigen::Matrix2d& r) const {
 }
 
 bool CtrvEkf::update(const Vec2& z, const Eigen::Matrix2d& r) {
+  if (model_ == MotionModel::kConstantVelocity) {
+    Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
+    h(0, 0) = h(1, 1) = 1.0;
+    return cvUpdate(h, z - xc_.head<2>(), r);
+  }
   Vec2 nu;
   Eigen::Matrix2d s;
   innovation(z, r, nu, s);
@@ -101,6 +214,11 @@ bool CtrvEkf::update(const Vec2& z, const Eigen::Matrix2d& r) {
 
 bool CtrvEkf::updateStandingStill(double speed_std, double turn_rate_std) {
   if (!(speed_std > 0.0 && turn_rate_std > 0.0)) return false;
+  if (model_ == MotionModel::kConstantVelocity) {
+    Eigen::Matrix<double, 2, 4> h = Eigen::Matrix<double, 2, 4>::Zero();
+    h(0, 2) = h(1, 3) = 1.0;
+    return cvUpdate(h, -xc_.tail<2>(), speed_std * speed_std * Eigen::Matrix2d::Identity());
+  }
   Eigen::Matrix<double, 2, 5> h = Eigen::Matrix<double, 2, 5>::Zero();
   h(0, kCtrvSpeed) = 1.0;
   h(1, kCtrvTurnRate) = 1.0;
@@ -125,6 +243,7 @@ bool CtrvEkf::linearUpdate(const Eigen::Matrix<double, 2, 5>& h, const Vec2& nu,
 }
 
 void CtrvEkf::clampTurnRate(double max_turn_rate) {
+  if (model_ == MotionModel::kConstantVelocity) return;  // its turn rate is 0
   x_(kCtrvTurnRate) = std::clamp(x_(kCtrvTurnRate), -max_turn_rate, max_turn_rate);
 }
 

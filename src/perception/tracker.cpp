@@ -23,9 +23,6 @@ std::string badField(const char* name, double value, const char* why) {
 bool positive(double x) { return std::isfinite(x) && x > 0.0; }
 bool nonNegative(double x) { return std::isfinite(x) && x >= 0.0; }
 
-/// Velocity vector of a CTRV state.
-Vec2 velocity(const CtrvState& x) { return x(kCtrvSpeed) * Vec2(std::cos(x(kCtrvHeading)), std::sin(x(kCtrvHeading))); }
-
 }  // namespace
 
 std::string TrackerConfig::validate() const {
@@ -169,6 +166,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"map_tolerance", &TrackerConfig::map_tolerance_m},
       {"measurement_noise", &TrackerConfig::measurement_noise_m},
       {"outlier_sigma", &TrackerConfig::outlier_sigma},
+      {"people_constant_velocity", nullptr, nullptr, &TrackerConfig::people_constant_velocity},
       {"accel_noise", &TrackerConfig::accel_noise_mps2},
       {"turn_accel_noise", &TrackerConfig::turn_accel_noise_rps2},
       {"max_turn_rate", &TrackerConfig::max_turn_rate_rps},
@@ -466,15 +464,11 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
       // placed on the wrong legs, or on two legs merged into one circle): the motion is re-opened, the position
       // by a share of the miss only (none by default), so such a detection moves the track part of the way and a
       // true manoeuvre is followed over a few scans. Discs that turn or stop are followed at once, as they are.
-      CtrvCovariance p = track.ekf.covariance();
       const bool soft = config_.pair_legs;
       const Vec2 miss = (soft ? config_.maneuver_position_share : 1.0) * (z - track.ekf.position());
-      p(kCtrvX, kCtrvX) += miss.x() * miss.x();
-      p(kCtrvY, kCtrvY) += miss.y() * miss.y();
-      p(kCtrvHeading, kCtrvHeading) += soft ? std::pow(config_.maneuver_heading_std_rad, 2) : 0.25 * kPi * kPi;
-      p(kCtrvSpeed, kCtrvSpeed) += std::pow(soft ? config_.maneuver_speed_std_mps : config_.init_speed_std_mps, 2);
-      p(kCtrvTurnRate, kCtrvTurnRate) += std::pow(config_.init_turn_rate_std_rps, 2);
-      track.ekf = CtrvEkf(track.ekf.state(), p);
+      track.ekf.reopen(miss.cwiseProduct(miss), soft ? std::pow(config_.maneuver_heading_std_rad, 2) : 0.25 * kPi * kPi,
+                       std::pow(soft ? config_.maneuver_speed_std_mps : config_.init_speed_std_mps, 2),
+                       std::pow(config_.init_turn_rate_std_rps, 2));
     }
     if (!track.ekf.update(z, maneuver ? r : robustCovariance(track, z, r))) return;  // unusable: a miss
   }
@@ -487,7 +481,7 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   track.hits += 1;
   track.last_hit_s = stamp_s;
   track.hit_position = track.ekf.position();
-  track.hit_velocity = velocity(track.ekf.state());
+  track.hit_velocity = track.ekf.velocity();
   track.hit_turn_rate = track.ekf.state()(kCtrvTurnRate);
   track.updated_this_scan = true;
   if (!track.confirmed && track.hits >= config_.confirm_hits) {
@@ -505,15 +499,8 @@ void ObstacleTracker::startMotion(Track& track, const Vec2& from, double from_s,
   const Vec2 vel = (z - from) / dt;
   const double speed = vel.norm();
   const double speed_var = 2.0 * r(0, 0) / (dt * dt) + std::pow(config_.accel_noise_mps2 * dt, 2);
-  CtrvState x;
-  x << z.x(), z.y(), speed > 1e-9 ? std::atan2(vel.y(), vel.x()) : 0.0, speed, 0.0;
-  CtrvCovariance p = CtrvCovariance::Zero();
-  p(kCtrvX, kCtrvX) = r(0, 0);
-  p(kCtrvY, kCtrvY) = r(1, 1);
-  p(kCtrvHeading, kCtrvHeading) = std::min(kPi * kPi, speed_var / std::max(speed * speed, 1e-12));
-  p(kCtrvSpeed, kCtrvSpeed) = speed_var;
-  p(kCtrvTurnRate, kCtrvTurnRate) = std::pow(config_.init_turn_rate_std_rps, 2);
-  track.ekf = CtrvEkf(x, p);
+  track.ekf = CtrvEkf::start(motionModel(), z, r, vel, speed_var, speed_var / std::max(speed * speed, 1e-12),
+                             std::pow(config_.init_turn_rate_std_rps, 2));
 }
 
 void ObstacleTracker::updateStationarity(Track& track, const Vec2& z, double stamp_s) {
@@ -614,16 +601,9 @@ void ObstacleTracker::birthTrack(const CircleDetection& detection, double stamp_
   t.hits = 1;
   t.first_position = detection.circle.center;
   t.hit_position = detection.circle.center;
-  CtrvState x;
-  x << detection.circle.center.x(), detection.circle.center.y(), 0.0, 0.0, 0.0;
-  CtrvCovariance p = CtrvCovariance::Zero();
-  const Eigen::Matrix2d r = measurementCovariance(detection);
-  p(kCtrvX, kCtrvX) = r(0, 0);
-  p(kCtrvY, kCtrvY) = r(1, 1);
-  p(kCtrvHeading, kCtrvHeading) = kPi * kPi;
-  p(kCtrvSpeed, kCtrvSpeed) = std::pow(config_.init_speed_std_mps, 2);
-  p(kCtrvTurnRate, kCtrvTurnRate) = std::pow(config_.init_turn_rate_std_rps, 2);
-  t.ekf = CtrvEkf(x, p);
+  t.ekf =
+      CtrvEkf::start(motionModel(), detection.circle.center, measurementCovariance(detection), Vec2::Zero(),
+                     std::pow(config_.init_speed_std_mps, 2), kPi * kPi, std::pow(config_.init_turn_rate_std_rps, 2));
   if (detection.free_fit) t.radii.push_front(detection.circle.radius);
   t.radius = detection.free_fit ? detection.circle.radius : config_.fallback_radius_m;
   t.confirmed = config_.confirm_hits <= 1;
@@ -665,7 +645,7 @@ void ObstacleTracker::pruneTracks(double stamp_s) {
       // Two discs passing through each other (without pair_legs) are two tracks on one spot that move apart.
       if (!config_.pair_legs && config_.duplicate_max_velocity_difference_mps > 0.0 && a.confirmed && b.confirmed &&
           stamp_s - a.born_s >= 1.0 && stamp_s - b.born_s >= 1.0 &&
-          (velocity(a.ekf.state()) - velocity(b.ekf.state())).norm() > config_.duplicate_max_velocity_difference_mps) {
+          (a.ekf.velocity() - b.ekf.velocity()).norm() > config_.duplicate_max_velocity_difference_mps) {
         continue;
       }
       const bool keep_a = a.confirmed != b.confirmed ? a.confirmed : a.hits >= b.hits;

@@ -1,5 +1,7 @@
-// Extended Kalman filter with the constant turn rate and velocity (CTRV) motion model on the state
-// [x, y, heading, speed, turn_rate] in a fixed frame, measured by positions. ROS-free.
+// Kalman filter of a track measured by positions in a fixed frame, ROS-free, with one of two motion models:
+// constant turn rate and velocity (CTRV, an extended Kalman filter on [x, y, heading, speed, turn_rate]) or
+// constant velocity (a linear Kalman filter on [x, y, vx, vy], white acceleration in every direction). Either way
+// the track is read as the CTRV state (heading, speed, turn rate; turn rate 0 under constant velocity).
 #pragma once
 
 #include <Eigen/Core>
@@ -24,12 +26,29 @@ CtrvCovariance ctrvJacobian(const CtrvState& x, double dt);
 /// (std turn_accel_std, rad/s^2) acting on speed and turn rate over dt, mapped into the whole state.
 CtrvCovariance ctrvProcessNoise(const CtrvState& x, double dt, double accel_std, double turn_accel_std);
 
+/// Which motion model a CtrvEkf runs.
+enum class MotionModel {
+  kCtrv,              ///< Constant turn rate and velocity: discs on arcs, a turn rate estimated.
+  kConstantVelocity,  ///< Cartesian velocity, white acceleration in every direction (people who start, stop,
+                      ///< side-step).
+};
+
 /// The filter. Speed is kept non-negative: a negative estimate (the target reversed) is folded into
 /// heading + pi and -speed, which describes the same motion.
 class CtrvEkf {
  public:
   CtrvEkf() = default;
   CtrvEkf(const CtrvState& x, const CtrvCovariance& p) : x_(x), p_(p) {}
+
+  /// A filter at position (covariance position_cov) moving at `velocity` whose speed has variance speed_var and
+  /// whose heading has variance heading_var (at least pi^2: unknown, e.g. from rest), turn rate 0 with variance
+  /// turn_rate_var (CTRV only).
+  static CtrvEkf start(MotionModel model, const Vec2& position, const Eigen::Matrix2d& position_cov,
+                       const Vec2& velocity, double speed_var, double heading_var, double turn_rate_var);
+
+  /// Re-opens the uncertainty (a manoeuvre): adds position_var to both position variances, heading_var and speed_var
+  /// along the motion, turn_rate_var to the turn rate (CTRV only).
+  void reopen(const Vec2& position_var, double heading_var, double speed_var, double turn_rate_var);
 
   /// Propagates mean and covariance by dt >= 0 seconds.
   void predict(double dt, double accel_std, double turn_accel_std);
@@ -51,18 +70,31 @@ class CtrvEkf {
   /// Clamps |turn_rate| to max_turn_rate (the model's validity range) without touching the covariance.
   void clampTurnRate(double max_turn_rate);
 
+  /// The state and covariance as CTRV (converted from the Cartesian velocity under constant velocity).
   const CtrvState& state() const { return x_; }
   const CtrvCovariance& covariance() const { return p_; }
   Vec2 position() const { return x_.head<2>(); }
+  /// Velocity vector (m/s).
+  Vec2 velocity() const;
+  MotionModel model() const { return model_; }
 
  private:
+  using CvState = Eigen::Vector4d;
+  using CvCovariance = Eigen::Matrix4d;
+  /// Constant velocity: refreshes the CTRV view (x_, p_) from the Cartesian state.
+  void syncFromCv();
+  bool cvUpdate(const Eigen::Matrix<double, 2, 4>& h, const Vec2& nu, const Eigen::Matrix2d& r);
+
   /// Joseph-form update with the linear measurement h x, innovation nu, noise r and innovation covariance s.
   bool linearUpdate(const Eigen::Matrix<double, 2, 5>& h, const Vec2& nu, const Eigen::Matrix2d& r,
                     const Eigen::Matrix2d& s);
   void foldNegativeSpeed();
 
+  MotionModel model_ = MotionModel::kCtrv;
   CtrvState x_ = CtrvState::Zero();
   CtrvCovariance p_ = CtrvCovariance::Identity();
+  CvState xc_ = CvState::Zero();  // constant velocity only: [x, y, vx, vy]
+  CvCovariance pc_ = CvCovariance::Identity();
 };
 
 }  // namespace dqn_dovs

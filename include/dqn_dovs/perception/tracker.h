@@ -128,7 +128,11 @@ struct TrackerConfig {
   /// miss grows (a person placed on the legs of two people, or on one leg alone, moves the track a little, not
   /// all the way). 0 disables (plain Kalman update).
   double outlier_sigma = 2.0;
-  /// Process noise: white linear acceleration of the obstacles (m/s^2).
+  /// Motion model of the tracks. Discs: constant turn rate and velocity (CTRV; the paper's discs move on arcs).
+  /// People (with pair_legs), when true: constant velocity, white acceleration in every direction (people start,
+  /// stop, turn toward where they go and side-step; their turn rate is reported as 0).
+  bool people_constant_velocity = true;
+  /// Process noise: white linear acceleration of the obstacles (m/s^2; in every direction under constant velocity).
   double accel_noise_mps2 = 1.0;
   /// Process noise: white angular acceleration of the obstacles (rad/s^2).
   double turn_accel_noise_rps2 = 1.0;
@@ -365,6 +369,9 @@ class ObstacleTracker {
     bool absorbed = false;
   };
 
+  MotionModel motionModel() const {
+    return config_.pair_legs && config_.people_constant_velocity ? MotionModel::kConstantVelocity : MotionModel::kCtrv;
+  }
   void predictTracks(double stamp_s);
   void associateAndUpdate(const ScanDetections& detections, double stamp_s);
   /// Whether track i's detection of this scan holds a second body too (TrackerConfig::merged_separation_factor): it
