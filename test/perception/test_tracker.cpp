@@ -156,13 +156,15 @@ TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
   fresh(base_raw);
   std::vector<int> owner(sizeof(TrackerConfig), -1);
   const std::vector<std::string>& names = trackerParameterNames();
-  EXPECT_EQ(names.size(), 65u);  // every field of TrackerConfig
+  EXPECT_EQ(names.size(), 66u);  // every field of TrackerConfig
   for (size_t k = 0; k < names.size(); ++k) {
     TrackerConfig* c = fresh(raw);
     // Booleans to the opposite of their default, every number to 7.
-    const char* value = names[k] == "pair_legs"                                                  ? "true"
-                        : names[k] == "restart_from_rest" || names[k] == "reacquire_follow_turn" ? "false"
-                                                                                                 : "7";
+    const char* value = names[k] == "pair_legs" ? "true"
+                        : names[k] == "restart_from_rest" || names[k] == "reacquire_follow_turn" ||
+                                names[k] == "people_constant_velocity"
+                            ? "false"
+                            : "7";
     ASSERT_EQ(setTrackerParameter(*c, names[k], value), "") << names[k];
     int changed = 0;
     for (size_t b = 0; b < sizeof(TrackerConfig); ++b) {
@@ -541,8 +543,9 @@ TEST(Tracker, ADetectionFarFromThePredictionPullsTheTrackLessThanAPlainUpdate) {
     double off_line_after = 0.0;  // |lateral offset| from the line 0.3 s later
     std::set<int> ids;
   };
-  const auto run = [](double outlier_sigma, const std::function<Vec2(double)>& where) {
+  const auto run = [](bool constant_velocity, double outlier_sigma, const std::function<Vec2(double)>& where) {
     TrackerConfig config;
+    config.people_constant_velocity = constant_velocity;
     config.outlier_sigma = outlier_sigma;
     config.pair_legs = true;  // among people: the manoeuvre recovery re-opens the motion, not the position
     ObstacleTracker tracker(config);
@@ -567,23 +570,28 @@ TEST(Tracker, ADetectionFarFromThePredictionPullsTheTrackLessThanAPlainUpdate) {
     }
     return seen;
   };
-  // 0.14 m: inside the association gate, a plain update moves the track about half of the way.
-  const Seen plain = run(0.0, laneOf(0.14)), robust = run(2.0, laneOf(0.14));
-  EXPECT_GT(plain.jump, 0.04) << "the stray detection should move a plain track";
-  EXPECT_LT(robust.jump, 0.6 * plain.jump);
-  EXPECT_LT(robust.heading_after, plain.heading_after);
-  EXPECT_EQ(robust.ids.size(), 1u);
-  // 0.3 m: outside the gate, taken by the manoeuvre recovery, which re-opens the motion but not the position:
-  // the track moves part of the way and is back near its line three scans later, under one id.
-  const Seen far = run(2.0, laneOf(0.3));
-  EXPECT_GT(far.jump, 0.0);
-  EXPECT_LT(far.jump, 0.15);
-  EXPECT_LT(far.off_line_after, 0.06);
-  EXPECT_EQ(far.ids.size(), 1u);
-  // Without the stray detection both updates give the same track.
-  const Seen plain_clean = run(0.0, laneOf(0.0)), robust_clean = run(2.0, laneOf(0.0));
-  EXPECT_NEAR(plain_clean.jump, robust_clean.jump, 0.005);
-  EXPECT_NEAR(plain_clean.heading_after, robust_clean.heading_after, 0.02);
+  // Under either motion model of people: constant velocity (the default) and on arcs (CTRV). The stray detection
+  // `near` m off its line is inside the association gate: a plain update moves the track about half of the way.
+  for (const auto& [constant_velocity, near] : {std::pair{true, 0.15}, std::pair{false, 0.14}}) {
+    SCOPED_TRACE(constant_velocity ? "constant velocity" : "CTRV");
+    const Seen plain = run(constant_velocity, 0.0, laneOf(near)), robust = run(constant_velocity, 2.0, laneOf(near));
+    EXPECT_GT(plain.jump, 0.04) << "the stray detection should move a plain track";
+    EXPECT_LT(robust.jump, 0.6 * plain.jump) << robust.jump << " " << plain.jump;
+    EXPECT_LT(robust.heading_after, plain.heading_after);
+    EXPECT_EQ(robust.ids.size(), 1u);
+    // 0.3 m: outside the gate, taken by the manoeuvre recovery, which re-opens the motion but not the position:
+    // the track moves part of the way and is back near its line three scans later, under one id.
+    const Seen far = run(constant_velocity, 2.0, laneOf(0.3));
+    EXPECT_GT(far.jump, 0.0);
+    EXPECT_LT(far.jump, 0.6 * 0.3) << far.jump;
+    EXPECT_LT(far.off_line_after, 0.06);
+    EXPECT_EQ(far.ids.size(), 1u);
+    // Without the stray detection both updates give the same track.
+    const Seen plain_clean = run(constant_velocity, 0.0, laneOf(0.0)),
+               robust_clean = run(constant_velocity, 2.0, laneOf(0.0));
+    EXPECT_NEAR(plain_clean.jump, robust_clean.jump, 0.005);
+    EXPECT_NEAR(plain_clean.heading_after, robust_clean.heading_after, 0.02);
+  }
 }
 
 TEST(Tracker, TheRobustUpdateFollowsPeopleOnTheirLegsMoreCloselyThanThePlainOne) {
@@ -616,6 +624,58 @@ TEST(Tracker, TheRobustUpdateFollowsPeopleOnTheirLegsMoreCloselyThanThePlainOne)
   ASSERT_GT(robust.matched_pairs, 2000u);
   EXPECT_LT(robust.speed_rmse_mps, plain.speed_rmse_mps - 0.01) << "plain " << plain.speed_rmse_mps;
   EXPECT_LT(robust.pos_rmse_m, plain.pos_rmse_m);
+}
+
+TEST(Tracker, PeopleAreFollowedMoreCloselyWithConstantVelocityThanOnArcs) {
+  // Ten social-force people seen by their legs (sim profile) in three generated crowds, the laser still. People
+  // speed up, slow down, turn toward their next destination and side-step each other: a velocity free in every
+  // direction follows them more closely than a speed along a heading that turns at a turn rate.
+  const LegCrowd crowd = legCrowd("sim");
+  const auto run = [&](bool constant_velocity) {
+    TrackerConfig config = crowd.config;
+    config.people_constant_velocity = constant_velocity;
+    TrackingEvaluator evaluator;
+    std::vector<double> turn_rates;
+    for (uint64_t seed = 1; seed <= 3; ++seed) {
+      sim::World world(sim::generateWorld(crowd.family, 16200 + seed), crowd.world_config, seed);
+      ObstacleTracker tracker(config);
+      evaluator.beginEpisode();
+      LaserScan2 scan;
+      for (int k = 0; k < 200; ++k) {
+        world.scanInto(scan);
+        const TrackedScene scene = tracker.update(scan, world.laserPose()).scene;
+        for (const TrackedObstacle& o : scene.obstacles) turn_rates.push_back(std::abs(o.turn_rate));
+        evaluator.addScan(scene, world.groundTruthObstacles(), {}, crowd.world_config.lidar.scan_period_s);
+        world.step(Twist2{}, crowd.world_config.lidar.scan_period_s);
+      }
+    }
+    return std::make_pair(evaluator.summary(), *std::max_element(turn_rates.begin(), turn_rates.end()));
+  };
+  const auto [arcs, arcs_max_turn] = run(false);
+  const auto [straight, straight_max_turn] = run(true);
+  ASSERT_GT(straight.matched_pairs, 2000u);
+  EXPECT_LT(straight.speed_rmse_mps, arcs.speed_rmse_mps - 0.01) << "on arcs " << arcs.speed_rmse_mps;
+  EXPECT_LT(straight.pos_rmse_m, arcs.pos_rmse_m) << "on arcs " << arcs.pos_rmse_m;
+  EXPECT_EQ(straight_max_turn, 0.0) << "constant velocity reports no turn rate";
+  EXPECT_GT(arcs_max_turn, 0.1);
+  // Without pair_legs (the paper's discs) the setting changes nothing: discs stay on arcs.
+  TrackerConfig discs;
+  discs.people_constant_velocity = false;
+  ObstacleTracker on_arcs(discs);
+  ObstacleTracker default_discs{TrackerConfig{}};
+  std::mt19937 rng_a(5), rng_b(5);
+  SyntheticLidar lidar;
+  const TrueDisc turning{{-2.0, 0.0, 0.0}, 0.8, 0.4, 0.25};
+  for (int k = 1; k <= 30; ++k) {
+    const double t = k * kScanPeriod;
+    const std::vector<Circle> body{{turning.at(t).position(), turning.radius}};
+    const TrackedScene a = on_arcs.update(syntheticScan(lidar, {}, body, {}, t, rng_a), {}).scene;
+    const TrackedScene b = default_discs.update(syntheticScan(lidar, {}, body, {}, t, rng_b), {}).scene;
+    ASSERT_EQ(a.obstacles.size(), b.obstacles.size());
+    for (size_t i = 0; i < a.obstacles.size(); ++i) EXPECT_EQ(a.obstacles[i].turn_rate, b.obstacles[i].turn_rate);
+  }
+  ASSERT_EQ(default_discs.scene().obstacles.size(), 1u);
+  EXPECT_NEAR(default_discs.scene().obstacles[0].turn_rate, 0.4, 0.15);
 }
 
 TEST(Tracker, StaticDiscsStayStaticWhileLaserDrives) {
@@ -741,6 +801,48 @@ TEST(CtrvEkf, StandingStillPullsSpeedAndTurnRateToZeroAndLeavesThePositionAlone)
   EXPECT_FALSE(ekf.updateStandingStill(0.0, 0.1));
   EXPECT_FALSE(ekf.updateStandingStill(0.02, std::nan("")));
   EXPECT_EQ(ekf.state(), before);
+}
+
+TEST(CtrvEkf, ConstantVelocityFollowsAStartFromRestAndASideStep) {
+  // A person stands, then walks off along +y at 1 m/s, then side-steps: velocity +x 0.5 m/s on top.
+  const Eigen::Matrix2d r = 0.0004 * Eigen::Matrix2d::Identity();
+  CtrvEkf cv = CtrvEkf::start(MotionModel::kConstantVelocity, Vec2(1.0, 2.0), r, Vec2::Zero(), 0.36, kPi * kPi, 0.25);
+  EXPECT_EQ(cv.model(), MotionModel::kConstantVelocity);
+  // Nothing known of its direction: the velocity's spread is the same in every direction.
+  EXPECT_NEAR(cv.covariance()(kCtrvSpeed, kCtrvSpeed), 0.36, 1e-12);
+  EXPECT_NEAR(cv.covariance()(kCtrvHeading, kCtrvHeading), kPi * kPi, 1e-12);
+  Vec2 truth(1.0, 2.0), vel(0.0, 0.0);
+  for (int k = 1; k <= 40; ++k) {
+    vel = k <= 5 ? Vec2(0.0, 0.0) : k <= 25 ? Vec2(0.0, 1.0) : Vec2(0.5, 1.0);
+    truth += 0.1 * vel;
+    cv.predict(0.1, 1.0, 1.0);
+    ASSERT_TRUE(cv.update(truth, r));
+    if (k == 25 || k == 40) {
+      EXPECT_NEAR(cv.velocity().x(), vel.x(), 0.1) << k;
+      EXPECT_NEAR(cv.velocity().y(), vel.y(), 0.1) << k;
+      EXPECT_NEAR(cv.state()(kCtrvSpeed), vel.norm(), 0.1) << k;
+      EXPECT_NEAR(cv.state()(kCtrvHeading), std::atan2(vel.y(), vel.x()), 0.1) << k;
+      EXPECT_EQ(cv.state()(kCtrvTurnRate), 0.0);
+      EXPECT_LT((cv.position() - truth).norm(), 0.03) << k;
+    }
+  }
+  EXPECT_TRUE(cv.covariance().isApprox(cv.covariance().transpose()));
+  cv.clampTurnRate(0.0);  // no turn rate to clamp: nothing changes
+  EXPECT_NEAR(cv.state()(kCtrvSpeed), vel.norm(), 0.1);
+  // A manoeuvre re-opens the speed along the motion and the heading across it, not the position unless told.
+  const CtrvCovariance before = cv.covariance();
+  cv.reopen(Vec2::Zero(), 0.25, 0.04, 0.25);
+  EXPECT_NEAR(cv.covariance()(kCtrvSpeed, kCtrvSpeed), before(kCtrvSpeed, kCtrvSpeed) + 0.04, 1e-9);
+  EXPECT_NEAR(cv.covariance()(kCtrvHeading, kCtrvHeading), before(kCtrvHeading, kCtrvHeading) + 0.25, 1e-9);
+  EXPECT_NEAR(cv.covariance()(kCtrvX, kCtrvX), before(kCtrvX, kCtrvX), 1e-12);
+  // Standing still pulls the whole velocity to 0.
+  for (int k = 0; k < 5; ++k) ASSERT_TRUE(cv.updateStandingStill(0.02, 0.1));
+  EXPECT_LT(cv.velocity().norm(), 0.01);
+  // The same start under CTRV is the filter it always was.
+  const CtrvEkf ctrv = CtrvEkf::start(MotionModel::kCtrv, Vec2(1.0, 2.0), r, Vec2(0.0, 1.0), 0.04, 0.04, 0.25);
+  EXPECT_NEAR(ctrv.state()(kCtrvHeading), kPi / 2, 1e-12);
+  EXPECT_NEAR(ctrv.velocity().y(), 1.0, 1e-12);
+  EXPECT_NEAR(ctrv.covariance()(kCtrvTurnRate, kCtrvTurnRate), 0.25, 1e-12);
 }
 
 TEST(Tracker, AChairIsReportedStandingStillWhilePeopleWalkBy) {
