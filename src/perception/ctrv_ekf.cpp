@@ -10,6 +10,23 @@ namespace {
 // Below this |turn_rate * dt| the arc formulas lose precision; the straight-line limit (with its
 // first-order turn correction in the Jacobian) is used instead.
 constexpr double kStraightThreshold = 1e-6;
+
+/// Joseph-form Kalman update of (x, p) with the linear measurement h x, innovation nu, noise r and innovation
+/// covariance s; false (x, p untouched) when s is singular or anything is not finite.
+template <int N>
+bool josephUpdate(Eigen::Matrix<double, N, 1>& x, Eigen::Matrix<double, N, N>& p, const Eigen::Matrix<double, 2, N>& h,
+                  const Vec2& nu, const Eigen::Matrix2d& r, const Eigen::Matrix2d& s) {
+  const double det = s.determinant();
+  if (!(det > 0.0) || !std::isfinite(det) || !nu.allFinite()) return false;
+  const Eigen::Matrix<double, N, 2> k = p * h.transpose() * s.inverse();
+  const Eigen::Matrix<double, N, N> i_kh = Eigen::Matrix<double, N, N>::Identity() - k * h;
+  const Eigen::Matrix<double, N, 1> x_new = x + k * nu;
+  const Eigen::Matrix<double, N, N> p_new = i_kh * p * i_kh.transpose() + k * r * k.transpose();
+  if (!x_new.allFinite() || !p_new.allFinite()) return false;
+  x = x_new;
+  p = 0.5 * (p_new + p_new.transpose());
+  return true;
+}
 }  // namespace
 
 CtrvState ctrvPredictState(const CtrvState& x, double dt) {
@@ -144,16 +161,7 @@ void CtrvEkf::syncFromCv() {
 }
 
 bool CtrvEkf::cvUpdate(const Eigen::Matrix<double, 2, 4>& h, const Vec2& nu, const Eigen::Matrix2d& r) {
-  const Eigen::Matrix2d s = h * pc_ * h.transpose() + r;
-  const double det = s.determinant();
-  if (!(det > 0.0) || !std::isfinite(det) || !nu.allFinite()) return false;
-  const Eigen::Matrix<double, 4, 2> k = pc_ * h.transpose() * s.inverse();
-  const CvCovariance i_kh = CvCovariance::Identity() - k * h;
-  const CvState x_new = xc_ + k * nu;
-  const CvCovariance p_new = i_kh * pc_ * i_kh.transpose() + k * r * k.transpose();
-  if (!x_new.allFinite() || !p_new.allFinite()) return false;
-  xc_ = x_new;
-  pc_ = p_new;
+  if (!josephUpdate<4>(xc_, pc_, h, nu, r, h * pc_ * h.transpose() + r)) return false;
   syncFromCv();
   return true;
 }
@@ -228,15 +236,7 @@ bool CtrvEkf::updateStandingStill(double speed_std, double turn_rate_std) {
 
 bool CtrvEkf::linearUpdate(const Eigen::Matrix<double, 2, 5>& h, const Vec2& nu, const Eigen::Matrix2d& r,
                            const Eigen::Matrix2d& s) {
-  const double det = s.determinant();
-  if (!(det > 0.0) || !std::isfinite(det) || !nu.allFinite()) return false;
-  const Eigen::Matrix<double, 5, 2> k = p_ * h.transpose() * s.inverse();
-  const CtrvCovariance i_kh = CtrvCovariance::Identity() - k * h;
-  const CtrvState x_new = x_ + k * nu;
-  const CtrvCovariance p_new = i_kh * p_ * i_kh.transpose() + k * r * k.transpose();
-  if (!x_new.allFinite() || !p_new.allFinite()) return false;
-  x_ = x_new;
-  p_ = 0.5 * (p_new + p_new.transpose());
+  if (!josephUpdate<5>(x_, p_, h, nu, r, s)) return false;
   x_(kCtrvHeading) = normalizeAngle(x_(kCtrvHeading));
   foldNegativeSpeed();
   return true;
