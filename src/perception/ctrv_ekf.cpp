@@ -142,22 +142,21 @@ void CtrvEkf::syncFromCv() {
   const double vx = xc_(2), vy = xc_(3);
   const double speed = std::hypot(vx, vy);
   x_ << xc_(0), xc_(1), speed > 1e-9 ? std::atan2(vy, vx) : x_(kCtrvHeading), speed, 0.0;
+  // Heading and speed carry the velocity's covariance through the Jacobian of its polar form; at rest the heading
+  // is unknown and the speed spreads as the velocity does.
   Eigen::Matrix<double, 5, 4> j = Eigen::Matrix<double, 5, 4>::Zero();
   j(kCtrvX, 0) = 1.0;
   j(kCtrvY, 1) = 1.0;
-  p_ = CtrvCovariance::Zero();
-  if (speed > 1e-6) {
+  const bool moving = speed > 1e-6;
+  if (moving) {
     j(kCtrvHeading, 2) = -vy / (speed * speed);
     j(kCtrvHeading, 3) = vx / (speed * speed);
     j(kCtrvSpeed, 2) = vx / speed;
     j(kCtrvSpeed, 3) = vy / speed;
-    p_ = j * pc_ * j.transpose();
-    p_(kCtrvHeading, kCtrvHeading) = std::min(p_(kCtrvHeading, kCtrvHeading), kPi * kPi);
-  } else {
-    p_ = j * pc_ * j.transpose();
-    p_(kCtrvHeading, kCtrvHeading) = kPi * kPi;
-    p_(kCtrvSpeed, kCtrvSpeed) = 0.5 * (pc_(2, 2) + pc_(3, 3));
   }
+  p_ = j * pc_ * j.transpose();
+  p_(kCtrvHeading, kCtrvHeading) = moving ? std::min(p_(kCtrvHeading, kCtrvHeading), kPi * kPi) : kPi * kPi;
+  if (!moving) p_(kCtrvSpeed, kCtrvSpeed) = 0.5 * (pc_(2, 2) + pc_(3, 3));
 }
 
 bool CtrvEkf::cvUpdate(const Eigen::Matrix<double, 2, 4>& h, const Vec2& nu, const Eigen::Matrix2d& r) {
