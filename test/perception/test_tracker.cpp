@@ -583,7 +583,9 @@ TEST(Tracker, ADetectionFarFromThePredictionPullsTheTrackLessThanAPlainUpdate) {
     // the track moves part of the way and is back near its line three scans later, under one id.
     const Seen far = run(constant_velocity, 2.0, laneOf(0.3));
     EXPECT_GT(far.jump, 0.0);
-    EXPECT_LT(far.jump, 0.6 * 0.3) << far.jump;
+    // Under CTRV less than half the miss (0.15 m). Under constant velocity the predicted position is looser across
+    // the motion and such a detection moves the track 0.166 m: bounded at 0.18 m for that model only.
+    EXPECT_LT(far.jump, constant_velocity ? 0.18 : 0.15) << far.jump;
     EXPECT_LT(far.off_line_after, 0.06);
     EXPECT_EQ(far.ids.size(), 1u);
     // Without the stray detection both updates give the same track.
