@@ -167,6 +167,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"measurement_noise", &TrackerConfig::measurement_noise_m},
       {"outlier_sigma", &TrackerConfig::outlier_sigma},
       {"people_constant_velocity", nullptr, nullptr, &TrackerConfig::people_constant_velocity},
+      {"objects_refit_leg_detections", nullptr, nullptr, &TrackerConfig::objects_refit_leg_detections},
       {"accel_noise", &TrackerConfig::accel_noise_mps2},
       {"turn_accel_noise", &TrackerConfig::turn_accel_noise_rps2},
       {"max_turn_rate", &TrackerConfig::max_turn_rate_rps},
@@ -422,8 +423,10 @@ bool ObstacleTracker::mergedWithAnotherTrack(size_t i, const std::vector<int>& t
 }
 
 void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver) {
+  // An object's arc cut short by a passing leg, or a leg beside it, can look like legs: among its own returns.
+  const bool as_object = detection.from_legs && isObjectTrack(track);
   // Radius: only free fits speak about it; keep a window and report a high quantile (short arcs scatter low).
-  if (detection.free_fit) {
+  if (detection.free_fit && !as_object) {
     track.radii.push_front(detection.circle.radius);
     while (static_cast<int>(track.radii.size()) > config_.radius_window) track.radii.pop_back();
   }
@@ -435,7 +438,7 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   }
   // With a known radius, one short arc pins the centre better than a free fit of centre and radius.
   CircleDetection measured = detection;
-  if (track.radii.size() >= 3 && detection.points.size() >= 3) {
+  if (track.radii.size() >= 3 && detection.points.size() >= 3 && (!detection.from_legs || as_object)) {
     if (const auto refit = fitCircleFixedRadius(detection.points, track.radius, detection.circle.center)) {
       if ((refit->circle.center - detection.circle.center).norm() < track.radius) {
         measured.circle.center = refit->circle.center;
@@ -479,6 +482,7 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   }
   track.ekf.clampTurnRate(config_.max_turn_rate_rps);
   track.hits += 1;
+  (detection.from_legs ? track.leg_hits : track.object_hits) += 1;
   track.last_hit_s = stamp_s;
   track.hit_position = track.ekf.position();
   track.hit_velocity = track.ekf.velocity();
@@ -604,6 +608,7 @@ void ObstacleTracker::birthTrack(const CircleDetection& detection, double stamp_
   t.ekf =
       CtrvEkf::start(motionModel(), detection.circle.center, measurementCovariance(detection), Vec2::Zero(),
                      std::pow(config_.init_speed_std_mps, 2), kPi * kPi, std::pow(config_.init_turn_rate_std_rps, 2));
+  (detection.from_legs ? t.leg_hits : t.object_hits) = 1;
   if (detection.free_fit) t.radii.push_front(detection.circle.radius);
   t.radius = detection.free_fit ? detection.circle.radius : config_.fallback_radius_m;
   t.confirmed = config_.confirm_hits <= 1;

@@ -245,7 +245,10 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
     CircleDetection person;
     person.circle = {0.5 * (ca + cb), std::max(config.person_radius_m, 0.5 * p.distance + config.leg_max_radius_m)};
     person.fit_rms_m = std::max(circles[p.a].fit_rms_m, circles[p.b].fit_rms_m);
-    person.free_fit = true;  // its radius speaks for the person; no points: no refit with a disc's radius
+    person.free_fit = true;  // its radius speaks for the person
+    person.from_legs = true;
+    person.points = circles[p.a].points;
+    person.points.insert(person.points.end(), circles[p.b].points.begin(), circles[p.b].points.end());
     out.push_back(person);
   }
   for (size_t i : legs) {
@@ -258,6 +261,8 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
     // The body's centre is anywhere within half a stride of this leg: a looser measurement.
     person.fit_rms_m = std::max(circles[i].fit_rms_m, config.lone_leg_std_m);
     person.free_fit = true;
+    person.from_legs = true;
+    person.points = std::move(circles[i].points);
     out.push_back(person);
   }
   for (size_t i = 0; i < circles.size(); ++i) {
@@ -270,6 +275,8 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
       person.circle = {behindReturns(circles[i]), config.person_radius_m};
       person.fit_rms_m = std::max(circles[i].fit_rms_m, config.merged_legs_std_m);
       person.free_fit = true;
+      person.from_legs = true;
+      person.points = std::move(circles[i].points);
       out.push_back(person);
       continue;
     }

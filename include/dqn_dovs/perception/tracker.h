@@ -132,6 +132,10 @@ struct TrackerConfig {
   /// People (with pair_legs), when true: constant velocity, white acceleration in every direction (people start,
   /// stop, turn toward where they go and side-step; their turn rate is reported as 0).
   bool people_constant_velocity = true;
+  /// With pair_legs: a track that has been an object (a chair, a bin: returns fitted as a circle of its own, not
+  /// legs) for most of its hits takes a detection made of legs (a piece of its arc cut short by a passing leg looks
+  /// like one) as returns of itself, fitted with its own radius, and does not learn a body's radius from it.
+  bool objects_refit_leg_detections = true;
   /// Process noise: white linear acceleration of the obstacles (m/s^2; in every direction under constant velocity).
   double accel_noise_mps2 = 1.0;
   /// Process noise: white angular acceleration of the obstacles (rad/s^2).
@@ -272,6 +276,9 @@ struct CircleDetection {
   bool free_fit = true;
   /// The returns it was fitted to (fixed frame), for refits with a known radius.
   std::vector<Vec2> points;
+  /// A person seen by their legs (TrackerConfig::pair_legs): its centre is the body's, placed from the legs, not a
+  /// circle fitted to `points` (the legs' returns).
+  bool from_legs = false;
 };
 
 /// Everything found in one scan (fixed frame); the tracker keeps the last one for display.
@@ -367,8 +374,16 @@ class ObstacleTracker {
     Vec2 stationary_position = Vec2::Zero();
     /// Its id was taken over by a track that found its object again (see takeOverLostTrack); dropped at pruning.
     bool absorbed = false;
+    /// Hits by detections of legs (CircleDetection::from_legs) and by other detections (objects).
+    int leg_hits = 0;
+    int object_hits = 0;
   };
 
+  /// An object rather than a person (TrackerConfig::objects_refit_leg_detections): mostly hit by non-leg detections.
+  bool isObjectTrack(const Track& track) const {
+    return config_.pair_legs && config_.objects_refit_leg_detections && track.object_hits >= 3 &&
+           track.object_hits >= track.leg_hits;
+  }
   MotionModel motionModel() const {
     return config_.pair_legs && config_.people_constant_velocity ? MotionModel::kConstantVelocity : MotionModel::kCtrv;
   }
