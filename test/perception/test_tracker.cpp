@@ -502,6 +502,27 @@ LegCrowd legCrowd(const std::string& sensor) {
   return c;
 }
 
+/// Tracks three generated worlds of `c` (seeds seed_base + 1..3, 200 scans each, the laser still) with `config` and
+/// scores the tracks against the truth; `seen` is shown every scene.
+TrackingSummary trackLegWorlds(const LegCrowd& c, const TrackerConfig& config, uint64_t seed_base,
+                               const std::function<void(const TrackedScene&)>& seen = nullptr) {
+  TrackingEvaluator evaluator;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    sim::World world(sim::generateWorld(c.family, seed_base + seed), c.world_config, seed);
+    ObstacleTracker tracker(config);
+    evaluator.beginEpisode();
+    LaserScan2 scan;
+    for (int k = 0; k < 200; ++k) {
+      world.scanInto(scan);
+      const TrackedScene scene = tracker.update(scan, world.laserPose()).scene;
+      if (seen) seen(scene);
+      evaluator.addScan(scene, world.groundTruthObstacles(), {}, c.world_config.lidar.scan_period_s);
+      world.step(Twist2{}, c.world_config.lidar.scan_period_s);
+    }
+  }
+  return evaluator.summary();
+}
+
 TEST(Tracker, AmongPeopleNoTwoTracksAreCloserThanABodyRadius) {
   // Ten social-force people seen by their legs in a generated crowd: a person's legs seen alone, then as a pair,
   // can start a second track beside the first one. Two bodies are never closer than one body radius, so two such
@@ -601,26 +622,11 @@ TEST(Tracker, TheRobustUpdateFollowsPeopleOnTheirLegsMoreCloselyThanThePlainOne)
   // person centres placed on the wrong legs, on a lone leg or, here, on a circle fitted to two merged legs (a body's
   // radius behind them: merged_legs_max_span 0) are outliers the robust update discounts.
   const LegCrowd crowd = legCrowd("sim");
-  const sim::WorldFamilyConfig& family = crowd.family;
-  const sim::WorldConfig& world_config = crowd.world_config;
   const auto run = [&](double outlier_sigma) {
     TrackerConfig config = crowd.config;
     config.merged_legs_max_span_m = 0.0;
     config.outlier_sigma = outlier_sigma;
-    TrackingEvaluator evaluator;
-    for (uint64_t seed = 1; seed <= 3; ++seed) {
-      sim::World world(sim::generateWorld(family, 16100 + seed), world_config, seed);
-      ObstacleTracker tracker(config);
-      evaluator.beginEpisode();
-      LaserScan2 scan;
-      for (int k = 0; k < 200; ++k) {
-        world.scanInto(scan);
-        evaluator.addScan(tracker.update(scan, world.laserPose()).scene, world.groundTruthObstacles(), {},
-                          world_config.lidar.scan_period_s);
-        world.step(Twist2{}, world_config.lidar.scan_period_s);
-      }
-    }
-    return evaluator.summary();
+    return trackLegWorlds(crowd, config, 16100);
   };
   const TrackingSummary plain = run(0.0), robust = run(2.0);
   ASSERT_GT(robust.matched_pairs, 2000u);
@@ -636,22 +642,11 @@ TEST(Tracker, PeopleAreFollowedMoreCloselyWithConstantVelocityThanOnArcs) {
   const auto run = [&](bool constant_velocity) {
     TrackerConfig config = crowd.config;
     config.people_constant_velocity = constant_velocity;
-    TrackingEvaluator evaluator;
     std::vector<double> turn_rates;
-    for (uint64_t seed = 1; seed <= 3; ++seed) {
-      sim::World world(sim::generateWorld(crowd.family, 16200 + seed), crowd.world_config, seed);
-      ObstacleTracker tracker(config);
-      evaluator.beginEpisode();
-      LaserScan2 scan;
-      for (int k = 0; k < 200; ++k) {
-        world.scanInto(scan);
-        const TrackedScene scene = tracker.update(scan, world.laserPose()).scene;
-        for (const TrackedObstacle& o : scene.obstacles) turn_rates.push_back(std::abs(o.turn_rate));
-        evaluator.addScan(scene, world.groundTruthObstacles(), {}, crowd.world_config.lidar.scan_period_s);
-        world.step(Twist2{}, crowd.world_config.lidar.scan_period_s);
-      }
-    }
-    return std::make_pair(evaluator.summary(), *std::max_element(turn_rates.begin(), turn_rates.end()));
+    const TrackingSummary summary = trackLegWorlds(crowd, config, 16200, [&](const TrackedScene& scene) {
+      for (const TrackedObstacle& o : scene.obstacles) turn_rates.push_back(std::abs(o.turn_rate));
+    });
+    return std::make_pair(summary, *std::max_element(turn_rates.begin(), turn_rates.end()));
   };
   const auto [arcs, arcs_max_turn] = run(false);
   const auto [straight, straight_max_turn] = run(true);
@@ -690,20 +685,7 @@ TEST(Tracker, ChairsAmongPeopleStandStillWhenLegsCutTheirArcs) {
   const auto run = [&](bool refit) {
     TrackerConfig config = clutter.config;
     config.objects_refit_leg_detections = refit;
-    TrackingEvaluator evaluator;
-    for (uint64_t seed = 1; seed <= 3; ++seed) {
-      sim::World world(sim::generateWorld(clutter.family, 16400 + seed), clutter.world_config, seed);
-      ObstacleTracker tracker(config);
-      evaluator.beginEpisode();
-      LaserScan2 scan;
-      for (int k = 0; k < 200; ++k) {
-        world.scanInto(scan);
-        evaluator.addScan(tracker.update(scan, world.laserPose()).scene, world.groundTruthObstacles(), {},
-                          clutter.world_config.lidar.scan_period_s);
-        world.step(Twist2{}, clutter.world_config.lidar.scan_period_s);
-      }
-    }
-    return evaluator.summary();
+    return trackLegWorlds(clutter, config, 16400);
   };
   const TrackingSummary legs = run(false), own = run(true);
   ASSERT_GT(own.matched_pairs, 2000u);
