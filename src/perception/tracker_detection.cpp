@@ -247,7 +247,7 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
     person.fit_rms_m = std::max(circles[p.a].fit_rms_m, circles[p.b].fit_rms_m);
     person.free_fit = true;  // its radius speaks for the person
     person.from_legs = true;
-    person.points = circles[p.a].points;
+    person.points = std::move(circles[p.a].points);  // both legs are used up: their returns move to the person
     person.points.insert(person.points.end(), circles[p.b].points.begin(), circles[p.b].points.end());
     out.push_back(person);
   }

@@ -132,9 +132,10 @@ struct TrackerConfig {
   /// People (with pair_legs), when true: constant velocity, white acceleration in every direction (people start,
   /// stop, turn toward where they go and side-step; their turn rate is reported as 0).
   bool people_constant_velocity = true;
-  /// With pair_legs: a track that has been an object (a chair, a bin: returns fitted as a circle of its own, not
-  /// legs) for most of its hits takes a detection made of legs (a piece of its arc cut short by a passing leg looks
-  /// like one) as returns of itself, fitted with its own radius, and does not learn a body's radius from it.
+  /// With pair_legs: a track hit three times or more, at least half of them by detections that are not legs (an
+  /// object: a chair, a bin, its returns fitted as a circle of its own), takes a detection made of legs (a piece of its
+  /// arc cut short by a passing leg looks like one) as returns of itself, fitted with its own radius, and does not
+  /// learn a body's radius from it.
   bool objects_refit_leg_detections = true;
   /// Process noise: white linear acceleration of the obstacles (m/s^2; in every direction under constant velocity).
   double accel_noise_mps2 = 1.0;
@@ -379,7 +380,8 @@ class ObstacleTracker {
     int object_hits = 0;
   };
 
-  /// An object rather than a person (TrackerConfig::objects_refit_leg_detections): mostly hit by non-leg detections.
+  /// An object rather than a person (TrackerConfig::objects_refit_leg_detections): hit three times or more, at least
+  /// as often by non-leg detections as by legs.
   bool isObjectTrack(const Track& track) const {
     return config_.pair_legs && config_.objects_refit_leg_detections && track.object_hits >= 3 &&
            track.object_hits >= track.leg_hits;
