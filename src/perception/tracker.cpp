@@ -75,6 +75,9 @@ std::string TrackerConfig::validate() const {
   if (!positive(measurement_noise_m)) return badField("measurement_noise_m", measurement_noise_m, "must be > 0 (m)");
   if (!nonNegative(outlier_sigma)) return badField("outlier_sigma", outlier_sigma, "must be >= 0; 0 disables");
   if (!positive(accel_noise_mps2)) return badField("accel_noise_mps2", accel_noise_mps2, "must be > 0 (m/s^2)");
+  if (!positive(object_accel_noise_mps2))
+    return badField("object_accel_noise_mps2", object_accel_noise_mps2, "must be > 0 (m/s^2)");
+  if (!nonNegative(object_hold_s)) return badField("object_hold_s", object_hold_s, "must be >= 0 (s); 0 disables");
   if (!positive(turn_accel_noise_rps2))
     return badField("turn_accel_noise_rps2", turn_accel_noise_rps2, "must be > 0 (rad/s^2)");
   if (!positive(max_turn_rate_rps)) return badField("max_turn_rate_rps", max_turn_rate_rps, "must be > 0 (rad/s)");
@@ -168,6 +171,8 @@ const std::vector<TrackerField>& trackerFields() {
       {"outlier_sigma", &TrackerConfig::outlier_sigma},
       {"people_constant_velocity", nullptr, nullptr, &TrackerConfig::people_constant_velocity},
       {"objects_refit_leg_detections", nullptr, nullptr, &TrackerConfig::objects_refit_leg_detections},
+      {"object_accel_noise", &TrackerConfig::object_accel_noise_mps2},
+      {"object_hold", &TrackerConfig::object_hold_s},
       {"accel_noise", &TrackerConfig::accel_noise_mps2},
       {"turn_accel_noise", &TrackerConfig::turn_accel_noise_rps2},
       {"max_turn_rate", &TrackerConfig::max_turn_rate_rps},
@@ -291,6 +296,12 @@ TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser
   result.ignored_beams = detections_.ignored_beams;
   predictTracks(scan.stamp_s);
   associateAndUpdate(detections_, scan.stamp_s);
+  for (Track& t : tracks_) {
+    if (!t.updated_this_scan && isHeldObject(t) &&
+        seenThrough(t.stationary_position, std::max(t.radius, config_.min_circle_radius_m), scan, laser_pose)) {
+      t.seen_through = true;
+    }
+  }
   pruneTracks(scan.stamp_s);
   has_stamp_ = true;
   last_stamp_s_ = scan.stamp_s;
@@ -299,14 +310,37 @@ TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser
   return result;
 }
 
+bool ObstacleTracker::seenThrough(const Vec2& center, double radius, const LaserScan2& scan, const Pose2& laser_pose) {
+  const Vec2 rel = center - laser_pose.position();
+  const double d = rel.norm();
+  if (d <= radius || d - radius >= scan.range_max) return false;
+  // The beams within half the object's angular half-width of its centre: those that would hit it near its middle.
+  const double bearing = angleDiff(std::atan2(rel.y(), rel.x()), laser_pose.theta);
+  const double half = 0.5 * std::asin(radius / d);
+  const double a = (bearing - half - scan.angle_min) / scan.angle_increment;
+  const double b = (bearing + half - scan.angle_min) / scan.angle_increment;
+  const long first = std::max(0L, static_cast<long>(std::ceil(std::min(a, b))));
+  const long last = std::min(static_cast<long>(scan.ranges.size()) - 1, static_cast<long>(std::floor(std::max(a, b))));
+  int valid = 0, beyond = 0;
+  for (long i = first; i <= last; ++i) {
+    const double range = scan.ranges[static_cast<size_t>(i)];
+    // No return says nothing: a dark or glancing surface drops beams too.
+    if (!std::isfinite(range) || range < scan.range_min || range >= scan.range_max) continue;
+    ++valid;
+    if (range > d) ++beyond;
+  }
+  return valid >= 2 && 2 * beyond > valid;
+}
+
 void ObstacleTracker::predictTracks(double stamp_s) {
   if (!has_stamp_) return;
   const double dt = stamp_s - last_stamp_s_;
   for (Track& t : tracks_) {
     t.updated_this_scan = false;
-    // One-hit tracks have no velocity: they stay at their first detection (the gate grows instead).
-    if (t.hits < 2) continue;
-    t.ekf.predict(dt, config_.accel_noise_mps2, config_.turn_accel_noise_rps2);
+    // One-hit tracks have no velocity: they stay at their first detection (the gate grows instead). A still object
+    // stays where it stands, as sure of it as when last seen.
+    if (t.hits < 2 || isHeldObject(t)) continue;
+    t.ekf.predict(dt, accelNoise(t), config_.turn_accel_noise_rps2);
     t.ekf.clampTurnRate(config_.max_turn_rate_rps);
   }
   lost_.erase(std::remove_if(lost_.begin(), lost_.end(),
@@ -424,7 +458,7 @@ bool ObstacleTracker::mergedWithAnotherTrack(size_t i, const std::vector<int>& t
 
 void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver) {
   // An object's arc cut short by a passing leg, or a leg beside it, can look like legs: among its own returns.
-  const bool as_object = detection.from_legs && isObjectTrack(track);
+  const bool as_object = detection.from_legs && config_.objects_refit_leg_detections && isObjectTrack(track);
   // Radius: only free fits speak about it; keep a window and report a high quantile (short arcs scatter low).
   if (detection.free_fit && !as_object) {
     track.radii.push_front(detection.circle.radius);
@@ -579,6 +613,9 @@ void ObstacleTracker::takeOverLostTrack(Track& track, double stamp_s) {
   };
   for (Track& old : tracks_) {
     if (&old == &track || !old.confirmed || old.absorbed || old.hits < 2 || old.last_hit_s >= track.born_s) continue;
+    // A still object kept while unseen is found again by its own gate, where it stands; a new track nearby is
+    // someone else.
+    if (isHeldObject(old)) continue;
     if (closer(old)) best_live = &old;
   }
   for (auto it = lost_.begin(); it != lost_.end(); ++it) {
@@ -621,6 +658,8 @@ void ObstacleTracker::pruneTracks(double stamp_s) {
   auto dead = [&](const Track& t) {
     if (t.absorbed) return true;
     const double silent = stamp_s - t.last_hit_s;
+    if (t.seen_through) return true;
+    if (isHeldObject(t)) return silent > config_.object_hold_s;
     if (silent > (t.confirmed ? config_.deletion_timeout_s : config_.tentative_timeout_s)) return true;
     const CtrvCovariance& p = t.ekf.covariance();
     if (!t.ekf.state().allFinite() || !p.allFinite()) return true;
@@ -708,7 +747,7 @@ TrackedScene ObstacleTracker::predictedScene(double stamp_s) const {
   for (const Track& t : tracks_) {
     if (!(t.confirmed && t.hits >= 2)) continue;
     Track moved = t;
-    moved.ekf.predict(dt, config_.accel_noise_mps2, config_.turn_accel_noise_rps2);
+    if (!isHeldObject(moved)) moved.ekf.predict(dt, accelNoise(moved), config_.turn_accel_noise_rps2);
     out.obstacles[k++] = toTrackedObstacle(moved, stamp_s);
   }
   return out;

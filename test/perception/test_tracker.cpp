@@ -156,7 +156,7 @@ TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
   fresh(base_raw);
   std::vector<int> owner(sizeof(TrackerConfig), -1);
   const std::vector<std::string>& names = trackerParameterNames();
-  EXPECT_EQ(names.size(), 67u);  // every field of TrackerConfig
+  EXPECT_EQ(names.size(), 69u);  // every field of TrackerConfig
   for (size_t k = 0; k < names.size(); ++k) {
     TrackerConfig* c = fresh(raw);
     // Booleans to the opposite of their default, every number to 7.
@@ -569,6 +569,8 @@ TEST(Tracker, ADetectionFarFromThePredictionPullsTheTrackLessThanAPlainUpdate) {
     config.people_constant_velocity = constant_velocity;
     config.outlier_sigma = outlier_sigma;
     config.pair_legs = true;  // among people: the manoeuvre recovery re-opens the motion, not the position
+    // The disc stands for a person's detections; not being legs, it would be followed as an object.
+    config.object_accel_noise_mps2 = config.accel_noise_mps2;
     ObstacleTracker tracker(config);
     std::mt19937 rng(21);
     SyntheticLidar lidar;
@@ -877,6 +879,91 @@ TEST(Tracker, AChairIsReportedStandingStillWhilePeopleWalkBy) {
   EXPECT_LT(percentile(tested.centre_errors, 0.95), 0.03);
 }
 
+/// Among people (pair_legs), a chair at (3, 0) seen from a fixed laser at the origin, while someone (a body disc of
+/// 0.25 m) walks in front of it at x = 1.5, stands there hiding it from 5 s to 8 s and walks on; and, if `removed_at`
+/// is finite, the chair taken away at that time, with a wall 3 m behind it or none (`wall_behind`); with `newcomer`,
+/// someone else steps into view 0.9 m beside the chair at 6 s, while it is hidden, and walks off at 0.5 m/s.
+/// visit(t, result) after each scan.
+const Vec2 kHiddenChair(3.0, 0.0);
+template <class Visit>
+void chairBehindSomeone(const TrackerConfig& base, double removed_at, bool wall_behind, bool newcomer, Visit visit) {
+  TrackerConfig config = base;
+  config.pair_legs = true;
+  ObstacleTracker tracker{config};
+  std::mt19937 rng(31);
+  SyntheticLidar lidar;
+  const Pose2 laser{};
+  std::vector<Segment> walls;
+  if (wall_behind) walls.push_back({{6.0, -3.0}, {6.0, 3.0}});
+  for (double t = 0.0; t <= 16.0 + 1e-9; t += kScanPeriod) {
+    const double y = t < 5.0 ? -2.0 + 0.4 * std::max(0.0, t - 0.0) : (t < 8.0 ? 0.0 : t - 8.0);
+    std::vector<Circle> circles{{{1.5, y}, 0.25}};
+    if (!(t >= removed_at)) circles.push_back({kHiddenChair, 0.22});
+    if (newcomer && t >= 6.0) circles.push_back({{3.0, 0.9 + 0.5 * (t - 6.0)}, 0.25});
+    visit(t, tracker.update(syntheticScan(lidar, laser, circles, walls, t, rng), laser));
+  }
+}
+
+/// The reports near the chair: the ids seen there and, per scan, whether a track was there (age >= 1 s), with the
+/// largest speed reported on it.
+struct HiddenChairRun {
+  std::set<int> ids;
+  std::vector<double> times, speeds;
+  bool reported(double from, double to) const {
+    return std::count_if(times.begin(), times.end(), [&](double t) { return t >= from && t <= to; }) >=
+           std::lround((to - from) / kScanPeriod) - 1;
+  }
+  bool reportedAny(double from, double to) const {
+    return std::any_of(times.begin(), times.end(), [&](double t) { return t >= from && t <= to; });
+  }
+};
+HiddenChairRun hiddenChair(double object_hold_s, double removed_at = std::numeric_limits<double>::infinity(),
+                           bool wall_behind = true, bool newcomer = false) {
+  TrackerConfig config;
+  config.object_hold_s = object_hold_s;
+  HiddenChairRun run;
+  chairBehindSomeone(config, removed_at, wall_behind, newcomer, [&](double t, const TrackerResult& r) {
+    for (const TrackedObstacle& o : r.scene.obstacles) {
+      if ((o.center - kHiddenChair).norm() > 0.1 || o.age_s < 1.0) continue;
+      run.ids.insert(o.id);
+      run.times.push_back(t);
+      run.speeds.push_back(o.speed);
+    }
+  });
+  return run;
+}
+
+TEST(Tracker, AChairHiddenBehindSomeoneIsKeptStandingWhereItIs) {
+  const HiddenChairRun held = hiddenChair(8.0);
+  const HiddenChairRun dropped = hiddenChair(0.0);
+  // Kept through the 3 s it is hidden, under one id, standing still.
+  EXPECT_TRUE(held.reported(2.0, 12.0));
+  EXPECT_EQ(held.ids.size(), 1u);
+  ASSERT_FALSE(held.speeds.empty());
+  EXPECT_LT(*std::max_element(held.speeds.begin(), held.speeds.end()), 0.02);
+  // Someone who steps into view beside it meanwhile is someone else: the chair keeps its track and its id.
+  const HiddenChairRun beside = hiddenChair(8.0, std::numeric_limits<double>::infinity(), true, true);
+  EXPECT_TRUE(beside.reported(2.0, 12.0));
+  EXPECT_EQ(beside.ids, held.ids);
+  // Without the hold it is dropped while hidden (deletion_timeout_s) and found again afterwards.
+  EXPECT_TRUE(dropped.reported(2.0, 5.0));
+  EXPECT_FALSE(dropped.reportedAny(6.5, 8.0));
+  EXPECT_TRUE(dropped.reportedAny(9.5, 12.0));
+}
+
+TEST(Tracker, AHeldChairIsDroppedAsSoonAsTheScanSeesThroughIt) {
+  // Taken away while hidden (at 6 s): when the walker has gone by (about 8.4 s), the beams toward it reach the wall
+  // behind, and the track goes at once instead of object_hold_s after its last hit.
+  const HiddenChairRun gone = hiddenChair(8.0, 6.0);
+  EXPECT_TRUE(gone.reported(2.0, 8.0));
+  EXPECT_FALSE(gone.reportedAny(8.8, 16.0));
+  // With nothing behind it within the LIDAR's reach the beams return nothing, which says nothing (a dark or glancing
+  // surface drops returns too): it is kept, until object_hold_s after it was last seen (about 4.7 s).
+  const HiddenChairRun unseen = hiddenChair(8.0, 6.0, false);
+  EXPECT_TRUE(unseen.reported(2.0, 12.5));
+  EXPECT_FALSE(unseen.reportedAny(13.0, 16.0));
+}
+
 /// Tracks one disc of `radius` at where(t), seen from a fixed laser at `laser`, with a tracker of `config`: a scan
 /// every kScanPeriod from 0 to t_end (noise from `seed`); visit(t, result) after each, until it returns true.
 template <class Where, class Visit>
@@ -1123,6 +1210,12 @@ TEST(TrackerConfigTest, ValidateNamesTheField) {
   c = TrackerConfig{};
   c.duplicate_max_velocity_difference_mps = -0.1;
   EXPECT_NE(c.validate().find("duplicate_max_velocity_difference_mps"), std::string::npos);
+  c = TrackerConfig{};
+  c.object_accel_noise_mps2 = 0.0;
+  EXPECT_NE(c.validate().find("object_accel_noise_mps2"), std::string::npos);
+  c = TrackerConfig{};
+  c.object_hold_s = -1.0;
+  EXPECT_NE(c.validate().find("object_hold_s"), std::string::npos);
   c = TrackerConfig{};
   c.fallback_radius_m = 1.0;
   EXPECT_NE(c.validate().find("fallback_radius_m"), std::string::npos);

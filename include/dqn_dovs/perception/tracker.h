@@ -137,6 +137,15 @@ struct TrackerConfig {
   /// arc cut short by a passing leg looks like one) as returns of itself, fitted with its own radius, and does not
   /// learn a body's radius from it.
   bool objects_refit_leg_detections = true;
+  /// With pair_legs, the process noise of an object's track (m/s^2, as accel_noise_mps2): furniture stands still or is
+  /// pushed slowly, so a detection that jumps (a chair's arc cut short, merged with a passer-by's legs) moves its
+  /// velocity less. Equal to accel_noise_mps2: objects are followed like people.
+  double object_accel_noise_mps2 = 0.3;
+  /// With pair_legs, how long an object's track that stands still (stationary_window_s) is kept without hits (s):
+  /// a chair hidden behind people, or whose returns merge with a passer-by's legs, is still there. It is dropped
+  /// sooner when the scan sees through it (a beam through its centre returns from beyond), and it neither moves nor
+  /// grows uncertain meanwhile. 0: such tracks are dropped after deletion_timeout_s like any other.
+  double object_hold_s = 8.0;
   /// Process noise: white linear acceleration of the obstacles (m/s^2; in every direction under constant velocity).
   double accel_noise_mps2 = 1.0;
   /// Process noise: white angular acceleration of the obstacles (rad/s^2).
@@ -378,14 +387,25 @@ class ObstacleTracker {
     /// Hits by detections of legs (CircleDetection::from_legs) and by other detections (objects).
     int leg_hits = 0;
     int object_hits = 0;
+    /// The last scan saw through where it stands (seenThrough): it is not held (TrackerConfig::object_hold_s).
+    bool seen_through = false;
   };
 
-  /// An object rather than a person (TrackerConfig::objects_refit_leg_detections): hit three times or more, at least
-  /// as often by non-leg detections as by legs.
+  /// Among people (pair_legs), an object rather than a person: hit three times or more, at least as often by non-leg
+  /// detections as by legs.
   bool isObjectTrack(const Track& track) const {
-    return config_.pair_legs && config_.objects_refit_leg_detections && track.object_hits >= 3 &&
-           track.object_hits >= track.leg_hits;
+    return config_.pair_legs && track.object_hits >= 3 && track.object_hits >= track.leg_hits;
   }
+  /// A still object kept without hits (TrackerConfig::object_hold_s): not predicted, not dropped on silence.
+  bool isHeldObject(const Track& track) const {
+    return config_.object_hold_s > 0.0 && track.confirmed && track.stationary && !track.seen_through &&
+           isObjectTrack(track);
+  }
+  double accelNoise(const Track& track) const {
+    return isObjectTrack(track) ? config_.object_accel_noise_mps2 : config_.accel_noise_mps2;
+  }
+  /// Whether the scan's beams toward the middle of where a held object stands return from beyond its centre.
+  static bool seenThrough(const Vec2& center, double radius, const LaserScan2& scan, const Pose2& laser_pose);
   MotionModel motionModel() const {
     return config_.pair_legs && config_.people_constant_velocity ? MotionModel::kConstantVelocity : MotionModel::kCtrv;
   }
