@@ -1189,36 +1189,27 @@ TEST_F(TrackerBadInput, FlickeringNoiseMakesNoConfirmedTrack) {
 
 TEST(TrackerConfigTest, ValidateNamesTheField) {
   EXPECT_EQ(TrackerConfig{}.validate(), "");
+  // Each bad value, set alone on the defaults, is refused naming its field.
+  const std::vector<std::pair<std::string, std::function<void(TrackerConfig&)>>> bad{
+      {"gate_mahalanobis2", [](TrackerConfig& c) { c.gate_mahalanobis2 = std::nan(""); }},
+      {"min_cluster_points", [](TrackerConfig& c) { c.min_cluster_points = 2; }},
+      {"stationary_inlier_fraction", [](TrackerConfig& c) { c.stationary_inlier_fraction = 0.0; }},
+      {"stationary_window_s", [](TrackerConfig& c) { c.stationary_window_s = -1.0; }},
+      {"merged_separation_factor", [](TrackerConfig& c) { c.merged_separation_factor = -0.5; }},
+      {"restart_max_speed_mps", [](TrackerConfig& c) { c.restart_max_speed_mps = 0.0; }},
+      {"duplicate_max_velocity_difference_mps",
+       [](TrackerConfig& c) { c.duplicate_max_velocity_difference_mps = -0.1; }},
+      {"object_accel_noise_mps2", [](TrackerConfig& c) { c.object_accel_noise_mps2 = 0.0; }},
+      {"object_hold_s", [](TrackerConfig& c) { c.object_hold_s = -1.0; }},
+      {"fallback_radius_m", [](TrackerConfig& c) { c.fallback_radius_m = 1.0; }},
+  };
   TrackerConfig c;
-  c.gate_mahalanobis2 = std::nan("");
-  EXPECT_NE(c.validate().find("gate_mahalanobis2"), std::string::npos);
-  c = TrackerConfig{};
-  c.min_cluster_points = 2;
-  EXPECT_NE(c.validate().find("min_cluster_points"), std::string::npos);
-  c = TrackerConfig{};
-  c.stationary_inlier_fraction = 0.0;
-  EXPECT_NE(c.validate().find("stationary_inlier_fraction"), std::string::npos);
-  c = TrackerConfig{};
-  c.stationary_window_s = -1.0;
-  EXPECT_NE(c.validate().find("stationary_window_s"), std::string::npos);
-  c = TrackerConfig{};
-  c.merged_separation_factor = -0.5;
-  EXPECT_NE(c.validate().find("merged_separation_factor"), std::string::npos);
-  c = TrackerConfig{};
-  c.restart_max_speed_mps = 0.0;
-  EXPECT_NE(c.validate().find("restart_max_speed_mps"), std::string::npos);
-  c = TrackerConfig{};
-  c.duplicate_max_velocity_difference_mps = -0.1;
-  EXPECT_NE(c.validate().find("duplicate_max_velocity_difference_mps"), std::string::npos);
-  c = TrackerConfig{};
-  c.object_accel_noise_mps2 = 0.0;
-  EXPECT_NE(c.validate().find("object_accel_noise_mps2"), std::string::npos);
-  c = TrackerConfig{};
-  c.object_hold_s = -1.0;
-  EXPECT_NE(c.validate().find("object_hold_s"), std::string::npos);
-  c = TrackerConfig{};
-  c.fallback_radius_m = 1.0;
-  EXPECT_NE(c.validate().find("fallback_radius_m"), std::string::npos);
+  for (const auto& [field, set] : bad) {
+    c = TrackerConfig{};
+    set(c);
+    EXPECT_NE(c.validate().find(field), std::string::npos) << field << ": " << c.validate();
+  }
+  // The last one (fallback_radius_m) stops the tracker's construction as well.
   try {
     ObstacleTracker t{c};
     FAIL() << "no exception";
