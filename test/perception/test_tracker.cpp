@@ -1387,25 +1387,37 @@ TEST(TrackerDetection, AChairHalfHiddenIsNotTakenForTwoLegs) {
 
 TEST(TrackerDetection, PiecesOnTheLineOfAWallBeyondItsEndAreWall) {
   // A wall running away from the laser, seen whole up to 1.5 m ahead and then only in short noisy pieces
-  // (people in front of the rest of it): on its line, within 2 m of its end, the pieces are wall at once,
-  // before the memory of walls has seen them.
+  // (people in front of the rest of it): on its line, within structure_line_extension_m of its end, the pieces are
+  // wall at once, before the memory of walls has seen them. In a second scene the wall is seen whole only behind
+  // the laser, up to 4.1 m from the same pieces.
   SyntheticLidar lidar;
   lidar.noise_std_m = 0.015;
   const std::vector<Segment> walls{{{-1.0, 1.0}, {1.5, 1.0}}, {{2.1, 1.0}, {2.32, 1.0}}, {{2.8, 1.0}, {3.0, 1.0}}};
+  const std::vector<Segment> far_walls{{{-6.0, 1.0}, {-2.0, 1.0}}, walls[1]};
   TrackerConfig with;
   with.range_noise_m = lidar.noise_std_m;  // the scanner's noise, as the tracker is told it
   TrackerConfig without = with;
   without.structure_line_extension_m = 0.0;
-  size_t circles_with = 0, circles_without = 0;
+  TrackerConfig shorter = with;
+  shorter.structure_line_extension_m = 2.0;
+  auto circles = [](const LaserScan2& scan, const TrackerConfig& c) {
+    StaticMap fresh(c.structure_cell_m, 30.0);
+    return detectObstacles(scan, {}, c, &fresh).circles.size();
+  };
+  size_t circles_with = 0, circles_without = 0, far_circles_with = 0, far_circles_shorter = 0;
   for (unsigned seed = 1; seed <= 20; ++seed) {
     std::mt19937 rng(seed);
     const LaserScan2 scan = syntheticScan(lidar, {}, {}, walls, 0.0, rng);
-    StaticMap fresh_a(with.structure_cell_m, with.structure_memory_s), fresh_b(with.structure_cell_m, 30.0);
-    circles_with += detectObstacles(scan, {}, with, &fresh_a).circles.size();
-    circles_without += detectObstacles(scan, {}, without, &fresh_b).circles.size();
+    const LaserScan2 far_scan = syntheticScan(lidar, {}, {}, far_walls, 0.0, rng);
+    circles_with += circles(scan, with);
+    circles_without += circles(scan, without);
+    far_circles_with += circles(far_scan, with);
+    far_circles_shorter += circles(far_scan, shorter);
   }
   EXPECT_GT(circles_without, 0u) << "without the rule the pieces look like objects (the test would prove nothing)";
+  EXPECT_GT(far_circles_shorter, 0u) << "4.1 m beyond the end is out of a 2 m reach: the piece is left to be tracked";
   EXPECT_EQ(circles_with, 0u);
+  EXPECT_EQ(far_circles_with, 0u);
   // A disc beside the wall's line (a person walking along it, 0.3 m off) is not absorbed.
   std::mt19937 rng(3);
   const LaserScan2 scan = syntheticScan(lidar, {}, {Circle{{2.5, 0.55}, 0.2}}, {walls[0]}, 0.0, rng);
