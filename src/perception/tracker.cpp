@@ -101,6 +101,7 @@ std::string TrackerConfig::validate() const {
   if (confirm_hits < 1) return badField("confirm_hits", confirm_hits, "must be >= 1");
   if (!positive(tentative_timeout_s)) return badField("tentative_timeout_s", tentative_timeout_s, "must be > 0 (s)");
   if (!positive(deletion_timeout_s)) return badField("deletion_timeout_s", deletion_timeout_s, "must be > 0 (s)");
+  if (established_hits < 0) return badField("established_hits", established_hits, "must be >= 0; 0 disables");
   if (!positive(max_position_std_m)) return badField("max_position_std_m", max_position_std_m, "must be > 0 (m)");
   if (!nonNegative(reacquire_window_s)) return badField("reacquire_window_s", reacquire_window_s, "must be >= 0 (s)");
   if (!positive(reacquire_max_distance_m))
@@ -189,6 +190,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"confirm_hits", nullptr, &TrackerConfig::confirm_hits},
       {"tentative_timeout", &TrackerConfig::tentative_timeout_s},
       {"deletion_timeout", &TrackerConfig::deletion_timeout_s},
+      {"established_hits", nullptr, &TrackerConfig::established_hits},
       {"max_position_std", &TrackerConfig::max_position_std_m},
       {"reacquire_window", &TrackerConfig::reacquire_window_s},
       {"reacquire_max_distance", &TrackerConfig::reacquire_max_distance_m},
@@ -660,7 +662,8 @@ void ObstacleTracker::pruneTracks(double stamp_s) {
     const double silent = stamp_s - t.last_hit_s;
     if (t.seen_through) return true;
     if (isHeldObject(t)) return silent > config_.object_hold_s;
-    if (silent > (t.confirmed ? config_.deletion_timeout_s : config_.tentative_timeout_s)) return true;
+    const bool established = !config_.pair_legs || t.hits >= config_.established_hits;
+    if (silent > (t.confirmed && established ? config_.deletion_timeout_s : config_.tentative_timeout_s)) return true;
     const CtrvCovariance& p = t.ekf.covariance();
     if (!t.ekf.state().allFinite() || !p.allFinite()) return true;
     return std::sqrt(std::max(p(kCtrvX, kCtrvX), p(kCtrvY, kCtrvY))) > config_.max_position_std_m;

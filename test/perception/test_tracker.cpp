@@ -156,7 +156,7 @@ TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
   fresh(base_raw);
   std::vector<int> owner(sizeof(TrackerConfig), -1);
   const std::vector<std::string>& names = trackerParameterNames();
-  EXPECT_EQ(names.size(), 69u);  // every field of TrackerConfig
+  EXPECT_EQ(names.size(), 70u);  // every field of TrackerConfig
   for (size_t k = 0; k < names.size(); ++k) {
     TrackerConfig* c = fresh(raw);
     // Booleans to the opposite of their default, every number to 7.
@@ -964,6 +964,36 @@ TEST(Tracker, AHeldChairIsDroppedAsSoonAsTheScanSeesThroughIt) {
   EXPECT_FALSE(unseen.reportedAny(13.0, 16.0));
 }
 
+/// Among people (pair_legs), someone walking at 1 m/s across the view of a fixed laser, seen until `seen_until` and
+/// then gone: the last time a track is reported (-1 if never), with `established_hits`.
+double lastReportedAfterLosingSomeone(double seen_until, int established_hits) {
+  TrackerConfig config;
+  config.pair_legs = true;
+  config.established_hits = established_hits;
+  config.reacquire_window_s = 0.0;
+  ObstacleTracker tracker{config};
+  std::mt19937 rng(5);
+  SyntheticLidar lidar;
+  double last = -1.0;
+  for (double t = 0.0; t <= seen_until + 2.0; t += kScanPeriod) {
+    std::vector<Circle> people;
+    if (t <= seen_until + 1e-9) people.push_back({{2.5, -1.5 + t}, 0.25});
+    if (!tracker.update(syntheticScan(lidar, {}, people, {}, t, rng), {}).scene.obstacles.empty()) last = t;
+  }
+  return last;
+}
+
+TEST(Tracker, APersonsTrackOfAFewHitsIsDroppedSoonerWhenLost) {
+  // Seen for 0.6 s (six hits, confirmed at the third): dropped 0.3 s (tentative_timeout_s) after the last hit
+  // instead of 0.8 s (deletion_timeout_s).
+  const double young = lastReportedAfterLosingSomeone(0.5, 10);
+  EXPECT_GE(young, 0.5);
+  EXPECT_LE(young, 0.5 + 0.3 + 1e-9);
+  EXPECT_GE(lastReportedAfterLosingSomeone(0.5, 0), 0.5 + 0.7);
+  // Seen for 2 s, the track is established and coasts through deletion_timeout_s as before.
+  EXPECT_GE(lastReportedAfterLosingSomeone(2.0, 10), 2.0 + 0.7);
+}
+
 /// Tracks one disc of `radius` at where(t), seen from a fixed laser at `laser`, with a tracker of `config`: a scan
 /// every kScanPeriod from 0 to t_end (noise from `seed`); visit(t, result) after each, until it returns true.
 template <class Where, class Visit>
@@ -1201,6 +1231,7 @@ TEST(TrackerConfigTest, ValidateNamesTheField) {
        [](TrackerConfig& c) { c.duplicate_max_velocity_difference_mps = -0.1; }},
       {"object_accel_noise_mps2", [](TrackerConfig& c) { c.object_accel_noise_mps2 = 0.0; }},
       {"object_hold_s", [](TrackerConfig& c) { c.object_hold_s = -1.0; }},
+      {"established_hits", [](TrackerConfig& c) { c.established_hits = -1; }},
       {"fallback_radius_m", [](TrackerConfig& c) { c.fallback_radius_m = 1.0; }},
   };
   TrackerConfig c;

@@ -199,6 +199,11 @@ struct TrackerConfig {
   double tentative_timeout_s = 0.3;
   /// A confirmed track is predicted through occlusions and dropped after this long without a hit (s).
   double deletion_timeout_s = 0.8;
+  /// Among people (pair_legs): a confirmed track with fewer hits than this is dropped, like a tentative one, after
+  /// tentative_timeout_s without a hit. A few hits give a poor velocity, and such a track coasts off where its first
+  /// detections pointed (often a piece of wall between people); once dropped it is remembered for re-identification
+  /// like any other (reacquire_window_s). 0 disables.
+  int established_hits = 10;
   /// Tracks whose position standard deviation exceeds this are dropped (m).
   double max_position_std_m = 1.0;
   /// A confirmed track dropped for silence is remembered (not reported) this long (s): a new track born where
