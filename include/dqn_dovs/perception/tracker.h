@@ -113,8 +113,8 @@ struct TrackerConfig {
   double structure_max_fraction = 0.5;
   /// A detection whose returns lie on the line of a long wall of the same scan (nine in ten within 3 sigma of the
   /// range noise, at least 3 cm) and at most this far beyond its ends is the rest of that wall (m): a wall running away
-  /// from the laser breaks into pieces near the end of the range, and people in front of a wall cut it into pieces
-  /// that only one of them may be long. 0 disables.
+  /// from the laser breaks into pieces near the end of the range, and people in front of a wall cut it into pieces of
+  /// which perhaps one is long. 0 disables.
   double structure_line_extension_m = 6.0;
   /// With a map (ObstacleTracker::update's `map`): how far from its walls and furniture a return still lies on
   /// them (m; KnownStructure): the map's and the localisation's error plus the scanner's noise. A detection with at
