@@ -141,7 +141,7 @@ struct TrackerConfig {
   /// With pair_legs, the process noise of an object's track (m/s^2, as accel_noise_mps2): furniture stands still or is
   /// pushed slowly, so a detection that jumps (a chair's arc cut short, merged with a passer-by's legs) moves its
   /// velocity less. Equal to accel_noise_mps2: objects are followed like people.
-  double object_accel_noise_mps2 = 0.3;
+  double object_accel_noise_mps2 = 0.1;
   /// With pair_legs, how long an object's track that stands still (stationary_window_s) is kept without hits (s):
   /// a chair hidden behind people, or whose returns merge with a passer-by's legs, is still there. It is dropped
   /// sooner when the scan sees through it (a beam through its centre returns from beyond), and it neither moves nor
