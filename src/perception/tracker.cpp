@@ -191,6 +191,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"tentative_timeout", &TrackerConfig::tentative_timeout_s},
       {"deletion_timeout", &TrackerConfig::deletion_timeout_s},
       {"established_hits", nullptr, &TrackerConfig::established_hits},
+      {"drop_seen_through", nullptr, nullptr, &TrackerConfig::drop_seen_through},
       {"max_position_std", &TrackerConfig::max_position_std_m},
       {"reacquire_window", &TrackerConfig::reacquire_window_s},
       {"reacquire_max_distance", &TrackerConfig::reacquire_max_distance_m},
@@ -299,9 +300,16 @@ TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser
   predictTracks(scan.stamp_s);
   associateAndUpdate(detections_, scan.stamp_s);
   for (Track& t : tracks_) {
-    if (!t.updated_this_scan && isHeldObject(t) &&
-        seenThrough(t.stationary_position, std::max(t.radius, config_.min_circle_radius_m), scan, laser_pose)) {
-      t.seen_through = true;
+    if (t.updated_this_scan) continue;
+    if (isHeldObject(t)) {
+      t.seen_through = seenThrough(t.stationary_position, std::max(t.radius, config_.min_circle_radius_m), scan,
+                                   laser_pose);
+    } else if (config_.drop_seen_through && t.confirmed && t.hits >= 2) {
+      // A coasting track where the scan shows nothing: whatever it followed is elsewhere (docs/tracker.md, "Tracks
+      // where the scan sees nothing"). Only the whole disc seen empty counts: among people the beams through the
+      // middle of a body pass between its legs.
+      t.seen_through = seenClearThrough(t.ekf.position(), std::max(t.radius, config_.min_circle_radius_m), scan,
+                                        laser_pose);
     }
   }
   pruneTracks(scan.stamp_s);
@@ -332,6 +340,34 @@ bool ObstacleTracker::seenThrough(const Vec2& center, double radius, const Laser
     if (range > d) ++beyond;
   }
   return valid >= 2 && 2 * beyond > valid;
+}
+
+bool ObstacleTracker::seenClearThrough(const Vec2& center, double radius, const LaserScan2& scan,
+                                       const Pose2& laser_pose) {
+  const Vec2 rel = center - laser_pose.position();
+  const double d = rel.norm();
+  if (d <= radius || d + radius >= scan.range_max) return false;
+  const double bearing = angleDiff(std::atan2(rel.y(), rel.x()), laser_pose.theta);
+  const double half = std::asin(radius / d);
+  const double a = (bearing - half - scan.angle_min) / scan.angle_increment;
+  const double b = (bearing + half - scan.angle_min) / scan.angle_increment;
+  const long n = static_cast<long>(scan.ranges.size());
+  // A full turn wraps around: a disc across the scan's seam has beams at both ends.
+  const bool full_turn = static_cast<double>(n) * std::abs(scan.angle_increment) >= kTwoPi - 1e-6;
+  int valid = 0;
+  for (long k = static_cast<long>(std::ceil(std::min(a, b))); k <= static_cast<long>(std::floor(std::max(a, b))); ++k) {
+    const long i = full_turn ? ((k % n) + n) % n : k;
+    if (i < 0 || i >= n) continue;
+    const double range = scan.ranges[static_cast<size_t>(i)];
+    if (!std::isfinite(range) || range < scan.range_min || range >= scan.range_max) continue;
+    // Where this beam leaves the disc: a return before that is something in front of it or in it.
+    const double phi = scan.angle_min + static_cast<double>(k) * scan.angle_increment - bearing;
+    const double off = d * std::sin(phi);
+    const double exit = d * std::cos(phi) + std::sqrt(std::max(0.0, radius * radius - off * off));
+    if (range <= exit) return false;
+    ++valid;
+  }
+  return valid >= 3;
 }
 
 void ObstacleTracker::predictTracks(double stamp_s) {

@@ -156,11 +156,11 @@ TEST(TrackerConfig, ParametersAreSetByTheirConfigFileNames) {
   fresh(base_raw);
   std::vector<int> owner(sizeof(TrackerConfig), -1);
   const std::vector<std::string>& names = trackerParameterNames();
-  EXPECT_EQ(names.size(), 70u);  // every field of TrackerConfig
+  EXPECT_EQ(names.size(), 71u);  // every field of TrackerConfig
   for (size_t k = 0; k < names.size(); ++k) {
     TrackerConfig* c = fresh(raw);
     // Booleans to the opposite of their default, every number to 7.
-    const char* value = names[k] == "pair_legs" ? "true"
+    const char* value = names[k] == "pair_legs" || names[k] == "drop_seen_through" ? "true"
                         : names[k] == "restart_from_rest" || names[k] == "reacquire_follow_turn" ||
                                 names[k] == "people_constant_velocity" || names[k] == "objects_refit_leg_detections"
                             ? "false"
@@ -1036,6 +1036,44 @@ TEST(Tracker, APersonsTrackOfAFewHitsIsDroppedSoonerWhenLost) {
   EXPECT_GE(lastReportedAfterLosingSomeone(0.5, 0), 0.5 + 0.7);
   // Seen for 2 s, the track is established and coasts through deletion_timeout_s as before.
   EXPECT_GE(lastReportedAfterLosingSomeone(2.0, 10), 2.0 + 0.7);
+}
+
+/// Among people (pair_legs), someone walking at 1 m/s across the view of a fixed laser in a room of 8 x 8 m, seen for
+/// 2 s and then gone: the last time a track is reported near where they would have walked on (-1 if never).
+/// `background`: the room's walls are there for the beams to return from; `occluder`: from 2 s a wall stands between
+/// the laser and where they would be.
+double lastReportedAfterSomeoneLeaves(bool drop_seen_through, bool background, bool occluder) {
+  TrackerConfig config;
+  config.pair_legs = true;
+  config.drop_seen_through = drop_seen_through;
+  config.reacquire_window_s = 0.0;
+  ObstacleTracker tracker{config};
+  std::mt19937 rng(5);
+  SyntheticLidar lidar;
+  double last = -1.0;
+  for (double t = 0.0; t <= 4.0 + 1e-9; t += kScanPeriod) {
+    std::vector<Circle> people;
+    const Vec2 walked{2.5, -1.5 + t};
+    if (t <= 2.0 + 1e-9) people.push_back({walked, 0.25});
+    std::vector<Segment> walls = background ? roomWalls(4.0) : std::vector<Segment>{};
+    if (occluder && t > 2.0) walls.push_back({{1.5, 0.0}, {1.5, 2.0}});
+    for (const TrackedObstacle& o : tracker.update(syntheticScan(lidar, {}, people, walls, t, rng), {}).scene.obstacles) {
+      if ((o.center - walked).norm() < 0.5) last = t;
+    }
+  }
+  return last;
+}
+
+TEST(Tracker, ATrackIsDroppedAsSoonAsTheScanShowsItsPlaceEmpty) {
+  // The wall behind shows the place empty at the first scan without them: the track goes at once.
+  const double seen_empty = lastReportedAfterSomeoneLeaves(true, true, false);
+  EXPECT_GE(seen_empty, 2.0 - 1e-9);
+  EXPECT_LE(seen_empty, 2.0 + 1e-9);
+  // Without the rule it coasts until deletion_timeout_s (0.8 s) after its last hit.
+  EXPECT_GE(lastReportedAfterSomeoneLeaves(false, true, false), 2.0 + 0.6);
+  // Hidden behind something, or with nothing behind to return from, nothing is seen of the place: it coasts.
+  EXPECT_GE(lastReportedAfterSomeoneLeaves(true, true, true), 2.0 + 0.6);
+  EXPECT_GE(lastReportedAfterSomeoneLeaves(true, false, false), 2.0 + 0.6);
 }
 
 /// Tracks one disc of `radius` at where(t), seen from a fixed laser at `laser`, with a tracker of `config`: a scan
