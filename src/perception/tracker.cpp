@@ -171,6 +171,7 @@ const std::vector<TrackerField>& trackerFields() {
       {"measurement_noise", &TrackerConfig::measurement_noise_m},
       {"outlier_sigma", &TrackerConfig::outlier_sigma},
       {"people_constant_velocity", nullptr, nullptr, &TrackerConfig::people_constant_velocity},
+      {"people_start_from_rest", nullptr, nullptr, &TrackerConfig::people_start_from_rest},
       {"objects_refit_leg_detections", nullptr, nullptr, &TrackerConfig::objects_refit_leg_detections},
       {"object_accel_noise", &TrackerConfig::object_accel_noise_mps2},
       {"object_hold", &TrackerConfig::object_hold_s},
@@ -526,7 +527,16 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
   const Vec2 previous_z = track.recent_hits.empty() ? z : track.recent_hits.back().second;
   updateStationarity(track, z, stamp_s);
   if (track.hits == 1) {
-    startMotion(track, track.first_position, track.born_s, z, stamp_s, r);
+    // Among people (constant velocity) the first detection's filter (at rest, the velocity spread
+    // init_speed_std_mps every way; one-hit tracks are not predicted between scans) is updated by the second: the
+    // velocity is the two detections' difference shrunk by how little two noisy positions 0.1 s apart say.
+    CtrvEkf from_rest = track.ekf;
+    from_rest.predict(stamp_s - track.born_s, accelNoise(track), config_.turn_accel_noise_rps2);
+    if (config_.people_start_from_rest && motionModel() == MotionModel::kConstantVelocity && from_rest.update(z, r)) {
+      track.ekf = from_rest;
+    } else {
+      startMotion(track, track.first_position, track.born_s, z, stamp_s, r);
+    }
   } else if (config_.restart_from_rest && !config_.pair_legs && stood_still && !track.stationary &&
              (z - rest_position).norm() > config_.stationary_radius_m && stamp_s > track.last_hit_s &&
              (z - previous_z).norm() <= config_.restart_max_speed_mps * (stamp_s - track.last_hit_s)) {

@@ -65,6 +65,7 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
     pos_err_.push_back((o.center - t.center).norm());
     if (o.age_s < config_.min_track_age_s) {
       pos_err_young_.push_back(pos_err_.back());
+      if (!t.is_static && t.speed >= config_.moving_speed_mps) speed_err_young_.push_back(o.speed - t.speed);
       continue;
     }
     const auto hits_before = last_hits_.find(o.id);
@@ -110,6 +111,9 @@ TrackingSummary TrackingEvaluator::summary() const {
   s.speed_rmse_coasting_mps = rootMeanSquare(speed_err_coasting_);
   s.coasting_pair_fraction =
       pos_err_.empty() ? nan : static_cast<double>(pos_err_coasting_.size()) / static_cast<double>(pos_err_.size());
+  s.speed_rmse_young_mps = rootMeanSquare(speed_err_young_);
+  s.young_pair_fraction =
+      pos_err_.empty() ? nan : static_cast<double>(pos_err_young_.size()) / static_cast<double>(pos_err_.size());
   return s;
 }
 

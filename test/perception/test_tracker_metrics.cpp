@@ -84,22 +84,26 @@ TEST(TrackingMetrics, ErrorsAreSplitIntoYoungObservedAndCoastingTracks) {
     return o;
   };
   // Scan 1: id 1 young (0.1 m off); id 2 old, reported for the first time: observed (0.2 m off, speed +0.1).
-  s.obstacles = {hit(track(1, 0.1, 0.0, 0.0, 0.5), 3), hit(track(2, 5.2, 0.0, 0.7, 2.0), 20)};
-  ev.addScan(s, {truth(0, 0, 0.0), truth(5, 0, 0.6)}, {}, 0.1);
+  // Id 3 young on a mover (on its centre, speed +0.3: young pairs have a speed error of their own).
+  s.obstacles = {hit(track(1, 0.1, 0.0, 0.0, 0.5), 3), hit(track(2, 5.2, 0.0, 0.7, 2.0), 20),
+                 hit(track(3, 10.0, 0.0, 0.9, 0.3), 3)};
+  ev.addScan(s, {truth(0, 0, 0.0), truth(5, 0, 0.6), truth(10, 0, 0.6)}, {}, 0.1);
   // Scan 2: id 2 has no new hit: coasting (0.4 m off, speed -0.2). Scan 3: a hit again: observed (0.1 m off).
   s.obstacles = {hit(track(2, 5.4, 0.0, 0.4, 2.1), 20)};
   ev.addScan(s, {truth(5, 0, 0.6)}, {}, 0.1);
   s.obstacles = {hit(track(2, 5.1, 0.0, 0.6, 2.2), 21)};
   ev.addScan(s, {truth(5, 0, 0.6)}, {}, 0.1);
   const TrackingSummary r = ev.summary();
-  EXPECT_NEAR(r.pos_rmse_young_m, 0.1, 1e-12);
+  EXPECT_NEAR(r.pos_rmse_young_m, std::sqrt(0.01 / 2.0), 1e-12);
+  EXPECT_NEAR(r.speed_rmse_young_mps, 0.3, 1e-12);  // id 1 is on a still obstacle: no speed pair
+  EXPECT_NEAR(r.young_pair_fraction, 2.0 / 5.0, 1e-12);
   EXPECT_NEAR(r.pos_rmse_observed_m, std::sqrt((0.04 + 0.01) / 2.0), 1e-12);
   EXPECT_NEAR(r.pos_rmse_coasting_m, 0.4, 1e-12);
   EXPECT_NEAR(r.speed_rmse_observed_mps, 0.1 / std::sqrt(2.0), 1e-12);
   EXPECT_NEAR(r.speed_rmse_coasting_mps, 0.2, 1e-12);
-  EXPECT_NEAR(r.coasting_pair_fraction, 1.0 / 4.0, 1e-12);
+  EXPECT_NEAR(r.coasting_pair_fraction, 1.0 / 5.0, 1e-12);
   // A new episode forgets the hit counts: the same id with the same count is observed, not coasting.
   ev.beginEpisode();
   ev.addScan(s, {truth(5, 0, 0.6)}, {}, 0.1);
-  EXPECT_NEAR(ev.summary().coasting_pair_fraction, 1.0 / 5.0, 1e-12);
+  EXPECT_NEAR(ev.summary().coasting_pair_fraction, 1.0 / 6.0, 1e-12);
 }

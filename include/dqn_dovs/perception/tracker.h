@@ -133,6 +133,12 @@ struct TrackerConfig {
   /// People (with pair_legs), when true: constant velocity, white acceleration in every direction (people start,
   /// stop, turn toward where they go and side-step; their turn rate is reported as 0).
   bool people_constant_velocity = true;
+  /// Under constant velocity (people): a new track's second detection is a Kalman update of its first, at rest with
+  /// the velocity spread init_speed_std_mps in every direction, like every later detection, instead of giving it the
+  /// velocity between the two detections (0.1 s apart, whose noise makes a speed error of about 0.4 m/s). The
+  /// tracks younger than a second follow people's motion more closely (docs/tracker.md, "A new person's first
+  /// velocity"). false: the velocity between the first two detections (as the CTRV filter of the discs always does).
+  bool people_start_from_rest = true;
   /// With pair_legs: a track hit three times or more, at least half of them by detections that are not legs (an
   /// object: a chair, a bin, its returns fitted as a circle of its own), takes a detection made of legs (a piece of its
   /// arc cut short by a passing leg looks like one) as returns of itself, fitted with its own radius, and does not

@@ -52,6 +52,11 @@ struct TrackingSummary {
   double speed_rmse_coasting_mps = 0.0;
   /// Share of the matched pairs whose track was coasting.
   double coasting_pair_fraction = 0.0;
+  /// The speed error of the tracks younger than min_track_age_s (left out of speed_rmse_mps), matched to obstacles
+  /// moving at least moving_speed_mps, and the share of the matched pairs whose track is that young: what a planner
+  /// reads of a track just born (a person found again after their track was dropped starts here).
+  double speed_rmse_young_mps = 0.0;
+  double young_pair_fraction = 0.0;
 };
 
 /// Accumulates per-scan matches over any number of episodes.
@@ -81,7 +86,8 @@ class TrackingEvaluator {
   std::map<size_t, size_t> last_scan_;  // truth index -> scan number of its last match
   std::map<int, int> last_hits_;        // track id -> its hit count when last reported in this episode
   std::vector<double> pos_err_, speed_err_, heading_err_deg_, turn_err_, static_speed_;
-  std::vector<double> pos_err_young_, pos_err_observed_, pos_err_coasting_, speed_err_observed_, speed_err_coasting_;
+  std::vector<double> pos_err_young_, pos_err_observed_, pos_err_coasting_, speed_err_observed_, speed_err_coasting_,
+      speed_err_young_;
   size_t scans_ = 0, false_tracks_ = 0, should_see_ = 0, missed_ = 0, switches_ = 0, crowded_switches_ = 0,
          gap_switches_ = 0, pairs_ = 0;
   double truth_minutes_ = 0.0;
