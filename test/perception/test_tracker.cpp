@@ -1039,54 +1039,34 @@ TEST(Tracker, AHeldChairIsDroppedAsSoonAsTheScanSeesThroughIt) {
 }
 
 /// Among people (pair_legs), someone walking at 1 m/s across the view of a fixed laser, seen until `seen_until` and
-/// then gone: the last time a track is reported (-1 if never), with `established_hits`.
-double lastReportedAfterLosingSomeone(double seen_until, int established_hits) {
+/// then gone. `background`: the walls of a room of 8 x 8 m are there for the beams to return from; `occluder`: once
+/// they are gone, a wall stands between the laser and where they would be.
+struct SomeoneGone {
+  double seen_until = 2.0;
+  int established_hits = 10;
+  bool drop_seen_through = false;
+  bool background = false;
+  bool occluder = false;
+};
+
+/// The last time a track is reported within 0.5 m of where they would have walked on (-1 if never).
+double lastReportedAfterSomeoneIsGone(const SomeoneGone& run) {
   TrackerConfig config;
   config.pair_legs = true;
-  config.established_hits = established_hits;
+  config.established_hits = run.established_hits;
+  config.drop_seen_through = run.drop_seen_through;
   config.reacquire_window_s = 0.0;
   ObstacleTracker tracker{config};
   std::mt19937 rng(5);
   SyntheticLidar lidar;
   double last = -1.0;
-  for (double t = 0.0; t <= seen_until + 2.0; t += kScanPeriod) {
-    std::vector<Circle> people;
-    if (t <= seen_until + 1e-9) people.push_back({{2.5, -1.5 + t}, 0.25});
-    if (!tracker.update(syntheticScan(lidar, {}, people, {}, t, rng), {}).scene.obstacles.empty()) last = t;
-  }
-  return last;
-}
-
-TEST(Tracker, APersonsTrackOfAFewHitsIsDroppedSoonerWhenLost) {
-  // Seen for 0.6 s (six hits, confirmed at the third): dropped 0.3 s (tentative_timeout_s) after the last hit
-  // instead of 0.8 s (deletion_timeout_s).
-  const double young = lastReportedAfterLosingSomeone(0.5, 10);
-  EXPECT_GE(young, 0.5);
-  EXPECT_LE(young, 0.5 + 0.3 + 1e-9);
-  EXPECT_GE(lastReportedAfterLosingSomeone(0.5, 0), 0.5 + 0.7);
-  // Seen for 2 s, the track is established and coasts through deletion_timeout_s as before.
-  EXPECT_GE(lastReportedAfterLosingSomeone(2.0, 10), 2.0 + 0.7);
-}
-
-/// Among people (pair_legs), someone walking at 1 m/s across the view of a fixed laser in a room of 8 x 8 m, seen for
-/// 2 s and then gone: the last time a track is reported near where they would have walked on (-1 if never).
-/// `background`: the room's walls are there for the beams to return from; `occluder`: from 2 s a wall stands between
-/// the laser and where they would be.
-double lastReportedAfterSomeoneLeaves(bool drop_seen_through, bool background, bool occluder) {
-  TrackerConfig config;
-  config.pair_legs = true;
-  config.drop_seen_through = drop_seen_through;
-  config.reacquire_window_s = 0.0;
-  ObstacleTracker tracker{config};
-  std::mt19937 rng(5);
-  SyntheticLidar lidar;
-  double last = -1.0;
-  for (double t = 0.0; t <= 4.0 + 1e-9; t += kScanPeriod) {
+  for (double t = 0.0; t <= run.seen_until + 2.0 + 1e-9; t += kScanPeriod) {
     std::vector<Circle> people;
     const Vec2 walked{2.5, -1.5 + t};
-    if (t <= 2.0 + 1e-9) people.push_back({walked, 0.25});
-    std::vector<Segment> walls = background ? roomWalls(4.0) : std::vector<Segment>{};
-    if (occluder && t > 2.0) walls.push_back({{1.5, 0.0}, {1.5, 2.0}});
+    const bool seen = t <= run.seen_until + 1e-9;
+    if (seen) people.push_back({walked, 0.25});
+    std::vector<Segment> walls = run.background ? roomWalls(4.0) : std::vector<Segment>{};
+    if (run.occluder && !seen) walls.push_back({{1.5, 0.0}, {1.5, 2.0}});
     for (const TrackedObstacle& o : tracker.update(syntheticScan(lidar, {}, people, walls, t, rng), {}).scene.obstacles) {
       if ((o.center - walked).norm() < 0.5) last = t;
     }
@@ -1094,16 +1074,27 @@ double lastReportedAfterSomeoneLeaves(bool drop_seen_through, bool background, b
   return last;
 }
 
+TEST(Tracker, APersonsTrackOfAFewHitsIsDroppedSoonerWhenLost) {
+  // Seen for 0.6 s (six hits, confirmed at the third): dropped 0.3 s (tentative_timeout_s) after the last hit
+  // instead of 0.8 s (deletion_timeout_s).
+  const double young = lastReportedAfterSomeoneIsGone({0.5, 10});
+  EXPECT_GE(young, 0.5);
+  EXPECT_LE(young, 0.5 + 0.3 + 1e-9);
+  EXPECT_GE(lastReportedAfterSomeoneIsGone({0.5, 0}), 0.5 + 0.7);
+  // Seen for 2 s, the track is established and coasts through deletion_timeout_s as before.
+  EXPECT_GE(lastReportedAfterSomeoneIsGone({2.0, 10}), 2.0 + 0.7);
+}
+
 TEST(Tracker, ATrackIsDroppedAsSoonAsTheScanShowsItsPlaceEmpty) {
   // The wall behind shows the place empty at the first scan without them: the track goes at once.
-  const double seen_empty = lastReportedAfterSomeoneLeaves(true, true, false);
+  const double seen_empty = lastReportedAfterSomeoneIsGone({2.0, 10, true, true, false});
   EXPECT_GE(seen_empty, 2.0 - 1e-9);
   EXPECT_LE(seen_empty, 2.0 + 1e-9);
   // Without the rule it coasts until deletion_timeout_s (0.8 s) after its last hit.
-  EXPECT_GE(lastReportedAfterSomeoneLeaves(false, true, false), 2.0 + 0.6);
+  EXPECT_GE(lastReportedAfterSomeoneIsGone({2.0, 10, false, true, false}), 2.0 + 0.6);
   // Hidden behind something, or with nothing behind to return from, nothing is seen of the place: it coasts.
-  EXPECT_GE(lastReportedAfterSomeoneLeaves(true, true, true), 2.0 + 0.6);
-  EXPECT_GE(lastReportedAfterSomeoneLeaves(true, false, false), 2.0 + 0.6);
+  EXPECT_GE(lastReportedAfterSomeoneIsGone({2.0, 10, true, true, true}), 2.0 + 0.6);
+  EXPECT_GE(lastReportedAfterSomeoneIsGone({2.0, 10, true, false, false}), 2.0 + 0.6);
 }
 
 /// Tracks one disc of `radius` at where(t), seen from a fixed laser at `laser`, with a tracker of `config`: a scan
