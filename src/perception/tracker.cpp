@@ -303,14 +303,14 @@ TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser
   for (Track& t : tracks_) {
     if (t.updated_this_scan) continue;
     if (isHeldObject(t)) {
-      t.seen_through = seenThrough(t.stationary_position, std::max(t.radius, config_.min_circle_radius_m), scan,
-                                   laser_pose);
+      t.seen_through =
+          seenThrough(t.stationary_position, std::max(t.radius, config_.min_circle_radius_m), scan, laser_pose);
     } else if (config_.drop_seen_through && t.confirmed && t.hits >= 2) {
       // A coasting track where the scan shows nothing: whatever it followed is elsewhere (docs/tracker.md, "Tracks
       // where the scan sees nothing"). Only the whole disc seen empty counts: among people the beams through the
       // middle of a body pass between its legs.
-      t.seen_through = seenClearThrough(t.ekf.position(), std::max(t.radius, config_.min_circle_radius_m), scan,
-                                        laser_pose);
+      t.seen_through =
+          seenClearThrough(t.ekf.position(), std::max(t.radius, config_.min_circle_radius_m), scan, laser_pose);
     }
   }
   pruneTracks(scan.stamp_s);

@@ -1067,7 +1067,8 @@ double lastReportedAfterSomeoneIsGone(const SomeoneGone& run) {
     if (seen) people.push_back({walked, 0.25});
     std::vector<Segment> walls = run.background ? roomWalls(4.0) : std::vector<Segment>{};
     if (run.occluder && !seen) walls.push_back({{1.5, 0.0}, {1.5, 2.0}});
-    for (const TrackedObstacle& o : tracker.update(syntheticScan(lidar, {}, people, walls, t, rng), {}).scene.obstacles) {
+    for (const TrackedObstacle& o :
+         tracker.update(syntheticScan(lidar, {}, people, walls, t, rng), {}).scene.obstacles) {
       if ((o.center - walked).norm() < 0.5) last = t;
     }
   }
