@@ -321,25 +321,41 @@ TrackerResult ObstacleTracker::update(const LaserScan2& scan, const Pose2& laser
   return result;
 }
 
+namespace {
+
+/// Visits the valid returns of the beams within half_angle of the bearing of `center` seen from the laser:
+/// visit(beam angle from that bearing, range) returns false to stop. A full turn wraps around: a disc across the
+/// scan's seam has beams at both ends. Beams that return nothing are skipped: a dark or glancing surface drops beams
+/// too, so they say nothing.
+template <typename Visit>
+void forEachReturnToward(double bearing, double half_angle, const LaserScan2& scan, Visit visit) {
+  const double a = (bearing - half_angle - scan.angle_min) / scan.angle_increment;
+  const double b = (bearing + half_angle - scan.angle_min) / scan.angle_increment;
+  const long n = static_cast<long>(scan.ranges.size());
+  const bool full_turn = static_cast<double>(n) * std::abs(scan.angle_increment) >= kTwoPi - 1e-6;
+  for (long k = static_cast<long>(std::ceil(std::min(a, b))); k <= static_cast<long>(std::floor(std::max(a, b))); ++k) {
+    const long i = full_turn ? ((k % n) + n) % n : k;
+    if (i < 0 || i >= n) continue;
+    const double range = scan.ranges[static_cast<size_t>(i)];
+    if (!std::isfinite(range) || range < scan.range_min || range >= scan.range_max) continue;
+    if (!visit(scan.angle_min + static_cast<double>(k) * scan.angle_increment - bearing, range)) return;
+  }
+}
+
+}  // namespace
+
 bool ObstacleTracker::seenThrough(const Vec2& center, double radius, const LaserScan2& scan, const Pose2& laser_pose) {
   const Vec2 rel = center - laser_pose.position();
   const double d = rel.norm();
   if (d <= radius || d - radius >= scan.range_max) return false;
   // The beams within half the object's angular half-width of its centre: those that would hit it near its middle.
   const double bearing = angleDiff(std::atan2(rel.y(), rel.x()), laser_pose.theta);
-  const double half = 0.5 * std::asin(radius / d);
-  const double a = (bearing - half - scan.angle_min) / scan.angle_increment;
-  const double b = (bearing + half - scan.angle_min) / scan.angle_increment;
-  const long first = std::max(0L, static_cast<long>(std::ceil(std::min(a, b))));
-  const long last = std::min(static_cast<long>(scan.ranges.size()) - 1, static_cast<long>(std::floor(std::max(a, b))));
   int valid = 0, beyond = 0;
-  for (long i = first; i <= last; ++i) {
-    const double range = scan.ranges[static_cast<size_t>(i)];
-    // No return says nothing: a dark or glancing surface drops beams too.
-    if (!std::isfinite(range) || range < scan.range_min || range >= scan.range_max) continue;
+  forEachReturnToward(bearing, 0.5 * std::asin(radius / d), scan, [&](double, double range) {
     ++valid;
     if (range > d) ++beyond;
-  }
+    return true;
+  });
   return valid >= 2 && 2 * beyond > valid;
 }
 
@@ -349,26 +365,17 @@ bool ObstacleTracker::seenClearThrough(const Vec2& center, double radius, const 
   const double d = rel.norm();
   if (d <= radius || d + radius >= scan.range_max) return false;
   const double bearing = angleDiff(std::atan2(rel.y(), rel.x()), laser_pose.theta);
-  const double half = std::asin(radius / d);
-  const double a = (bearing - half - scan.angle_min) / scan.angle_increment;
-  const double b = (bearing + half - scan.angle_min) / scan.angle_increment;
-  const long n = static_cast<long>(scan.ranges.size());
-  // A full turn wraps around: a disc across the scan's seam has beams at both ends.
-  const bool full_turn = static_cast<double>(n) * std::abs(scan.angle_increment) >= kTwoPi - 1e-6;
   int valid = 0;
-  for (long k = static_cast<long>(std::ceil(std::min(a, b))); k <= static_cast<long>(std::floor(std::max(a, b))); ++k) {
-    const long i = full_turn ? ((k % n) + n) % n : k;
-    if (i < 0 || i >= n) continue;
-    const double range = scan.ranges[static_cast<size_t>(i)];
-    if (!std::isfinite(range) || range < scan.range_min || range >= scan.range_max) continue;
+  bool clear = true;
+  forEachReturnToward(bearing, std::asin(radius / d), scan, [&](double phi, double range) {
     // Where this beam leaves the disc: a return before that is something in front of it or in it.
-    const double phi = scan.angle_min + static_cast<double>(k) * scan.angle_increment - bearing;
     const double off = d * std::sin(phi);
     const double exit = d * std::cos(phi) + std::sqrt(std::max(0.0, radius * radius - off * off));
-    if (range <= exit) return false;
+    clear = range > exit;
     ++valid;
-  }
-  return valid >= 3;
+    return clear;
+  });
+  return clear && valid >= 3;
 }
 
 void ObstacleTracker::predictTracks(double stamp_s) {
@@ -530,13 +537,14 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
     // Among people (constant velocity) the first detection's filter (at rest, the velocity spread
     // init_speed_std_mps every way; one-hit tracks are not predicted between scans) is updated by the second: the
     // velocity is the two detections' difference shrunk by how little two noisy positions 0.1 s apart say.
-    CtrvEkf from_rest = track.ekf;
-    from_rest.predict(stamp_s - track.born_s, accelNoise(track), config_.turn_accel_noise_rps2);
-    if (config_.people_start_from_rest && motionModel() == MotionModel::kConstantVelocity && from_rest.update(z, r)) {
-      track.ekf = from_rest;
-    } else {
-      startMotion(track, track.first_position, track.born_s, z, stamp_s, r);
+    bool from_rest = false;
+    if (config_.people_start_from_rest && motionModel() == MotionModel::kConstantVelocity) {
+      CtrvEkf filter = track.ekf;
+      filter.predict(stamp_s - track.born_s, accelNoise(track), config_.turn_accel_noise_rps2);
+      from_rest = filter.update(z, r);
+      if (from_rest) track.ekf = filter;
     }
+    if (!from_rest) startMotion(track, track.first_position, track.born_s, z, stamp_s, r);
   } else if (config_.restart_from_rest && !config_.pair_legs && stood_still && !track.stationary &&
              (z - rest_position).norm() > config_.stationary_radius_m && stamp_s > track.last_hit_s &&
              (z - previous_z).norm() <= config_.restart_max_speed_mps * (stamp_s - track.last_hit_s)) {
