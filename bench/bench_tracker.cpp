@@ -33,7 +33,7 @@
 // (and the clutter's chairs), plus wall_moving_tracks_per_scan: confirmed tracks matched to nobody, within 0.3 m of
 // a wall or piece of furniture, reported moving (>= 0.1 m/s), and the centre and speed RMSE split by the track's
 // state (pos_rmse_young_m / _observed_m / _coasting_m, speed_rmse_observed_mps / _coasting_mps,
-// coasting_pair_fraction; speed_rmse_young_mps and young_pair_fraction for tracks younger than 1 s; TrackingSummary).
+// coasting_pair_fraction; speed_rmse_young_mps and young_pair_fraction for tracks younger than 1 s; radius_rmse_m and radius_bias_m; TrackingSummary).
 //
 // --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000);
 // --families LIST (comma-separated) picks the people part's families (default: every family but the room; `room` adds
@@ -420,6 +420,9 @@ int main(int argc, char** argv) {
         // What a planner reads of tracks just born, left out of speed_rmse_mps (docs/tracker.md, "Metrics").
         figures[key + "speed_rmse_young_mps"] = r.summary.speed_rmse_young_mps;
         figures[key + "young_pair_fraction"] = r.summary.young_pair_fraction;
+        // A person's body is not in the scan, only their legs: how far the reported radius is from it.
+        figures[key + "radius_rmse_m"] = r.summary.radius_rmse_m;
+        figures[key + "radius_bias_m"] = r.summary.radius_bias_m;
       }
     }
   }

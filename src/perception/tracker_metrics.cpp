@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "dqn_dovs/perception/hungarian.h"
 
@@ -63,6 +64,7 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
     last_id_[i] = o.id;
     last_scan_[i] = scans_;
     pos_err_.push_back((o.center - t.center).norm());
+    radius_err_.push_back(o.radius - t.radius);
     if (o.age_s < config_.min_track_age_s) {
       pos_err_young_.push_back(pos_err_.back());
       if (!t.is_static && t.speed >= config_.moving_speed_mps) speed_err_young_.push_back(o.speed - t.speed);
@@ -114,6 +116,10 @@ TrackingSummary TrackingEvaluator::summary() const {
   s.speed_rmse_young_mps = rootMeanSquare(speed_err_young_);
   s.young_pair_fraction =
       pos_err_.empty() ? nan : static_cast<double>(pos_err_young_.size()) / static_cast<double>(pos_err_.size());
+  s.radius_rmse_m = rootMeanSquare(radius_err_);
+  s.radius_bias_m = radius_err_.empty() ? nan
+                                        : std::accumulate(radius_err_.begin(), radius_err_.end(), 0.0) /
+                                              static_cast<double>(radius_err_.size());
   return s;
 }
 

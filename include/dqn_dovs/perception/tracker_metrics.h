@@ -57,6 +57,10 @@ struct TrackingSummary {
   /// reads of a track just born (a person found again after their track was dropped starts here).
   double speed_rmse_young_mps = 0.0;
   double young_pair_fraction = 0.0;
+  /// Reported radius minus the true radius over every matched pair: its RMS and its mean (a positive bias is a
+  /// body reported larger than it is, which closes gaps in the velocity space that the robot could pass through).
+  double radius_rmse_m = 0.0;
+  double radius_bias_m = 0.0;
 };
 
 /// Accumulates per-scan matches over any number of episodes.
@@ -87,7 +91,7 @@ class TrackingEvaluator {
   std::map<int, int> last_hits_;        // track id -> its hit count when last reported in this episode
   std::vector<double> pos_err_, speed_err_, heading_err_deg_, turn_err_, static_speed_;
   std::vector<double> pos_err_young_, pos_err_observed_, pos_err_coasting_, speed_err_observed_, speed_err_coasting_,
-      speed_err_young_;
+      speed_err_young_, radius_err_;
   size_t scans_ = 0, false_tracks_ = 0, should_see_ = 0, missed_ = 0, switches_ = 0, crowded_switches_ = 0,
          gap_switches_ = 0, pairs_ = 0;
   double truth_minutes_ = 0.0;
