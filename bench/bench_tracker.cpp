@@ -33,7 +33,8 @@
 // (and the clutter's chairs), plus wall_moving_tracks_per_scan: confirmed tracks matched to nobody, within 0.3 m of
 // a wall or piece of furniture, reported moving (>= 0.1 m/s), and the centre and speed RMSE split by the track's
 // state (pos_rmse_young_m / _observed_m / _coasting_m, speed_rmse_observed_mps / _coasting_mps,
-// coasting_pair_fraction; speed_rmse_young_mps and young_pair_fraction for tracks younger than 1 s; radius_rmse_m and radius_bias_m; TrackingSummary).
+// coasting_pair_fraction; speed_rmse_young_mps and young_pair_fraction for tracks younger than 1 s; the reported
+// radius against the body's, radius_rmse_m and radius_bias_m; TrackingSummary).
 //
 // --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000);
 // --families LIST (comma-separated) picks the people part's families (default: every family but the room; `room` adds
