@@ -9,19 +9,22 @@ using namespace dqn_dovs;
 
 namespace {
 
-MovingObstacle truth(double x, double y, double speed, double heading = 0.0) {
+MovingObstacle truth(double x, double y, double speed, double heading = 0.0, double radius = 0.0) {
   MovingObstacle m;
   m.center = {x, y};
+  m.radius = radius;
   m.speed = speed;
   m.heading = heading;
   m.is_static = speed == 0.0;
   return m;
 }
 
-TrackedObstacle track(int id, double x, double y, double speed, double age_s, double heading = 0.0) {
+TrackedObstacle track(int id, double x, double y, double speed, double age_s, double heading = 0.0,
+                      double radius = 0.0) {
   TrackedObstacle o;
   o.id = id;
   o.center = {x, y};
+  o.radius = radius;
   o.speed = speed;
   o.heading = heading;
   o.age_s = age_s;
@@ -111,18 +114,10 @@ TEST(TrackingMetrics, ErrorsAreSplitIntoYoungObservedAndCoastingTracks) {
 TEST(TrackingMetrics, RadiusErrorIsScoredOverEveryMatchedPairWithItsSign) {
   TrackingEvaluator ev;
   TrackedScene s;
-  auto sized = [](TrackedObstacle o, double radius) {
-    o.radius = radius;
-    return o;
-  };
-  auto body = [](MovingObstacle m, double radius) {
-    m.radius = radius;
-    return m;
-  };
   // A young track 0.1 m too large, an old one 0.05 m too small; the unmatched track far away does not count.
-  s.obstacles = {sized(track(1, 0.0, 0.0, 0.0, 0.3), 0.35), sized(track(2, 5.0, 0.0, 0.6, 2.0), 0.2),
-                 sized(track(3, 20.0, 0.0, 0.0, 2.0), 1.0)};
-  ev.addScan(s, {body(truth(0, 0, 0.0), 0.25), body(truth(5, 0, 0.6), 0.25)}, {}, 0.1);
+  s.obstacles = {track(1, 0.0, 0.0, 0.0, 0.3, 0.0, 0.35), track(2, 5.0, 0.0, 0.6, 2.0, 0.0, 0.2),
+                 track(3, 20.0, 0.0, 0.0, 2.0, 0.0, 1.0)};
+  ev.addScan(s, {truth(0, 0, 0.0, 0.0, 0.25), truth(5, 0, 0.6, 0.0, 0.25)}, {}, 0.1);
   const TrackingSummary r = ev.summary();
   EXPECT_NEAR(r.radius_rmse_m, std::sqrt((0.01 + 0.0025) / 2.0), 1e-12);
   EXPECT_NEAR(r.radius_bias_m, 0.025, 1e-12);
