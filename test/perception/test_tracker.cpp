@@ -1040,13 +1040,16 @@ TEST(Tracker, AHeldChairIsDroppedAsSoonAsTheScanSeesThroughIt) {
 
 /// Among people (pair_legs), someone walking at 1 m/s across the view of a fixed laser, seen until `seen_until` and
 /// then gone. `background`: the walls of a room of 8 x 8 m are there for the beams to return from; `occluder`: once
-/// they are gone, a wall stands between the laser and where they would be.
+/// they are gone, `occluder_wall` stands between the laser and where they would be. The laser at the origin faces
+/// `laser_heading` (a full turn of beams, whose seam lies opposite that heading).
 struct SomeoneGone {
   double seen_until = 2.0;
   int established_hits = 10;
   bool drop_seen_through = false;
   bool background = false;
   bool occluder = false;
+  Segment occluder_wall{{1.5, 0.0}, {1.5, 2.0}};
+  double laser_heading = 0.0;
 };
 
 /// The last time a track is reported within 0.5 m of where they would have walked on (-1 if never).
@@ -1066,9 +1069,10 @@ double lastReportedAfterSomeoneIsGone(const SomeoneGone& run) {
     const bool seen = t <= run.seen_until + 1e-9;
     if (seen) people.push_back({walked, 0.25});
     std::vector<Segment> walls = run.background ? roomWalls(4.0) : std::vector<Segment>{};
-    if (run.occluder && !seen) walls.push_back({{1.5, 0.0}, {1.5, 2.0}});
+    if (run.occluder && !seen) walls.push_back(run.occluder_wall);
+    const Pose2 laser{0.0, 0.0, run.laser_heading};
     for (const TrackedObstacle& o :
-         tracker.update(syntheticScan(lidar, {}, people, walls, t, rng), {}).scene.obstacles) {
+         tracker.update(syntheticScan(lidar, laser, people, walls, t, rng), laser).scene.obstacles) {
       if ((o.center - walked).norm() < 0.5) last = t;
     }
   }
@@ -1096,6 +1100,20 @@ TEST(Tracker, ATrackIsDroppedAsSoonAsTheScanShowsItsPlaceEmpty) {
   // Hidden behind something, or with nothing behind to return from, nothing is seen of the place: it coasts.
   EXPECT_GE(lastReportedAfterSomeoneIsGone({2.0, 10, true, true, true}), 2.0 + 0.6);
   EXPECT_GE(lastReportedAfterSomeoneIsGone({2.0, 10, true, false, false}), 2.0 + 0.6);
+}
+
+TEST(Tracker, APlaceAcrossTheScansSeamIsSeenWithTheBeamsOfBothEnds) {
+  // The laser faces -x, so the scan's first and last beams look along +x. Gone at (2.5, -0.3), the track's next place
+  // (about (2.5, -0.2), 0.25 m wide) spans the seam: most of its beams end the scan, two begin it.
+  SomeoneGone run{1.2, 10, true, true, false};
+  run.laser_heading = kPi;
+  const double seen_empty = lastReportedAfterSomeoneIsGone(run);
+  EXPECT_GE(seen_empty, 1.2 - 1e-9);
+  EXPECT_LE(seen_empty, 1.2 + 1e-9);
+  // Something in front of the part at the scan's start, seen only by the first beams: the place is not seen empty.
+  run.occluder = true;
+  run.occluder_wall = {{1.5, 0.0}, {1.5, 0.5}};
+  EXPECT_GE(lastReportedAfterSomeoneIsGone(run), 1.2 + 0.6);
 }
 
 /// Tracks one disc of `radius` at where(t), seen from a fixed laser at `laser`, with a tracker of `config`: a scan
