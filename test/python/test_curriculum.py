@@ -157,3 +157,33 @@ def test_default_curriculum_is_the_papers_stages_rebalanced():
     first = default.stages[0]
     assert first.goal_distance_start_m == (1.0, 1.5) and first.goal_distance_m == (4.0, 12.0)
     assert default.settings_at(default.total_episodes - 1).goal_distance_min == 4.0
+
+
+def test_worlds_curriculum_is_the_default_with_people_in_its_dynamic_stages():
+    """config/curriculum_worlds.yaml: the default's stages and hyper-parameters; the room alone while the network
+    learns goals and static obstacles, then a mixture of the room and every family with walking people, each seen
+    through the learned prediction the robot runs (a file that exists)."""
+    default_file = load_yaml(DEFAULT_CONFIG)
+    worlds_file = load_yaml(os.path.join(CONFIG_DIR, "curriculum_worlds.yaml"))
+    assert {k: v for k, v in worlds_file.items() if k != "curriculum"} == \
+        {k: v for k, v in default_file.items() if k != "curriculum"}
+    default = Curriculum.from_dict(default_file["curriculum"])
+    worlds = Curriculum.from_dict(worlds_file["curriculum"])
+    same = ("name", "episodes", "goal_distance_m", "goal_distance_start_m", "obstacles", "obstacles_start",
+            "obstacle_type", "epsilon")
+    assert [tuple(getattr(s, f) for f in same) for s in worlds.stages] == \
+        [tuple(getattr(s, f) for f in same) for s in default.stages]
+    assert worlds.epsilon_decay == default.epsilon_decay
+    repo = os.path.join(CONFIG_DIR, "..")
+    for stage in worlds.stages:
+        families = {w.world for w in stage.worlds}
+        if stage.obstacle_type in ("none", "static"):
+            assert families == {"room"}, stage.name
+            continue
+        assert families == {"room", "crowd", "corridor", "clutter", "doorway", "junction"}, stage.name
+        assert {w.sensor for w in stage.worlds} >= {"sim", "urg04lx", "rplidar_a1"}
+        for w in stage.worlds:
+            if w.world == "room":
+                assert not w.people_predictor  # the paper's discs are not people
+            else:
+                assert os.path.isfile(os.path.join(repo, w.people_predictor)), w.label
