@@ -11,6 +11,14 @@ network's paired sign test (exact, two-sided, episodes matched by point, count a
 and against the baseline, and against any other network named with --pair. With --reuse, a run whose results are
 already in --out from the same command, evaluation tool and network bytes is read instead of run again (networks
 can then be added to a comparison later). Decisions are made on seeds kept for them, never on ../shared/scenarios.
+
+With --predict-people FILE the planners see the people of every world family on the arcs of that learned prediction,
+as the robot's dovs_node and `make benchmark-worlds` give them (the room's discs are never predicted); the
+decision protocol of docs/planners.md:
+
+    python -m dqn_dovs_py.compare_models --model shipped=models/dqn_dovs.dqnw --model new=runs/n/model.dqnw \
+        --seed 29001 --episodes 100 --predict-people models/people_predictor_tracks.dqnp --out runs/compare_29001 \
+        --points room,crowd_urg_n5,crowd_urg_n10,crowd_urg_n15,corridor_urg_n6,doorway_urg_n6,clutter_urg_n6,junction_urg_n6
 """
 
 from __future__ import annotations
@@ -55,7 +63,14 @@ POINTS = (
     Point("clutter_urg_n10", "10", 1.0, ("--world", "clutter", "--sensor", "urg04lx")),
     Point("doorway_n5", "5", 1.0, ("--world", "doorway")),
     Point("junction_n5", "5", 1.0, ("--world", "junction")),
+    # The building families at the decision protocol's density (6 people, 60 episodes where the crowds have 100).
+    Point("corridor_urg_n6", "6", 0.6, ("--world", "corridor", "--sensor", "urg04lx")),
+    Point("doorway_urg_n6", "6", 0.6, ("--world", "doorway", "--sensor", "urg04lx")),
+    Point("clutter_urg_n6", "6", 0.6, ("--world", "clutter", "--sensor", "urg04lx")),
+    Point("junction_urg_n6", "6", 0.6, ("--world", "junction", "--sensor", "urg04lx")),
 )
+# The points of the default suite (the ones above the building families at 6 people).
+DEFAULT_POINTS = tuple(p.name for p in POINTS[:11])
 
 
 class CompareError(ValueError):
@@ -105,17 +120,33 @@ def state_flags(model: str) -> list[str]:
     return ["--dovs", ",".join(values)] if values else []
 
 
-def run_point(exe: str, point: Point, method: str, model: str | None, args, folder: str) -> list[Record]:
-    """One dqn_dovs_eval run of `method` at `point` into `folder`; its records with the method renamed to the
-    folder's last part (the network's name)."""
+def has_people(point: Point) -> bool:
+    """Whether the point is a world family (walking people), not the paper's room of discs."""
+    return "--world" in point.flags
+
+
+def point_command(exe: str, point: Point, method: str, model: str | None, args, folder: str) -> list[str]:
+    """dqn_dovs_eval's command for `method` at `point`: the network's state flags, and the learned people
+    prediction (--predict-people) where the point has people."""
     episodes = max(1, round(args.episodes * point.episode_share))
     cmd = [exe, "--methods", method, "--generate", str(args.seed), "--obstacles", point.obstacles,
            "--episodes", str(episodes), "--threads", str(args.threads), "--out", folder, *point.flags]
+    if getattr(args, "predict_people", "") and has_people(point):
+        cmd += ["--predict-people", args.predict_people]
     if model:
         cmd += ["--model", model, *state_flags(model)]
+    return cmd
+
+
+def run_point(exe: str, point: Point, method: str, model: str | None, args, folder: str) -> list[Record]:
+    """One dqn_dovs_eval run of `method` at `point` into `folder`; its records with the method renamed to the
+    folder's last part (the network's name)."""
+    cmd = point_command(exe, point, method, model, args, folder)
     os.makedirs(folder, exist_ok=True)
-    # What the results depend on: the command, and the bytes of the evaluation tool and of the network.
+    # What the results depend on: the command, and the bytes of the evaluation tool, the network and the predictor.
     inputs = [exe] + ([model] if model else [])
+    if "--predict-people" in cmd:
+        inputs.append(cmd[cmd.index("--predict-people") + 1])
     key = " ".join(cmd) + "\n" + "".join(f"{path} sha256 {sha256_of(path)}\n" for path in inputs)
     key_path, results_path = os.path.join(folder, "inputs.txt"), os.path.join(folder, "results.csv")
     reused = False
@@ -237,8 +268,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--baseline", default="s_dovs", help="a method of dqn_dovs_eval that needs no model (s_dovs)")
     ap.add_argument("--seed", type=int, required=True, help="generator seed (one kept for decisions)")
     ap.add_argument("--episodes", type=int, default=40, help="episodes per count (the room: half per count)")
-    ap.add_argument("--points", default=",".join(p.name for p in POINTS),
-                    help="comma-separated points of the suite (default: all)")
+    ap.add_argument("--points", default=",".join(DEFAULT_POINTS),
+                    help="comma-separated points of the suite (default: every one but the building families at 6 "
+                         "people: " + ", ".join(p.name for p in POINTS if p.name not in DEFAULT_POINTS) + ")")
+    ap.add_argument("--predict-people", default="", metavar="FILE",
+                    help="the learned people prediction the planners see where there are people "
+                         "(models/people_predictor_tracks.dqnp, as on the robot; default: none)")
     ap.add_argument("--pair", action="append", default=[], metavar="NAME=OTHER",
                     help="also test NAME against OTHER, paired (repeat; e.g. each seed against its twin)")
     ap.add_argument("--reuse", action="store_true",
@@ -257,6 +292,8 @@ def main(argv: list[str] | None = None) -> int:
         bad = [s for s in wanted if s not in known]
         if bad or not wanted:
             raise CompareError(f"--points: unknown {bad} (known: {', '.join(known)})")
+        if args.predict_people and not os.path.isfile(args.predict_people):
+            raise CompareError(f"--predict-people {args.predict_people}: not a file")
         pairs = parse_pairs(args.pair, [n for n, _ in models] + [args.baseline])
         exe = find_eval(args.eval)
         records: Records = {}
@@ -274,7 +311,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     names = [n for n, _ in models] + [args.baseline]
     header = (f"# Networks compared across worlds\n\nGenerated episodes, seed {args.seed}, {args.episodes} per count "
-              f"(the room: {max(1, round(args.episodes * 0.5))} per count 3-15); the tracker in the loop. Networks: "
+              f"(the room: {max(1, round(args.episodes * 0.5))} per count 3-15); the tracker in the loop"
+              + (f"; people predicted by `{args.predict_people}`" if args.predict_people else "") + ". Networks: "
               + ", ".join(f"`{n}` = `{p}`" for n, p in models) + f"; baseline `{args.baseline}`.\n\n"
               f"Command: `python -m dqn_dovs_py.compare_models {' '.join(argv if argv is not None else sys.argv[1:])}`")
     text, rows = render(records, names, models[0][0], args.baseline, wanted, header, pairs)

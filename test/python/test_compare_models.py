@@ -78,7 +78,50 @@ def test_two_networks_and_the_baseline_are_compared_episode_by_episode(tmp_path)
     (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--points", "moon"], "unknown \\['moon'\\]"),
     (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--pair", "a=b"], "--pair 'a=b': b is not compared"),
     (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--pair", "a=a"], "two different networks"),
+    (["--model", f"a={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--predict-people", "/nonexistent.dqnp"],
+     "--predict-people /nonexistent.dqnp: not a file"),
 ])
 def test_bad_arguments_are_named(tmp_path, capsys, args, message):
     assert compare_models.main([*args, "--seed", "1", "--out", str(tmp_path)]) == 2
     assert re.search(message, capsys.readouterr().err)
+
+
+def test_people_are_predicted_where_there_are_people_and_the_predictor_is_an_input(tmp_path, capsys):
+    """--predict-people reaches dqn_dovs_eval at the world families' points, never the room's discs; its bytes are
+    part of what a reused run must match."""
+    predictor = str(ROOT / "models" / "people_predictor_tracks.dqnp")
+
+    class Args:
+        episodes, seed, threads, predict_people = 100, 29001, 2, predictor
+
+    points = {p.name: p for p in compare_models.POINTS}
+    room = compare_models.point_command("eval", points["room"], "s_dovs", None, Args, "out")
+    assert "--predict-people" not in room and room[room.index("--episodes") + 1] == "50"
+    for name in ("crowd_urg_n10", "doorway_urg_n6"):
+        cmd = compare_models.point_command("eval", points[name], "s_dovs", None, Args, "out")
+        assert cmd[cmd.index("--predict-people") + 1] == predictor, name
+    doorway = compare_models.point_command("eval", points["doorway_urg_n6"], "s_dovs", None, Args, "out")
+    assert doorway[doorway.index("--episodes") + 1] == "60" and doorway[doorway.index("--obstacles") + 1] == "6"
+    Args.predict_people = ""
+    assert "--predict-people" not in compare_models.point_command("eval", points["crowd_urg_n10"], "s_dovs", None,
+                                                                  Args, "out")
+    # The default suite is the one documented results were made with; the building families at 6 are asked for.
+    assert "doorway_urg_n6" not in compare_models.DEFAULT_POINTS and "junction_n5" in compare_models.DEFAULT_POINTS
+    # A reused run whose predictor changed runs again: run it once with a copy, then change the copy's bytes.
+    exe = built_tool("dqn_dovs_eval")
+    copy = tmp_path / "predictor.dqnp"
+    copy.write_bytes(Path(predictor).read_bytes())
+    args = ["--model", f"shipped={ROOT / 'models' / 'dqn_dovs.dqnw'}", "--seed", "29001", "--episodes", "2",
+            "--points", "crowd_urg_n5", "--predict-people", str(copy), "--threads", "2", "--eval", str(exe),
+            "--out", str(tmp_path / "cmp"), "--reuse"]
+    assert compare_models.main(args) == 0
+    results = tmp_path / "cmp" / "crowd_urg_n5" / "shipped" / "results.csv"
+    inputs = (tmp_path / "cmp" / "crowd_urg_n5" / "shipped" / "inputs.txt").read_text()
+    assert f"--predict-people {copy}" in inputs and f"{copy} sha256 " in inputs
+    assert "people predicted by" in (tmp_path / "cmp" / "compare.md").read_text()
+    first = results.stat().st_mtime_ns
+    assert compare_models.main(args) == 0 and results.stat().st_mtime_ns == first
+    copy.write_bytes(Path(predictor).read_bytes() + b"\0")
+    capsys.readouterr()
+    assert compare_models.main(args) == 2  # a changed file is read again, and this one is refused by name
+    assert re.search(r"people predictor '.*predictor\.dqnp': 1 bytes follow the last layer", capsys.readouterr().err)
