@@ -47,6 +47,10 @@ from matplotlib.patches import Circle, Rectangle
 RESULTS_COLUMNS = ("method", "obstacles", "episode", "scenario", "outcome", "time_s", "path_length_m",
                    "min_clearance_m", "danger_steps", "steps", "planner_errors", "collision_kind", "contact_speed_mps",
                    "last_decision")
+# Optional columns (runs written before them lack them): what the planners knew of the body that hit the robot.
+HIT_COLUMNS = ("hit_cause", "hit_seen_s", "hit_prediction_error_m", "hit_prediction_error_2s_m", "hit_bearing_deg")
+# hit_cause values of a collision with a moving body (dqn_dovs_eval's HitCause); empty otherwise.
+HIT_CAUSES = ("unseen", "late", "mispredicted", "foreseen")
 OUTCOMES = ("success", "collision", "timeout")
 # collision_kind values of a collision; empty for an episode without one.
 COLLISION_KINDS = ("static", "rest", "moving")
@@ -80,6 +84,11 @@ class Record:
     scenario: str = ""
     path_length_m: float = math.nan
     planner_errors: int = 0
+    hit_cause: str | None = None  # one of HIT_CAUSES, "" without a collision with a moving body, None: not recorded
+    hit_seen_s: float = math.nan
+    hit_prediction_error_m: float = math.nan
+    hit_prediction_error_2s_m: float = math.nan
+    hit_bearing_deg: float = math.nan
 
 
 def _optional_float(text: str | None) -> float:
@@ -99,6 +108,13 @@ def _collision_kind(text: str | None) -> str | None:
     return text
 
 
+def _hit_cause(text: str | None) -> str | None:
+    """A hit_cause cell: "" (no collision with a moving body), one of HIT_CAUSES, or None when the column is absent."""
+    if text is not None and text not in ("",) + HIT_CAUSES:
+        raise ValueError(f"unknown hit_cause '{text}' (expected one of {', '.join(HIT_CAUSES)})")
+    return text
+
+
 def _record(row: dict[str, str | None]) -> Record:
     return Record(
         method=row["method"], obstacles=int(row["obstacles"]), episode=int(row["episode"]),
@@ -107,7 +123,11 @@ def _record(row: dict[str, str | None]) -> Record:
         collision_kind=_collision_kind(row.get("collision_kind")),
         contact_speed_mps=_optional_float(row.get("contact_speed_mps")), last_decision=row.get("last_decision"),
         scenario=row.get("scenario") or "", path_length_m=_optional_float(row.get("path_length_m")),
-        planner_errors=int(row.get("planner_errors") or 0))
+        planner_errors=int(row.get("planner_errors") or 0), hit_cause=_hit_cause(row.get("hit_cause")),
+        hit_seen_s=_optional_float(row.get("hit_seen_s")),
+        hit_prediction_error_m=_optional_float(row.get("hit_prediction_error_m")),
+        hit_prediction_error_2s_m=_optional_float(row.get("hit_prediction_error_2s_m")),
+        hit_bearing_deg=_optional_float(row.get("hit_bearing_deg")))
 
 
 def read_results(path: str, required: Iterable[str] = RESULTS_COLUMNS) -> list[Record]:
@@ -152,6 +172,8 @@ class Cell:
     collisions_by_kind: dict[str, int] | None = field(default_factory=lambda: dict.fromkeys(COLLISION_KINDS, 0))
     mean_contact_speed_mps: float = math.nan
     p95_contact_speed_mps: float = math.nan
+    # Collisions with a moving body per HitCause; None when a collision's cause was not recorded.
+    hits_by_cause: dict[str, int] | None = field(default_factory=lambda: dict.fromkeys(HIT_CAUSES, 0))
 
 
 @dataclass
@@ -161,6 +183,7 @@ class Summary:
     reference: str  # the method of the time ratios
     cells: dict[tuple[str, int], Cell] = field(default_factory=dict)
     overall: dict[str, Cell] = field(default_factory=dict)  # the mean row
+    hits_recorded: bool = False  # the records carry hit_cause (runs written before it do not)
 
     def cell(self, method: str, n: int) -> Cell:
         return self.cells.get((method, n), Cell())
@@ -212,6 +235,14 @@ def collisions_by_kind(records: Sequence[Record]) -> dict[str, int] | None:
     return {k: sum(r.collision_kind == k for r in crashes) for k in COLLISION_KINDS}
 
 
+def hits_by_cause(records: Sequence[Record]) -> dict[str, int] | None:
+    """Collisions with a moving body (robot at rest or moving) per hit cause; None when one was not recorded."""
+    hits = [r for r in records if r.outcome == "collision" and r.collision_kind in ("rest", "moving")]
+    if any(r.hit_cause is None for r in hits):
+        return None
+    return {k: sum(r.hit_cause == k for r in hits) for k in HIT_CAUSES}
+
+
 def contact_speeds(records: Sequence[Record]) -> list[float]:
     """The robot's recorded speeds at contact, over the collisions."""
     return [r.contact_speed_mps for r in records if r.outcome == "collision" and math.isfinite(r.contact_speed_mps)]
@@ -234,6 +265,7 @@ def cell_of(records: Sequence[Record], reference: Sequence[Record]) -> Cell:
     c.danger_frequency = danger_frequency(records)
     c.mean_min_clearance_m = sum(r.min_clearance_m for r in records) / len(records)
     c.collisions_by_kind = collisions_by_kind(records)
+    c.hits_by_cause = hits_by_cause(records)
     speeds = contact_speeds(records)
     c.mean_contact_speed_mps = sum(speeds) / len(speeds) if speeds else math.nan
     c.p95_contact_speed_mps = nearest_rank(speeds, CONTACT_SPEED_QUANTILE)
@@ -267,7 +299,8 @@ def summarize(records: Sequence[Record], reference: str, methods: Sequence[str] 
     reference method has no records or two for the same episode."""
     order = _method_order(records, methods)
     _check_reference(records, reference, order)
-    s = Summary(methods=order, counts=sorted({r.obstacles for r in records}), reference=reference)
+    s = Summary(methods=order, counts=sorted({r.obstacles for r in records}), reference=reference,
+                hits_recorded=any(r.hit_cause is not None for r in records))
     by: dict[tuple[str, int], list[Record]] = {}
     for r in records:
         by.setdefault((r.method, r.obstacles), []).append(r)
@@ -303,6 +336,8 @@ def summary_figures(s: Summary) -> dict[str, float]:
                     ("episodes", o.episodes), ("collisions", o.collisions)]
         figures += [(f"collisions_{k}", _kind_count(o, k)) for k in COLLISION_KINDS]
         figures += [("contact_speed_mean", o.mean_contact_speed_mps), ("contact_speed_p95", o.p95_contact_speed_mps)]
+        figures += [(f"hits_{k}", math.nan if o.hits_by_cause is None else o.hits_by_cause[k])
+                    for k in HIT_CAUSES]
         figures += [(f"success_{n}", s.cell(m, n).success_rate) for n in s.counts]
         if ORACLE in s.methods and m != ORACLE:
             figures.append(("oracle_share", oracle_share(s, m)))
@@ -450,6 +485,10 @@ def _kinds_text(c: Cell, _: str) -> str:
     return "-" if c.collisions_by_kind is None else " / ".join(str(c.collisions_by_kind[k]) for k in COLLISION_KINDS)
 
 
+def _causes_text(c: Cell, _: str) -> str:
+    return "-" if c.hits_by_cause is None else " / ".join(str(c.hits_by_cause[k]) for k in HIT_CAUSES)
+
+
 ORACLE = "oracle"
 
 
@@ -483,6 +522,10 @@ def _oracle_table(s: Summary) -> str:
 def summary_tables(s: Summary) -> str:
     """The tables of summary.md in the paper's layout (and, with an oracle in the run, the share of its
     successes)."""
+    causes = ("Collisions with moving bodies by what the planner knew",
+              "Counts: unseen (not among what the planner was shown at its last decision) / late (shown then, not 1 s "
+              "before the contact) / mispredicted (shown 1 s before, its motion as shown put it more than 0.3 m from "
+              "where it was at the contact) / foreseen (within 0.3 m).", _causes_text)
     sections: list[tuple[str, str, CellText]] = [
         ("Success rate", "Reached the goal and stopped on it. In brackets: total time of the method over total time "
          f"of `{s.reference}` on the episodes both solved.", _success_text(s.reference)),
@@ -498,6 +541,8 @@ def summary_tables(s: Summary) -> str:
         ("Danger frequency", "Fraction of steps ending closer than the reward's safe distance to anything.",
          lambda c, _: fixed(c.danger_frequency, 3)),
     ]
+    if s.hits_recorded:  # after the contact speeds
+        sections.insert(4, causes)
     return "".join(_table(s, *section) for section in sections) + (_oracle_table(s) if ORACLE in s.methods else "")
 
 

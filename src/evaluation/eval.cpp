@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <deque>
 #include <fstream>
 #include <iomanip>
 #include <limits>
@@ -176,6 +177,124 @@ std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalCo
   return makePlanner(method, config.model_path, &config.shield, &normalization);
 }
 
+DecisionView decisionView(const Episode& ep) {
+  DecisionView v;
+  const sim::World& world = ep.world();
+  v.time_s = world.time_s();
+  v.robot = world.robotPose();
+  // world <- odom: the identity without odometry drift.
+  const Pose2 world_from_odom = world.robotPose().compose(world.odomPose().inverse());
+  v.shown = ep.observation().obstacles;
+  for (MovingObstacle& o : v.shown) {
+    o.center = world_from_odom.toWorld(o.center);
+    o.heading = normalizeAngle(o.heading + world_from_odom.theta);
+  }
+  for (const MovingObstacle& b : world.groundTruthObstacles()) v.truth.push_back(b.center);
+  return v;
+}
+
+namespace {
+
+/// The shown obstacle that stands for body `b` in `view` (mutual nearest within kTrackTruthMatch_m), or -1.
+int shownFor(const DecisionView& view, size_t b) {
+  if (b >= view.truth.size()) return -1;
+  int best = -1;
+  double best_d = kTrackTruthMatch_m;
+  for (size_t j = 0; j < view.shown.size(); ++j) {
+    const double d = (view.shown[j].center - view.truth[b]).norm();
+    if (d < best_d) best_d = d, best = static_cast<int>(j);
+  }
+  if (best < 0) return -1;
+  for (size_t k = 0; k < view.truth.size(); ++k) {
+    if (k != b && (view.shown[static_cast<size_t>(best)].center - view.truth[k]).norm() < best_d) return -1;
+  }
+  return best;
+}
+
+}  // namespace
+
+HitAttribution attributeHit(const std::deque<DecisionView>& views, size_t body, const Vec2& at_contact,
+                            double contact_time_s) {
+  HitAttribution h;
+  if (views.empty() || body >= views.back().truth.size()) return h;
+  const DecisionView& last = views.back();
+  const Vec2 seen_from = last.robot.toLocal(last.truth[body]);
+  h.bearing_deg = std::abs(std::atan2(seen_from.y(), seen_from.x())) * 180.0 / M_PI;
+  // Shown without a break, back from the last decision.
+  double first_seen = std::numeric_limits<double>::quiet_NaN();
+  for (auto it = views.rbegin(); it != views.rend() && shownFor(*it, body) >= 0; ++it) first_seen = it->time_s;
+  h.seen_s = std::isfinite(first_seen) ? contact_time_s - first_seen : 0.0;
+  if (!std::isfinite(first_seen)) {
+    h.cause = HitCause::kUnseen;
+    return h;
+  }
+  // Where the body's motion as shown at the last decision at least `ahead_s` before the contact put it at the
+  // contact, against where it was; NaN when it was not shown then (or no decision is that old).
+  auto predictionError = [&](double ahead_s) {
+    const DecisionView* then = nullptr;
+    for (const DecisionView& v : views) {
+      if (v.time_s <= contact_time_s - ahead_s + 1e-9) then = &v;
+    }
+    const int j = then ? shownFor(*then, body) : -1;
+    if (j < 0) return std::numeric_limits<double>::quiet_NaN();
+    const MovingObstacle& o = then->shown[static_cast<size_t>(j)];
+    const Pose2 from{o.center.x(), o.center.y(), o.heading};
+    const double dt = contact_time_s - then->time_s;
+    const Vec2 predicted = o.is_static ? o.center : integrateUnicycle(from, o.speed, o.turn_rate, dt).position();
+    return (predicted - at_contact).norm();
+  };
+  h.prediction_error_m = predictionError(kHitForesight_s);
+  h.prediction_error_long_m = predictionError(kHitLongForesight_s);
+  if (!std::isfinite(h.prediction_error_m)) {
+    h.cause = HitCause::kLate;
+  } else {
+    h.cause = h.prediction_error_m > kHitPredictionMiss_m ? HitCause::kMispredicted : HitCause::kForeseen;
+  }
+  return h;
+}
+
+namespace {
+
+/// attributeHit for an episode that ended in a collision with a moving body; `views` holds its last decisions.
+void recordHit(const Episode& ep, const std::deque<DecisionView>& views, EpisodeRecord& r) {
+  const sim::CollisionInfo& c = ep.world().collision();
+  if (c.kind != sim::CollisionInfo::Kind::kObstacle || c.static_contact) return;
+  const std::vector<MovingObstacle> bodies = ep.world().groundTruthObstacles();
+  if (c.index < 0 || static_cast<size_t>(c.index) >= bodies.size()) return;
+  // The body at the contact: the world runs on to the end of its scan period, so step back along its motion.
+  const MovingObstacle& body = bodies[static_cast<size_t>(c.index)];
+  const double back_s = std::max(ep.world().time_s() - c.time_s, 0.0);
+  const Pose2 now{body.center.x(), body.center.y(), body.heading};
+  const Vec2 at_contact = integrateUnicycle(now, -body.speed, -body.turn_rate, back_s).position();
+  const HitAttribution h = attributeHit(views, static_cast<size_t>(c.index), at_contact, c.time_s);
+  r.hit_cause = h.cause;
+  r.hit_seen_s = h.seen_s;
+  r.hit_prediction_error_m = h.prediction_error_m;
+  r.hit_prediction_error_2s_m = h.prediction_error_long_m;
+  r.hit_bearing_deg = h.bearing_deg;
+}
+
+/// Decisions kept for attributeHit: 3 s at the 0.2 s control period, and one more.
+constexpr size_t kHitViews = 16;
+
+}  // namespace
+
+const char* hitCauseName(HitCause cause) {
+  switch (cause) {
+    case HitCause::kNone:
+      return "";
+    case HitCause::kUnseen:
+      return "unseen";
+    case HitCause::kLate:
+      return "late";
+    case HitCause::kMispredicted:
+      return "mispredicted";
+    case HitCause::kForeseen:
+      return "foreseen";
+  }
+  return "";
+}
+
 EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& method, const EvalScenario& s,
                          bool keep_paths) {
   planner.reset();
@@ -199,7 +318,10 @@ EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& metho
   };
   recordObstacles();
   const RobotLimits& limits = ep.config().world.robot;
+  std::deque<DecisionView> views;
   while (!ep.done()) {
+    views.push_back(decisionView(ep));
+    if (views.size() > kHitViews) views.pop_front();
     const PlannerInput in = ep.plannerInput();
     PlannerDecision decision;
     try {
@@ -225,6 +347,8 @@ EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& metho
   if (r.outcome == Outcome::kCollision && ep.world().collided()) {
     r.collision_kind = classifyCollision(ep.world().collision());
     r.contact_speed_mps = ep.world().collision().robot_speed_mps;
+    // The oracle reads the world, not what the observation shows: there is nothing to attribute.
+    if (dynamic_cast<OraclePlanner*>(&planner) == nullptr) recordHit(ep, views, r);
   }
   if (keep_paths) r.robot_path = ep.trajectory();
   return r;
@@ -329,7 +453,8 @@ void closeOut(std::ofstream& out, const std::string& path) {
 void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path) {
   std::ofstream out = openOut(path);
   out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
-         "planner_errors,collision_kind,contact_speed_mps,last_decision\n";
+         "planner_errors,collision_kind,contact_speed_mps,last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,"
+         "hit_prediction_error_2s_m,hit_bearing_deg\n";
   for (const EpisodeRecord& r : records) {
     out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
         << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
@@ -343,7 +468,12 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
       else if (ch == '"' || ch == '\n' || ch == '\r')
         ch = ' ';
     }
-    out << ',' << note << '\n';
+    out << ',' << note << ',' << hitCauseName(r.hit_cause);
+    for (const double x : {r.hit_seen_s, r.hit_prediction_error_m, r.hit_prediction_error_2s_m, r.hit_bearing_deg}) {
+      out << ',';
+      if (std::isfinite(x)) out << x;
+    }
+    out << '\n';
   }
   closeOut(out, path);
 }

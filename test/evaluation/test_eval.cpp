@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <deque>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include "dqn_dovs/common/robot_model.h"
 #include "dqn_dovs/evaluation/eval.h"
 #include "sim_test_helpers.h"
 
@@ -166,6 +168,147 @@ TEST(Eval, BadConfigurationAndMissingFilesAreNamed) {
   } catch (const EvalError& e) {
     EXPECT_NE(std::string(e.what()).find("teleport"), std::string::npos) << e.what();
   }
+}
+
+// A planner that stands still: whatever hits the robot walks into it.
+class StandStill : public Planner {
+ public:
+  std::string name() const override { return "stand_still"; }
+  PlannerDecision decide(const PlannerInput& in) override {
+    PlannerDecision d;
+    d.command = decelerationCommand(in.observation->robot_twist, in.limits);
+    d.note = "stand still";
+    return d;
+  }
+};
+
+// One disc coming straight at a robot that stands at the origin facing +x, from ahead or from behind.
+EvalScenario oneDisc(bool from_behind) {
+  EvalScenario s;
+  s.obstacles = 1;
+  s.episode = 1;
+  s.seed = 5;
+  s.scenario.name = from_behind ? "from behind" : "from ahead";
+  s.scenario.robot_start = {0.0, 0.0, 0.0};
+  s.scenario.goal = {3.0, 3.0};
+  MovingObstacle disc;
+  disc.center = {from_behind ? -3.0 : 3.0, 0.0};
+  disc.heading = from_behind ? 0.0 : M_PI;
+  disc.speed = 0.8;
+  s.scenario.obstacles = {disc};
+  return s;
+}
+
+// What the planner knew of what hit the robot (HitCause): a disc seen coming for seconds was foreseen, one from the
+// URG-04LX's blind side behind the robot was never shown, with the bearing of each and the figures results.csv
+// carries.
+TEST(Eval, ACollisionSaysWhatThePlannerKnewOfWhatHitIt) {
+  StandStill still;
+  for (const bool from_behind : {false, true}) {
+    EpisodeConfig config;
+    config.world.lidar = sim::LidarConfig::urg04lxProfile();  // 240 deg: blind behind the robot
+    Episode episode(config);
+    const EpisodeRecord r = runEpisode(still, episode, "stand_still", oneDisc(from_behind));
+    ASSERT_EQ(r.outcome, Outcome::kCollision) << r.scenario;
+    EXPECT_EQ(r.collision_kind, CollisionKind::kRest);
+    if (from_behind) {
+      EXPECT_EQ(r.hit_cause, HitCause::kUnseen);
+      EXPECT_EQ(r.hit_seen_s, 0.0);
+      EXPECT_TRUE(std::isnan(r.hit_prediction_error_m));
+      EXPECT_GT(r.hit_bearing_deg, 170.0);
+    } else {
+      EXPECT_EQ(r.hit_cause, HitCause::kForeseen);
+      EXPECT_GE(r.hit_seen_s, kHitForesight_s);
+      EXPECT_LT(r.hit_prediction_error_m, 0.1);
+      EXPECT_LT(r.hit_bearing_deg, 10.0);
+    }
+  }
+  // results.csv carries them; an episode without a collision with a moving body leaves them empty.
+  EvalConfig config = tinyConfig(1);
+  config.methods = {"s_dovs"};
+  const std::vector<EvalScenario> scenarios = loadEvalScenarios(config);
+  std::vector<EpisodeRecord> records = runEvaluation(config, scenarios);
+  StandStill again;
+  Episode episode(config.episode);
+  records.push_back(runEpisode(again, episode, "stand_still", oneDisc(false)));
+  test::TempDir dir;
+  writeResultsCsv(records, dir.file("results.csv"));
+  const std::string csv = readAll(dir.file("results.csv"));
+  EXPECT_NE(csv.find("last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,hit_prediction_error_2s_m,"
+                     "hit_bearing_deg\n"),
+            std::string::npos);
+  EXPECT_NE(csv.find(",stand still,foreseen,"), std::string::npos) << csv;
+  for (const EpisodeRecord& e : records) {
+    if (e.collision_kind != CollisionKind::kRest && e.collision_kind != CollisionKind::kMoving) {
+      EXPECT_EQ(e.hit_cause, HitCause::kNone);
+    }
+  }
+}
+
+// The attribution itself, on views made by hand: late, mispredicted and foreseen by the motion the planner was shown,
+// a body shown near another body's place not taken for it, and nothing to say without views.
+TEST(Eval, HitsAreAttributedByWhatWasShownASecondBefore) {
+  auto view = [](double t, const std::vector<MovingObstacle>& shown, const std::vector<Vec2>& truth) {
+    DecisionView v;
+    v.time_s = t;
+    v.robot = {0.0, 0.0, 0.0};
+    v.shown = shown;
+    v.truth = truth;
+    return v;
+  };
+  auto disc = [](Vec2 c, double heading, double speed) {
+    MovingObstacle o;
+    o.center = c;
+    o.heading = heading;
+    o.speed = speed;
+    return o;
+  };
+  // A body walking at 1 m/s toward -x, reaching the robot's surface at x = 0.45 at t = 2.
+  const Vec2 contact(0.45, 0.0);
+  std::deque<DecisionView> views;
+  for (int k = 0; k <= 9; ++k) {
+    const double t = 0.2 * k;
+    const Vec2 truth(0.45 + (2.0 - t), 0.0);
+    views.push_back(view(t, {disc(truth, M_PI, 1.0)}, {truth}));
+  }
+  HitAttribution h = attributeHit(views, 0, contact, 2.0);
+  EXPECT_EQ(h.cause, HitCause::kForeseen);
+  EXPECT_NEAR(h.prediction_error_m, 0.0, 1e-9);
+  EXPECT_NEAR(h.prediction_error_long_m, 0.0, 1e-9);  // the view at t = 0, exactly 2 s before
+  EXPECT_NEAR(h.seen_s, 2.0, 1e-9);
+  EXPECT_NEAR(h.bearing_deg, 0.0, 1e-9);
+  // Shown a second before as standing still: 1 m off at the contact.
+  std::deque<DecisionView> standing = views;
+  for (DecisionView& v : standing) v.shown[0].speed = 0.0;
+  h = attributeHit(standing, 0, contact, 2.0);
+  EXPECT_EQ(h.cause, HitCause::kMispredicted);
+  EXPECT_NEAR(h.prediction_error_m, 1.0, 1e-9);
+  EXPECT_NEAR(h.prediction_error_long_m, 2.0, 1e-9);
+  // Shown only from 0.6 s before the contact.
+  std::deque<DecisionView> late = views;
+  for (size_t k = 0; k < 7; ++k) late[k].shown.clear();
+  h = attributeHit(late, 0, contact, 2.0);
+  EXPECT_EQ(h.cause, HitCause::kLate);
+  EXPECT_NEAR(h.seen_s, 0.6, 1e-9);
+  EXPECT_TRUE(std::isnan(h.prediction_error_m));
+  EXPECT_TRUE(std::isnan(h.prediction_error_long_m));
+  // Shown 1 s before but not 2 s before: the cause is judged at 1 s, the 2 s figure left out.
+  std::deque<DecisionView> recent = views;
+  recent.front().shown.clear();
+  h = attributeHit(recent, 0, contact, 2.0);
+  EXPECT_EQ(h.cause, HitCause::kForeseen);
+  EXPECT_TRUE(std::isnan(h.prediction_error_long_m));
+  EXPECT_NEAR(h.seen_s, 1.8, 1e-9);
+  // A second body stands where the shown disc is at the last decision: the disc is taken for that one, so the
+  // hitting body was not shown then.
+  std::deque<DecisionView> other = views;
+  other.back().shown[0].center += Vec2(0.0, 0.3);
+  other.back().truth.push_back(other.back().shown[0].center + Vec2(0.02, 0.0));
+  h = attributeHit(other, 0, contact, 2.0);
+  EXPECT_EQ(h.cause, HitCause::kUnseen);
+  EXPECT_EQ(h.seen_s, 0.0);
+  EXPECT_EQ(attributeHit({}, 0, contact, 2.0).cause, HitCause::kNone);
+  EXPECT_EQ(attributeHit(views, 3, contact, 2.0).cause, HitCause::kNone);
 }
 
 }  // namespace

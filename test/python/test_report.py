@@ -172,6 +172,49 @@ def test_summary_json_keys(summary):
     assert all(isinstance(v, (int, float)) and math.isfinite(v) for v in figures.values())
 
 
+def test_collisions_with_moving_bodies_are_counted_by_what_the_planner_knew(tmp_path):
+    columns = rp.RESULTS_COLUMNS + rp.HIT_COLUMNS
+    path = write_results(tmp_path / "r.csv")
+    # The hit columns of each row as dqn_dovs_eval writes them: empty but for collisions with a moving body.
+    causes = {("dqn_dovs", "3", "2"): ("unseen", "0", "", "", "172.5"),
+              ("dwa", "3", "2"): ("foreseen", "2", "0.12", "0.4", "3"),
+              ("dwa", "3", "3"): ("mispredicted", "1.4", "0.61", "", "40")}
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for row in rows:
+            row.update(zip(rp.HIT_COLUMNS, causes.get((row["method"], row["obstacles"], row["episode"]),
+                                                      ("",) * len(rp.HIT_COLUMNS))))
+            w.writerow(row)
+    records = rp.read_results(str(path))
+    assert records[3].hit_cause == "unseen" and records[3].hit_bearing_deg == 172.5
+    assert math.isnan(records[3].hit_prediction_error_m) and records[0].hit_cause == ""
+    assert records[9].hit_prediction_error_2s_m == 0.4 and math.isnan(records[10].hit_prediction_error_2s_m)
+    s = rp.summarize(records, "dqn_dovs", METHODS)
+    # dwa's wall contact is not a hit by a moving body: it counts in no cause.
+    assert s.overall["dwa"].hits_by_cause == {"unseen": 0, "late": 0, "mispredicted": 1, "foreseen": 1}
+    assert s.cell("dqn_dovs", 3).hits_by_cause == {"unseen": 1, "late": 0, "mispredicted": 0, "foreseen": 0}
+    figures = json.loads(rp.summary_json(s))
+    assert figures["dwa.hits_foreseen"] == 1 and figures["dqn_dovs.hits_unseen"] == 1
+    md = rp.summary_tables(s)
+    assert "## Collisions with moving bodies by what the planner knew" in md
+    assert "| mean | 1 / 0 / 0 / 0 | 0 / 0 / 0 / 0 | 0 / 0 / 1 / 1 |" in md
+    assert md.index("## Robot speed at contact") < md.index("## Collisions with moving bodies") < md.index(
+        "## Timeout rate")
+    # Without the columns (runs written before them) the causes are not recorded: `-`, no figure.
+    old = rp.summarize(rp.read_results(write_results(tmp_path / "old.csv")), "dqn_dovs", METHODS)
+    assert old.overall["dqn_dovs"].hits_by_cause is None
+    assert "dqn_dovs.hits_unseen" not in json.loads(rp.summary_json(old))
+    assert "by what the planner knew" not in rp.summary_tables(old)
+    # A cause the reader does not know is named with its file and line.
+    bad = tmp_path / "bad.csv"
+    bad.write_text(path.read_text().replace("mispredicted", "bad luck"))
+    with pytest.raises(ValueError, match=r"bad\.csv:\d+: unknown hit_cause 'bad luck'"):
+        rp.read_results(str(bad))
+
+
 def test_summary_json_of_one_method_has_no_prefix(tmp_path):
     records = rp.read_results(write_results(tmp_path / "r.csv", [r for r in ROWS if r[0] == "s_dovs"]))
     figures = json.loads(rp.summary_json(rp.summarize(records, "s_dovs")))

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <stdexcept>
@@ -97,6 +98,54 @@ constexpr double kRestSpeedMps = 0.05;
 /// The kind of a simulator collision.
 CollisionKind classifyCollision(const sim::CollisionInfo& collision);
 
+/// What the planners knew of the body that walked or drove into the robot (collisions with a moving body only;
+/// docs/planners.md, "What the planners knew of what hit them"). At each decision the bodies the planners were
+/// shown (the observation's obstacles, placed in the world through the robot's true and believed poses) are paired
+/// with the true bodies, mutual nearest within kTrackTruthMatch_m.
+enum class HitCause {
+  kNone = 0,          ///< no collision with a moving body
+  kUnseen = 1,        ///< not among what the planners were shown at the last decision before the contact
+  kLate = 2,          ///< shown at the last decision, not kHitForesight_s before the contact
+  kMispredicted = 3,  ///< shown then, but its motion as shown put it more than kHitPredictionMiss_m from where it was
+  kForeseen = 4,      ///< shown then, and its motion as shown put it within kHitPredictionMiss_m of where it was
+};
+/// "", "unseen", "late", "mispredicted", "foreseen".
+const char* hitCauseName(HitCause cause);
+/// How long before the contact a body must have been shown for its prediction to be judged, s.
+constexpr double kHitForesight_s = 1.0;
+/// The same figure is also given from this long before the contact, s (2 s: about what the robot needs to get out
+/// of a person's way at its acceleration limits).
+constexpr double kHitLongForesight_s = 2.0;
+/// A prediction this far (m) or more from the body's true centre at the contact missed it (a person's diameter
+/// is 0.4-0.6 m: the planners were avoiding someone elsewhere).
+constexpr double kHitPredictionMiss_m = 0.3;
+
+/// What the planners were shown at one decision, placed in the world's frame, beside the truth.
+struct DecisionView {
+  double time_s = 0.0;                ///< world time of the decision
+  Pose2 robot;                        ///< the robot's true pose
+  std::vector<MovingObstacle> shown;  ///< the observation's obstacles (with their motion as shown), in the world
+  std::vector<Vec2> truth;            ///< every body's true centre (obstacles, then people)
+};
+/// The view of the episode's current decision: its observation placed in the world through the robot's true and
+/// believed (odometry) poses.
+DecisionView decisionView(const Episode& episode);
+
+/// What the planners knew of one body that hit the robot.
+struct HitAttribution {
+  HitCause cause = HitCause::kNone;
+  double seen_s = std::numeric_limits<double>::quiet_NaN();              ///< shown without a break up to the contact, s
+  double prediction_error_m = std::numeric_limits<double>::quiet_NaN();  ///< of its motion as shown then, m
+  /// The same from kHitLongForesight_s before the contact (NaN when it was not shown then), m.
+  double prediction_error_long_m = std::numeric_limits<double>::quiet_NaN();
+  double bearing_deg = std::numeric_limits<double>::quiet_NaN();  ///< from the robot's heading at the last view
+};
+/// Attributes the contact of `body` (an index into the views' truth) at `contact_time_s`, where it was at
+/// `at_contact`, from the decisions before it (`views`, oldest first, each before the contact). kNone when there is
+/// no view or the body is unknown.
+HitAttribution attributeHit(const std::deque<DecisionView>& views, size_t body, const Vec2& at_contact,
+                            double contact_time_s);
+
 /// One episode's scenario with its place in the protocol.
 struct EvalScenario {
   int obstacles = 0;  ///< obstacle count N
@@ -122,6 +171,15 @@ struct EpisodeRecord {
   /// linear speed at the contact (m/s; NaN without a collision).
   CollisionKind collision_kind = CollisionKind::kNone;
   double contact_speed_mps = std::numeric_limits<double>::quiet_NaN();
+  /// Collisions with a moving body only (NaN / kNone otherwise): what the planners knew of it (HitCause); how long it
+  /// had been shown without a break up to the contact (s, looking at most 3 s back; 0 when unseen); how far from its
+  /// true centre at the contact its motion as shown kHitForesight_s, and kHitLongForesight_s, before put it (m; NaN
+  /// when not shown then); and its bearing from the robot's heading at the last decision (deg, 0 ahead, 180 behind).
+  HitCause hit_cause = HitCause::kNone;
+  double hit_seen_s = std::numeric_limits<double>::quiet_NaN();
+  double hit_prediction_error_m = std::numeric_limits<double>::quiet_NaN();
+  double hit_prediction_error_2s_m = std::numeric_limits<double>::quiet_NaN();
+  double hit_bearing_deg = std::numeric_limits<double>::quiet_NaN();
   /// The planner's note on its last decision (PlannerDecision::note, e.g. the shield level or the escape tier that
   /// drove the robot into a collision); "planner error" when it threw.
   std::string last_decision;
@@ -167,7 +225,8 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
 
 /// results.csv: a header, then one row per record (method, obstacles, episode, scenario, outcome, time_s,
 /// path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind, contact_speed_mps,
-/// last_decision). Throws EvalError naming the file.
+/// last_decision, hit_cause, hit_seen_s, hit_prediction_error_m, hit_prediction_error_2s_m, hit_bearing_deg). Throws
+/// EvalError naming the file.
 void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path);
 
 /// How the run went, for run.json.
