@@ -42,7 +42,8 @@ from matplotlib.figure import Figure
 
 from .benchmark_report import ORACLE, SIGNIFICANCE, Paired, Unsolved, oracle_unsolved, paired_comparison
 from .performance_report import machine_info
-from .report import EMPTY, Cell, Record, RunInfo, Summary, fixed, oracle_share, read_results, read_run, summarize
+from .report import (EMPTY, HIT_CAUSES, Cell, Record, RunInfo, Summary, fixed, oracle_share, read_results, read_run,
+                     summarize)
 from .run_info import sha256_of
 
 METHOD, RIVAL = "dqn_dovs", "s_dovs"
@@ -334,6 +335,34 @@ def oracle_table(families: dict[str, Comparison], probes: Sequence[tuple[str, Co
     return markdown_table(ORACLE_COLUMNS, rows)
 
 
+HIT_NOTE = ("Collisions with a moving body (the robot at rest or moving), counted by what the planner had been shown "
+            "of the body that hit it (results.csv's `hit_cause`, docs/planners.md section 4): unseen at its last "
+            "decision / late (shown then, not 1 s before the contact) / mispredicted (shown 1 s before, its motion "
+            "as shown then more than 0.3 m from where it was at the contact) / foreseen (within 0.3 m); `-`: runs "
+            "written before the column.")
+
+
+def hits_row(label: str, n_label: str, c: Comparison, n: int | None) -> list[str]:
+    """Both methods' collisions with moving bodies by cause at `n` (None: every N pooled)."""
+    def text(method: str) -> str:
+        cell = c.summary.overall.get(method, Cell()) if n is None else c.summary.cell(method, n)
+        if not cell.episodes:
+            return NOT_RUN
+        if cell.hits_by_cause is None:
+            return "-"
+        return " / ".join(str(cell.hits_by_cause[k]) for k in HIT_CAUSES)
+    return [label, n_label, text(METHOD), text(RIVAL)]
+
+
+def hits_section(families: dict[str, Comparison], probes: Sequence[tuple[str, Comparison]]) -> list[str]:
+    """Per family with people (every N pooled), then the probe runs: what the planners knew of what hit them."""
+    header = ["world", "N", f"`{METHOD}` unseen / late / mispredicted / foreseen",
+              f"`{RIVAL}` unseen / late / mispredicted / foreseen"]
+    rows = [hits_row(w, all_label(c), c, None) for w, c in families.items()]
+    rows += [hits_row(label, str(PROBE_N), c, PROBE_N) for label, c in probes]
+    return ["## What the planners knew of what hit them", "", HIT_NOTE, "", markdown_table(header, rows), ""]
+
+
 def episode_text(u: Unsolved) -> str:
     """An unsolved episode in the list: "7 (timeout; solved by s_dovs)"."""
     solved = [m for m in u.solved_by if m != ORACLE]
@@ -519,6 +548,7 @@ def render(runs: dict[str, Run], run_info: dict | None, runs_dir: str, plot_rel:
     probes = [(f"{PROBE_WORLD}, LIDAR {s}", c) for s, c in zip(SENSORS, (c for _, c in sensors)) if s != "sim"]
     probes += [(f"{PROBE_WORLD}, {label}", c) for label, c in people[1:]]
     out += oracle_section(runs, families, probes, runs_dir)
+    out += hits_section(families, probes)
     out += ["## Per family", "", "LIDAR profile sim, social-force people to whom the robot is invisible. "
             + COMPARISON_NOTE + " The `all N` row averages the per-N rates and pools the pairs.", ""]
     for w, c in families.items():

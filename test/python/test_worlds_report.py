@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from dqn_dovs_py import worlds_report as wr
-from dqn_dovs_py.report import RESULTS_COLUMNS
+from dqn_dovs_py.report import HIT_COLUMNS, RESULTS_COLUMNS
 
 EPISODES = 10
 SUCCESS_S, COLLISION_S = 12.0, 3.0
@@ -121,6 +121,29 @@ def test_sensor_and_people_tables(runs: Path, tmp_path: Path):
     for label in ("social force, robot invisible to people", "constant velocity, robot invisible to people",
                   "social force, people give way to the robot"):
         assert f"| {label} | 0.50 | 0.50 | 0.00 | 12.0 |" in people
+
+
+def test_what_the_planners_knew_of_what_hit_them(runs: Path, tmp_path: Path):
+    # The crowd's runs as dqn_dovs_eval writes them now, with the hit columns: every collision of dqn_dovs came from
+    # a body it was never shown, every one of s_dovs from one it foresaw; the other runs lack the columns.
+    cause = {"dqn_dovs": ("unseen", "0", "", "", "150"), "s_dovs": ("foreseen", "2.4", "0.1", "0.2", "20")}
+    for n in wr.COUNTS:
+        path = runs / wr.family_spec("crowd", n).name / "results.csv"
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+        with open(path, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=RESULTS_COLUMNS + HIT_COLUMNS)
+            w.writeheader()
+            for row in rows:
+                hit = row["outcome"] == "collision" and row["collision_kind"] in ("rest", "moving")
+                row.update(zip(HIT_COLUMNS, cause[row["method"]] if hit else ("",) * len(HIT_COLUMNS)))
+                w.writerow(row)
+    text = make_report(runs, tmp_path)
+    section = text.split("## What the planners knew of what hit them")[1].split("\n## ")[0]
+    assert "| crowd | all N | 15 / 0 / 0 / 0 | 0 / 0 / 0 / 15 |" in section
+    assert "| room | all N | - | - |" in section  # written before the columns
+    assert "| crowd, LIDAR urg04lx | 10 | - | - |" in section
+    assert text.index("## What the planners knew") < text.index("## Per family")
 
 
 def test_how_it_was_made_lists_every_command(runs: Path, tmp_path: Path):
