@@ -14,6 +14,7 @@
 
 #include "dqn_dovs/common/random.h"
 #include "dqn_dovs/evaluation/oracle.h"
+#include "dqn_dovs/perception/hungarian.h"
 #include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/sim/worlds.h"
 
@@ -195,20 +196,14 @@ DecisionView decisionView(const Episode& ep) {
 
 namespace {
 
-/// The shown obstacle that stands for body `b` in `view` (mutual nearest within kTrackTruthMatch_m), or -1.
+/// The shown obstacle that stands for body `b` in `view`, or -1: the tracks and the bodies paired one to one within
+/// kTrackTruthMatch_m as --track-truth pairs them (matchWithin).
 int shownFor(const DecisionView& view, size_t b) {
-  if (b >= view.truth.size()) return -1;
-  int best = -1;
-  double best_d = kTrackTruthMatch_m;
-  for (size_t j = 0; j < view.shown.size(); ++j) {
-    const double d = (view.shown[j].center - view.truth[b]).norm();
-    if (d < best_d) best_d = d, best = static_cast<int>(j);
-  }
-  if (best < 0) return -1;
-  for (size_t k = 0; k < view.truth.size(); ++k) {
-    if (k != b && (view.shown[static_cast<size_t>(best)].center - view.truth[k]).norm() < best_d) return -1;
-  }
-  return best;
+  if (b >= view.truth.size() || view.shown.empty()) return -1;
+  std::vector<Vec2> shown;
+  shown.reserve(view.shown.size());
+  for (const MovingObstacle& o : view.shown) shown.push_back(o.center);
+  return matchWithin(view.truth, shown, kTrackTruthMatch_m)[b];
 }
 
 }  // namespace
@@ -318,10 +313,14 @@ EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& metho
   };
   recordObstacles();
   const RobotLimits& limits = ep.config().world.robot;
+  // The oracle reads the world, not what the observation shows: nothing to attribute, no views to keep.
+  const bool attribute_hits = dynamic_cast<OraclePlanner*>(&planner) == nullptr;
   std::deque<DecisionView> views;
   while (!ep.done()) {
-    views.push_back(decisionView(ep));
-    if (views.size() > kHitViews) views.pop_front();
+    if (attribute_hits) {
+      views.push_back(decisionView(ep));
+      if (views.size() > kHitViews) views.pop_front();
+    }
     const PlannerInput in = ep.plannerInput();
     PlannerDecision decision;
     try {
@@ -347,8 +346,7 @@ EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& metho
   if (r.outcome == Outcome::kCollision && ep.world().collided()) {
     r.collision_kind = classifyCollision(ep.world().collision());
     r.contact_speed_mps = ep.world().collision().robot_speed_mps;
-    // The oracle reads the world, not what the observation shows: there is nothing to attribute.
-    if (dynamic_cast<OraclePlanner*>(&planner) == nullptr) recordHit(ep, views, r);
+    if (attribute_hits) recordHit(ep, views, r);
   }
   if (keep_paths) r.robot_path = ep.trajectory();
   return r;

@@ -101,7 +101,7 @@ CollisionKind classifyCollision(const sim::CollisionInfo& collision);
 /// What the planners knew of the body that walked or drove into the robot (collisions with a moving body only;
 /// docs/planners.md, "What the planners knew of what hit them"). At each decision the bodies the planners were
 /// shown (the observation's obstacles, placed in the world through the robot's true and believed poses) are paired
-/// with the true bodies, mutual nearest within kTrackTruthMatch_m.
+/// with the true bodies one to one within kTrackTruthMatch_m, as --track-truth pairs them (matchWithin).
 enum class HitCause {
   kNone = 0,          ///< no collision with a moving body
   kUnseen = 1,        ///< not among what the planners were shown at the last decision before the contact
