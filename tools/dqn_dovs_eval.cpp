@@ -37,11 +37,15 @@ const char* kUsage =
     "                     [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
+    "                     [--bound NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
     "                     [--odom-noise LEVEL] [--route on|off]\n"
     "                     [--no-report]\n"
-    "  --methods           planners to evaluate, comma-separated (default s_dovs); oracle: the physical limit,\n"
-    "                      a search that reads the simulator's future (not deployable)\n"
+    "  --methods           planners to evaluate, comma-separated (default s_dovs); oracle: the physical limit\n"
+    "                      from below, a search that reads the simulator's future (not deployable); bound: the\n"
+    "                      limit from above, where no robot within the limits can get (success: the goal may\n"
+    "                      be reachable, at the earliest at time_s; collision: unavoidable; timeout: out of\n"
+    "                      reach in time). Both need people who ignore the robot\n"
     "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
     "  --generate SEED     seeded random scenarios instead of a folder\n"
     "  --obstacles A-B     obstacle counts A..B, or a single count (default 1-15)\n"
@@ -77,6 +81,8 @@ const char* kUsage =
     "                      (0/1: people by the social force model instead), prediction_growth_mps (0),\n"
     "                      acceleration_prediction_s (0), learned_prediction (a people predictor file,\n"
     "                      models/people_predictor.dqnp; with true_future_periods=0)\n"
+    "  --bound N=V,...     the bound's grid: cell_m (0.01; each period adds a cell diagonal to the robot's reach),\n"
+    "                      body_margin_m (0.02: bodies shrunk by it), grid_margin_m (1: the grid around the walls)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
     "  --trajectories N    episodes drawn as trajectories_*.png per method (default 3)\n"
     "  --world FAMILY      generated worlds: room (the paper's discs, default), crowd, corridor, doorway,\n"
@@ -268,6 +274,11 @@ Options parse(int argc, char** argv) {
         return dqn_dovs::setOracleParameter(o.eval.oracle, n, v);
       });
       if (const std::string e = o.eval.oracle.validate(); !e.empty()) throw UsageError("--oracle: " + e);
+    } else if (flag == "--bound") {
+      setNamedValues(flag, value(), [&](const std::string& n, const std::string& v) {
+        return dqn_dovs::setReachBoundParameter(o.eval.bound, n, v);
+      });
+      if (const std::string e = o.eval.bound.validate(); !e.empty()) throw UsageError("--bound: " + e);
     } else if (flag == "--reference") {
       o.reference = value();
     } else if (flag == "--world") {

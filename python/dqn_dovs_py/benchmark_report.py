@@ -86,8 +86,8 @@ def summarize(records: list[Record], reference: str = REFERENCE) -> Summary:
 
 
 def baselines_of(summary: Summary, method: str = REFERENCE) -> list[str]:
-    """Every method but `method`, the ablations and the oracle (a ceiling)."""
-    return [m for m in summary.methods if m != method and m not in ABLATIONS and m != ORACLE]
+    """Every method but `method`, the ablations, the oracle and the bound (limits, not baselines)."""
+    return [m for m in summary.methods if m != method and m not in ABLATIONS and m not in report.CEILINGS]
 
 
 def has_oracle(s: Summary) -> bool:

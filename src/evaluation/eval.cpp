@@ -50,6 +50,11 @@ std::string EvalConfig::validate() const {
     os << "episode: " << e;
   } else if (const std::string e = shield.validate(); !e.empty()) {
     os << "shield: " << e;
+  } else if (const std::string e = bound.validate(); !e.empty()) {
+    os << e;
+  } else if (people_see_robot && std::find(methods.begin(), methods.end(), "bound") != methods.end()) {
+    os << "method bound needs people who ignore the robot (their future is then fixed by the seed): "
+          "drop people_see_robot";
   }
   return os.str();
 }
@@ -162,6 +167,7 @@ struct Worker {
 std::vector<std::string> evalMethodNames() {
   std::vector<std::string> names = plannerNames();
   names.push_back("oracle");
+  names.push_back("bound");
   return names;
 }
 
@@ -172,6 +178,13 @@ std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalCo
     oracle.goal_speed_mps = config.episode.reward.goal_speed_mps;
     oracle.scan_period_s = config.episode.scan_period_s;
     return std::make_unique<OraclePlanner>(oracle);
+  }
+  if (method == "bound") {
+    ReachBoundConfig bound = config.bound;
+    bound.goal_tolerance_m = config.episode.reward.goal_tolerance_m;
+    bound.max_periods = config.episode.reward.max_steps;
+    bound.scan_period_s = config.episode.scan_period_s;
+    return std::make_unique<ReachBoundPlanner>(bound);
   }
   // The network is checked against the states the episodes build (robot limits, DOVS range, grid encoding).
   const StateNormalization normalization = stateNormalization(config.episode.world.robot, config.episode.dovs);
@@ -290,10 +303,50 @@ const char* hitCauseName(HitCause cause) {
   return "";
 }
 
+namespace {
+
+/// The record of method `bound`: the reachability bound's verdict on the episode as it starts (after the warm-up).
+EpisodeRecord boundRecord(const ReachBoundPlanner& bound, const Episode& ep) {
+  EpisodeRecord r;
+  const ReachBoundResult b = reachBound(ep.world(), bound.config());
+  r.time_s = b.time_s;
+  r.steps = b.periods;
+  r.path_length_m = std::numeric_limits<double>::quiet_NaN();
+  r.min_clearance_m = std::numeric_limits<double>::quiet_NaN();
+  std::ostringstream note;
+  switch (b.verdict) {
+    case ReachBoundResult::Verdict::kReachable:
+      r.outcome = Outcome::kSuccess;
+      note << "bound: goal reachable after " << b.periods << " periods"
+           << (b.left_grid ? " (the set left the grid: not ruled out)" : "");
+      break;
+    case ReachBoundResult::Verdict::kBoxedIn:
+      r.outcome = Outcome::kCollision;
+      note << "bound: no clear position within reach after " << b.periods << " periods (unavoidable)";
+      break;
+    case ReachBoundResult::Verdict::kOutOfTime:
+      r.outcome = Outcome::kTimeout;
+      note << "bound: goal out of reach within " << b.periods << " periods";
+      break;
+  }
+  r.last_decision = note.str();
+  return r;
+}
+
+}  // namespace
+
 EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& method, const EvalScenario& s,
                          bool keep_paths) {
   planner.reset();
   ep.reset(s.scenario, s.seed);
+  if (const auto* bound = dynamic_cast<const ReachBoundPlanner*>(&planner)) {
+    EpisodeRecord r = boundRecord(*bound, ep);
+    r.method = method;
+    r.obstacles = s.obstacles;
+    r.episode = s.episode;
+    r.scenario = s.scenario.name;
+    return r;
+  }
   // The oracle reads the world itself (its future); every other planner sees only the observation.
   if (auto* oracle = dynamic_cast<OraclePlanner*>(&planner)) oracle->setWorld(&ep.world());
   EpisodeRecord r;

@@ -367,10 +367,15 @@ def oracle_records(tmp_path):
     return br.read_results(write_results(tmp_path / "oracle.csv", ORACLE_ROWS, HEADER_KINDS))
 
 
-def test_oracle_is_a_ceiling_not_a_baseline(oracle_records):
+def test_oracle_is_a_ceiling_not_a_baseline(oracle_records, tmp_path_factory):
     s = br.summarize(oracle_records)
     assert s.methods == ["dqn_dovs", "s_dovs", "oracle"]  # the oracle last although its rows come first
     assert br.has_oracle(s) and br.baselines_of(s) == ["s_dovs"]
+    # Nor is the reachability bound, the limit from above.
+    bound_rows = [("bound", n, k, "success", 7.0, 0, 35, "", "") for n in (5, 6) for k in (1, 2, 3, 4)]
+    with_bound = br.summarize(oracle_records + br.read_results(
+        write_results(tmp_path_factory.mktemp("bound") / "bound.csv", bound_rows, HEADER_KINDS)))
+    assert "bound" in with_bound.methods and br.baselines_of(with_bound) == ["s_dovs"]
     # The oracle (0.75) is above dqn_dovs (0.50) at both counts; against the baselines dqn_dovs still wins.
     assert br.beats_every_baseline(s, 5) == (True, "s_dovs", 0.25)
     assert all("**beats every baseline**" in line for line in br.stand_list(s, counts=(5, 6))[:2])

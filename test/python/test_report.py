@@ -410,6 +410,13 @@ def test_share_of_the_oracles_successes(tmp_path):
     text = rp.summary_tables(s)
     assert "## Share of the oracle's successes" in text
     assert "| 3 | 1.00 | 2.00 | 1 / 0 |" in text
+    # The bound (the limit from above) is a limit too: no column of its own in the share of the oracle's successes.
+    bound = [("bound", n, k, "success", 6.0, 0, 30, 0.3, "", "") for n in (2, 3) for k in (1, 2)]
+    with_bound = rp.summarize(rp.read_results(write_results(tmp_path / "bound.csv", rows + bound)), "dqn_dovs",
+                              ["dqn_dovs", "s_dovs", "oracle", "bound"])
+    shares = rp.summary_tables(with_bound).split("## Share of the oracle's successes")[1]
+    assert "| Obs | dqn_dovs | s_dovs | oracle fails |" in shares and "bound" not in shares
+    assert "| 3 | 1.00 | 2.00 | 1 / 0 |" in shares
     # Without an oracle in the run: no such table, no such figure.
     plain = rp.summarize(rp.read_results(write_results(tmp_path / "plain.csv")), "dqn_dovs", METHODS)
     assert "oracle" not in rp.summary_tables(plain)

@@ -13,6 +13,7 @@
 
 #include "dqn_dovs/evaluation/episode.h"
 #include "dqn_dovs/evaluation/oracle.h"
+#include "dqn_dovs/evaluation/reach_bound.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
 
@@ -72,6 +73,8 @@ struct EvalConfig {
   ActionShieldConfig shield;
   /// The oracle's search (method `oracle`); its success rule and stepping come from `episode`.
   OracleConfig oracle;
+  /// The reachability bound's grid (method `bound`); its success rule, step limit and stepping come from `episode`.
+  ReachBoundConfig bound;
   /// Everything about one episode: simulator, tracker, DOVS, reward, perfect_info (false: tracker in the loop).
   EpisodeConfig episode;
   /// Jobs (obstacle count, episode) whose robot and obstacle paths are kept in the records, for plots.
@@ -200,7 +203,8 @@ struct EpisodeRecord {
 std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config);
 
 /// The methods the evaluation runs: every planner of makePlanner, plus `oracle` (evaluation/oracle.h: the physical
-/// limit, reading the simulator's future).
+/// limit from below, a search reading the simulator's future) and `bound` (evaluation/reach_bound.h: the limit from
+/// above, what no robot within the limits can do).
 std::vector<std::string> evalMethodNames();
 
 /// Builds the planner of one method for `config` (the oracle with the episode's success rule). Throws PlannerError
