@@ -20,7 +20,7 @@ help:
 	@echo "make fuzz    libFuzzer targets (fuzz/), FUZZ_SECONDS=600 each (make fuzz FUZZ_TARGETS=scenario for one)"
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
-	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information, with the oracle (EPISODES=100, ORACLE=0 without it)"
+	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information, with the oracle and the bound (EPISODES=100, ORACLE=0 / BOUND=0 without them)"
 	@echo "make benchmark-worlds  docs/benchmark_worlds.md: dqn_dovs vs s_dovs (and the oracle) on every world family, LIDAR profile and people model (EPISODES=50, ORACLE=0 without the oracle)"
 	@echo "make select-model RUN=runs/NAME  rank a training run's snapshots on held-out generated scenarios"
 	@echo "make demo    the ROS pipeline in simulation on shared scenarios (WORLD=clutter: a building world with people)"

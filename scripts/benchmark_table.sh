@@ -4,14 +4,17 @@
 # (docs/benchmark/perfect/), then python/dqn_dovs_py/benchmark_report.py writes the tables, plots and verdicts.
 # `oracle` (docs/planners.md section 9: the physical limit, a search that reads the simulator's future) runs on the
 # same episodes in both runs; the report gives its column, each method's share of its successes and the episodes it
-# did not solve. It is a ceiling, never a baseline. ORACLE=0 leaves it out.
+# did not solve. It is a ceiling, never a baseline. ORACLE=0 leaves it out. `bound` (the limit from above: the
+# episodes no robot within the limits can solve; it does not depend on the perception) runs once on the same
+# episodes into docs/benchmark/bound/ (about 1 min); BOUND=0 leaves it out.
 # Run from anywhere (make benchmark-table does). With the defaults (2 x 10500 episodes) about 17 min on an idle
 # 2-core machine: 1960 CPU-s. The eight planners: 1000 CPU-s measured from a 2-episode run (tracker 0.065, perfect
 # information 0.042 CPU-s per episode); the oracle: 0.32 CPU-s per episode in either run (measured on N = 1..15,
 # 2 episodes each: dqn_dovs_eval --methods oracle --obstacles 1-15 --episodes 2 --threads 1, 9.6 s), 960 CPU-s. With
 # ORACLE=0 about 10 min. Proportionally longer when the cores are shared.
 # Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
-# METHODS (all eight), ORACLE (1: add oracle to METHODS unless it is there; 0: leave it out), DQN_DOVS_EVAL (default
+# METHODS (all eight), ORACLE (1: add oracle to METHODS unless it is there; 0: leave it out), BOUND (1: the bound's
+# run; 0: none), DQN_DOVS_EVAL (default
 # install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md), OUT_DIR (docs/benchmark).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -61,6 +64,21 @@ for perception in tracker perfect; do
   # One trajectory picture is kept (dqn_dovs's); the others only make the folder heavy.
   find "$dir" -name 'trajectories_*.png' ! -name 'trajectories_dqn_dovs_n[0-9]*' -delete
 done
+case "${BOUND:-1}" in
+  1)
+    dir="$out_dir/bound"
+    rm -rf "$dir"
+    mkdir -p "$dir"
+    args=(--methods bound --scenarios "$scenarios" --obstacles "$obstacles" --episodes "$episodes" --threads "$threads"
+          --trajectories 0 --no-report --out "$dir/")
+    echo "=== benchmark-table: bound (dqn_dovs_eval ${args[*]})"
+    "$exe" "${args[@]}" >"$dir/eval.log" 2>&1 || { echo "benchmark_table: the bound failed; see $dir/eval.log" >&2; tail -20 "$dir/eval.log" >&2; exit 1; }
+    tail -n 1 "$dir/eval.log"
+    rm -f "$dir/eval.log"
+    ;;
+  0) rm -rf "$out_dir/bound" ;;
+  *) echo "benchmark_table: BOUND must be 0 or 1 (got '$BOUND')" >&2; exit 2 ;;
+esac
 total_end=$(date +%s.%N)
 
 commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
@@ -73,4 +91,4 @@ PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.run_info --out "$out_d
 MPLBACKEND=Agg PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.benchmark_report \
   --tracker "$out_dir/tracker/results.csv" --perfect "$out_dir/perfect/results.csv" \
   --paper ../shared/reference/paper_table1.csv --discussion docs/benchmark_discussion.md \
-  --run-info "$out_dir/run_info.json" --plots "$out_dir" --out "$out_doc"
+  --run-info "$out_dir/run_info.json" --plots "$out_dir" --out "$out_doc" --bound "$out_dir/bound/results.csv"

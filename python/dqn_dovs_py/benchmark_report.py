@@ -23,7 +23,11 @@ method and obstacle count, the figures of an evaluation's summary (dqn_dovs_py.r
   others, each method's share of its successes (report.oracle_share) per count and overall, and the episodes it did
   not solve with the methods that solved them all the same. The oracle is a ceiling, never a baseline: it is left
   out of the paired comparisons and of the "beats every baseline" verdicts. A file without oracle episodes shows
-  it as not run.
+  it as not run;
+- with the reachability bound's run (`--bound`, method `bound`: the physical limit from above, docs/planners.md
+  section 9): per count, the share of the episodes some robot within the limits might solve, the episodes where a
+  collision is certain and those out of reach, and whether any method's success lies outside it (the holonomic
+  baseline, without the acceleration limits, is another robot and is not checked).
 
 scripts/benchmark_table.sh (make benchmark-table) runs the evaluations and then this module. The discussion
 file is hand-written and included verbatim.
@@ -56,6 +60,10 @@ from .report import nan_mean as _mean  # noqa: E402
 REFERENCE = "dqn_dovs"
 # The physical limit (a search that reads the simulator's future): a ceiling, never a baseline.
 ORACLE = report.ORACLE
+# The reachability bound (the physical limit from above): where no robot within the limits can get.
+BOUND = report.BOUND
+# Methods the bound does not cover: a holonomic robot without the acceleration limits.
+OUTSIDE_BOUND = ("orca_holonomic",)
 NOT_RUN = "not run"
 # At most this many of the oracle's unsolved episodes are listed per perception; the rest are in results.csv.
 MAX_UNSOLVED_ROWS = 100
@@ -546,10 +554,69 @@ def _perception_section(title: str, s: Summary, paper, plot_rel: str,
     return out
 
 
+def beyond_bound(bound: list[Record], records: list[Record]) -> dict[str, tuple[int, int]]:
+    """Per method of `records` (not the bound, nor those OUTSIDE_BOUND): (successes the bound rules out or that came
+    sooner than it allows, episodes the bound says end in a collision where the method did not collide by then).
+    Both must be 0 for a method that drives the robot within its limits. Episodes pair by (count, episode)."""
+    by_key = {(r.obstacles, r.episode): r for r in bound}
+    out: dict[str, tuple[int, int]] = {}
+    for r in records:
+        if r.method == BOUND or r.method in OUTSIDE_BOUND or (r.obstacles, r.episode) not in by_key:
+            continue
+        b = by_key[(r.obstacles, r.episode)]
+        beyond, survived = out.get(r.method, (0, 0))
+        if r.outcome == "success" and (b.outcome != "success" or r.time_s + 1e-6 < b.time_s):
+            beyond += 1
+        if b.outcome == "collision" and not (r.outcome == "collision" and r.time_s <= b.time_s + 1e-6):
+            survived += 1
+        out[r.method] = (beyond, survived)
+    return out
+
+
+def bound_lines(bound: list[Record] | None, records: dict[str, list[Record]], command: str | None = None) -> list[str]:
+    """The section of the reachability bound: per count the bound's success rate (an upper limit of any method's),
+    its certain collisions and episodes out of reach, and the check of every method against it."""
+    out = ["## Episodes no robot can solve: the reachability bound", ""]
+    if not bound:
+        return out + [f"Not run: no `{BOUND}` results (`BOUND=0`, or a run from before the bound).", ""]
+    out += [f"`{BOUND}` (docs/planners.md section 9, \"An upper bound\") steps each episode's obstacles ahead and keeps "
+            "every position the robot's centre could hold, relaxed so that it can only do more than the robot (any "
+            "direction, instant stops). Its success rate is an upper limit of every method's on these episodes; its "
+            "collisions are certain for any robot within the limits (truly unavoidable), its timeouts out of reach. It "
+            "does not depend on the perception: one run serves both sections."
+            + (f" Command: `{command}`." if command else ""), ""]
+    counts = sorted({r.obstacles for r in bound})
+    rows = []
+    for n in counts + [None]:
+        cell = [r for r in bound if n is None or r.obstacles == n]
+        rate = sum(r.outcome == "success" for r in cell) / len(cell)
+        rows.append(["all" if n is None else str(n), str(len(cell)), _f(rate),
+                     str(sum(r.outcome == "collision" for r in cell)), str(sum(r.outcome == "timeout" for r in cell))])
+    out += [_table(["N", "episodes", "bound success (upper limit)", "collision certain", "goal out of reach"], rows),
+            ""]
+    for key, label in (("tracker", "tracker in the loop"), ("perfect", "perfect information")):
+        if key not in records:
+            continue
+        checked = beyond_bound(bound, records[key])
+        bad = {m: v for m, v in checked.items() if v != (0, 0)}
+        if bad:
+            out.append(f"- {label}: **outside the bound**: " + "; ".join(
+                f"`{m}` {b} successes it rules out or sooner, {c} certain collisions avoided"
+                for m, (b, c) in bad.items()))
+        else:
+            out.append(f"- {label}: no success of {', '.join(f'`{m}`' for m in checked)} lies outside the bound, "
+                       "and each collided, no later than it says, in every episode where it says a collision is "
+                       f"certain (`{', '.join(OUTSIDE_BOUND)}` is another robot: holonomic, without the acceleration "
+                       "limits).")
+    return out + [""]
+
+
 def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: dict, discussion: str | None,
            plots: dict[str, str], records: dict[str, list[Record]] | None = None,
-           sources: dict[str, str] | None = None) -> str:
-    """sources: the results.csv of each perception, named where the list of the oracle's unsolved episodes is cut."""
+           sources: dict[str, str] | None = None, bound: list[Record] | None = None,
+           bound_command: str | None = None) -> str:
+    """sources: the results.csv of each perception, named where the list of the oracle's unsolved episodes is cut;
+    bound: the reachability bound's episodes (None: its section says not run)."""
     records = records or {}
     sources = sources or {}
     out = ["# Benchmark: DQN-DOVS and the baselines on the shared scenarios", "",
@@ -601,6 +668,7 @@ def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: di
         out += ["## Perfect information", "", "Not run (no results.csv).", ""]
     if "collision" in plots:
         out += ["## Collision rate vs N", "", f"![Collision rate vs N]({plots['collision']})", ""]
+    out += bound_lines(bound, records, bound_command)
     out += ["## Discussion", ""]
     out += [discussion.rstrip("\n"), ""] if discussion else ["(docs/benchmark_discussion.md is missing.)", ""]
     return "\n".join(out)
@@ -615,6 +683,8 @@ def main(argv=None) -> int:
     p.add_argument("--run-info", default="docs/benchmark/run_info.json")
     p.add_argument("--plots", default="docs/benchmark", help="folder of the PNGs")
     p.add_argument("--out", default="docs/benchmark.md")
+    p.add_argument("--bound", default="docs/benchmark/bound/results.csv",
+                   help="results.csv of the reachability bound's run (method bound); missing: not run")
     a = p.parse_args(argv)
 
     summaries, records, sources = {}, {}, {}
@@ -651,8 +721,17 @@ def main(argv=None) -> int:
     plot_collision(summaries, path)
     plots["collision"] = os.path.relpath(path, out_dir)
 
+    bound, bound_command = None, None
+    if a.bound and os.path.exists(a.bound):
+        bound = [r for r in read_results(a.bound) if r.method == BOUND] or None
+        run_json = os.path.join(os.path.dirname(a.bound), "run.json")
+        if os.path.exists(run_json):
+            with open(run_json) as f:
+                bound_command = json.load(f).get("command")
+    elif a.bound:
+        print(f"benchmark_report: {a.bound} does not exist; the bound's section says 'not run'", file=sys.stderr)
     text = render(summaries.get("tracker"), summaries.get("perfect"), paper, run_info, discussion, plots, records,
-                  sources)
+                  sources, bound, bound_command)
     with open(a.out, "w") as f:
         f.write(text)
     print(f"wrote {a.out}")

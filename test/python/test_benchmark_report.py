@@ -408,11 +408,40 @@ def test_oracle_share_and_unsolved_episodes(oracle_records):
     assert br.oracle_unsolved(plain) == [] and not br.has_oracle(br.summarize(plain))
 
 
-def _report(tmp_path, tracker, perfect=""):
+def _report(tmp_path, tracker, perfect="", bound=""):
     out = tmp_path / "benchmark.md"
     assert br.main(["--tracker", str(tracker), "--perfect", str(perfect), "--paper", "", "--discussion", "",
-                    "--run-info", "", "--plots", str(tmp_path), "--out", str(out)]) == 0
+                    "--run-info", "", "--plots", str(tmp_path), "--out", str(out), "--bound", str(bound)]) == 0
     return out.read_text()
+
+
+def test_the_bound_says_which_episodes_no_robot_can_solve(tmp_path):
+    tracker = write_results(tmp_path / "tracker.csv", ORACLE_ROWS, HEADER_KINDS)
+    # Without the bound's run: its section says so.
+    assert "Not run: no `bound` results" in _report(tmp_path, tracker)
+    # Every episode reachable after 7 s but (5, 4), where a collision is certain by 6 s: every method collided
+    # there by then, and each success came later than 7 s or at 8 s (the oracle) - inside the bound.
+    rows = [("bound", n, k, "success", 7.0, 0, 35, "", "") for n in (5, 6) for k in (1, 2, 3, 4) if (n, k) != (5, 4)]
+    bound = write_results(tmp_path / "bound.csv", rows + [("bound", 5, 4, "collision", 6.0, 0, 30, "", "")],
+                          HEADER_KINDS)
+    text = _report(tmp_path, tracker, bound=bound)
+    section = text.split("## Episodes no robot can solve: the reachability bound")[1].split("## Discussion")[0]
+    assert "| 5 | 4 | 0.75 | 1 | 0 |" in section and "| all | 8 | 0.88 | 1 | 0 |" in section
+    assert "- tracker in the loop: no success of `oracle`, `dqn_dovs`, `s_dovs` lies outside the bound" in section
+    # A bound that put (6, 4) out of reach and (5, 1) at 9 s would be broken by dqn_dovs (it solved (6, 4)) and by
+    # the oracle (at 8 s on (5, 1)): the report says so.
+    rows = [r if (r[1], r[2]) not in ((6, 4), (5, 1)) else
+            (r[:3] + ("timeout", 100.0, 0, 500, "", "") if r[1] == 6 else r[:4] + (9.0,) + r[5:]) for r in rows]
+    bound = write_results(tmp_path / "bound.csv", rows + [("bound", 5, 4, "collision", 6.0, 0, 30, "", "")],
+                          HEADER_KINDS)
+    section = _report(tmp_path, tracker, bound=bound).split("reachability bound")[1]
+    assert "**outside the bound**" in section
+    assert "`oracle` 1 successes it rules out or sooner, 0 certain collisions avoided" in section
+    assert "`dqn_dovs` 1 successes it rules out or sooner" in section and "`s_dovs`" not in section.split("\n- ")[1]
+    # A method that survived a certain collision is named too; the holonomic baseline (another robot) is not checked.
+    survived = [("s_dovs", 5, 4, "success", 12.0, 0, 60, "", ""), ("orca_holonomic", 6, 4, "success", 5.0, 0, 25, "", "")]
+    records = br.read_results(write_results(tmp_path / "survived.csv", survived, HEADER_KINDS))
+    assert br.beyond_bound(br.read_results(bound), records) == {"s_dovs": (1, 1)}
 
 
 def test_report_with_the_oracle(tmp_path):
