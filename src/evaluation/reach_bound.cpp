@@ -49,7 +49,6 @@ namespace {
 /// Cells [x0, x1) x [y0, y1) of the grid.
 struct Box {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  bool empty() const { return x0 >= x1 || y0 >= y1; }
 };
 
 /// The robot's reachable positions on a grid, one period at a time.
@@ -63,8 +62,6 @@ class ReachGrid {
     next_.assign(n, 0);
     row_gap_.assign(n, 0);
   }
-  int w() const { return w_; }
-  int h() const { return h_; }
   Vec2 center(int i, int j) const { return origin_ + Vec2((i + 0.5) * cell_, (j + 0.5) * cell_); }
   size_t at(int i, int j) const { return static_cast<size_t>(j) * static_cast<size_t>(w_) + static_cast<size_t>(i); }
 

@@ -128,6 +128,30 @@ def test_the_oracle_runs_beside_the_planners_and_its_share_is_reported(tmp_path)
         assert proc.returncode == 2 and said in proc.stderr, proc.stderr
 
 
+def test_the_bound_runs_through_the_tool_and_its_bad_arguments_are_named(tmp_path):
+    out = tmp_path / "bound"
+    cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "bound,s_dovs", "--generate", "78", "--obstacles", "4",
+           "--episodes", "4", "--trajectories", "0", "--out", str(out), "--bound", "cell_m=0.02"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    rows = {r["episode"]: r for r in csv.DictReader(open(out / "results.csv")) if r["method"] == "bound"}
+    planner = {r["episode"]: r for r in csv.DictReader(open(out / "results.csv")) if r["method"] == "s_dovs"}
+    assert len(rows) == 4 and all(r["last_decision"].startswith("bound: ") for r in rows.values())
+    for k, r in planner.items():  # the planner's successes are the bound's, none sooner
+        if r["outcome"] == "success":
+            assert rows[k]["outcome"] == "success" and float(rows[k]["time_s"]) <= float(r["time_s"])
+    assert "| Obs | bound | s_dovs |" in (out / "summary.md").read_text()  # its success rate beside the planner's
+    for bad, said in ((["--bound", "cell=0.02"], "unknown bound parameter 'cell'"),
+                      (["--bound", "cell_m=0"], "bound cell_m 0 not in [0.005, 0.5]"),
+                      (["--bound", "cell_m"], "NAME=VALUE")):
+        proc = subprocess.run(cmd[:-2] + bad, capture_output=True, text=True, timeout=60, cwd=ROOT)
+        assert proc.returncode == 2 and said in proc.stderr, proc.stderr
+    # People who see the robot: refused before any episode runs, naming why.
+    proc = subprocess.run(cmd + ["--world", "crowd", "--people-see-robot"], capture_output=True, text=True,
+                          timeout=60, cwd=ROOT)
+    assert proc.returncode == 1 and "method bound needs people who ignore the robot" in proc.stderr, proc.stderr
+
+
 def run_generated(tmp_path, methods, world, obstacles, *extra):
     """dqn_dovs_eval on 6 generated episodes (seed 77) of `world`: the process and its records, keyed by
     (method, episode), as (outcome, steps, path length); no records when it failed."""
