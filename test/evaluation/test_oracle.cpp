@@ -104,16 +104,21 @@ TEST(Oracle, FindsTheDoorAroundTheWall) {
   EXPECT_EQ(r.outcome, Outcome::kSuccess) << r.last_decision;
 }
 
-TEST(Oracle, SaysWhenEveryTrajectoryCollides) {
-  // A fast disc coming straight at a robot at rest that cannot reverse, 0.75 m between their surfaces: contact
-  // 0.5 s after the start, 0.2 s after the first decision (the episode senses 0.3 s first). No command avoids it.
+/// A fast disc coming straight at a robot at rest that cannot reverse, 0.75 m between their surfaces: contact 0.5 s
+/// after the start, 0.2 s after the first decision (the episode senses 0.3 s first).
+sim::Scenario fastDiscHeadOn() {
   sim::Scenario s = emptyRoom({0.0, 0.0, 0.0}, {3.0, 0.0});
   MovingObstacle fast;
   fast.center = Vec2(1.15, 0.0);
   fast.heading = kPi;
   fast.speed = 1.5;
   s.obstacles.push_back(fast);
-  const EpisodeRecord r = run("oracle", s);
+  return s;
+}
+
+TEST(Oracle, SaysWhenEveryTrajectoryCollides) {
+  // No command avoids the fast disc.
+  const EpisodeRecord r = run("oracle", fastDiscHeadOn());
   EXPECT_EQ(r.outcome, Outcome::kCollision);
   EXPECT_NE(r.last_decision.find("collides"), std::string::npos) << r.last_decision;
 }
@@ -550,14 +555,8 @@ TEST(ReachBound, AGoalBehindAClosedWallIsOutOfReach) {
 }
 
 TEST(ReachBound, AFastDiscFromCloseByMakesTheCollisionCertain) {
-  // As the oracle's test: a disc at 1.5 m/s coming straight at a robot at rest, 0.75 m between their surfaces at
-  // the start (0.3 s before the first decision). Even a robot that could move sideways at once cannot get clear.
-  sim::Scenario s = emptyRoom({0.0, 0.0, 0.0}, {3.0, 0.0});
-  MovingObstacle fast;
-  fast.center = Vec2(1.15, 0.0);
-  fast.heading = kPi;
-  fast.speed = 1.5;
-  s.obstacles.push_back(fast);
+  // The oracle's fast disc: even a robot that could move sideways at once cannot get clear.
+  sim::Scenario s = fastDiscHeadOn();
   const EpisodeRecord r = run("bound", s);
   EXPECT_EQ(r.outcome, Outcome::kCollision) << r.last_decision;
   EXPECT_LE(r.time_s, 0.4 + 1e-9);
