@@ -236,7 +236,6 @@ ReachBoundResult reachBound(const sim::World& world, const ReachBoundConfig& con
     result.verdict = ReachBoundResult::Verdict::kBoxedIn;
     return result;
   }
-  result.largest_set = 1;
   const double dt = limits.dt;
   const int chunks = std::max(1, static_cast<int>(std::lround(dt / config.scan_period_s)));
   const double reach = limits.v_max * dt + 2.0 * half_diagonal;
@@ -246,7 +245,6 @@ ReachBoundResult reachBound(const sim::World& world, const ReachBoundConfig& con
     blockBodies(future);
     const double from_start = farthestFromStart(v0, limits.a_v, limits.v_max, k * dt) + half_diagonal;
     const size_t held = grid.advance(reach, start, from_start);
-    result.largest_set = std::max(result.largest_set, held);
     result.periods = k;
     result.time_s = k * dt;
     if (held == 0) {

@@ -50,7 +50,6 @@ struct ReachBoundResult {
   int periods = 0;         ///< see Verdict
   double time_s = 0.0;     ///< periods * control period
   bool left_grid = false;  ///< the set touched the grid's edge at `periods`: counted reachable (it cannot tell)
-  size_t largest_set = 0;  ///< most cells held at one period
 };
 
 /// The bound from `world` as it stands (a copy is stepped; `world` is left untouched). Needs people who ignore the
