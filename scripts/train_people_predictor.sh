@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Trains the learned people predictor (docs/planners.md, "A learned prediction of the people"): generates episodes of
-# every world family with dqn_dovs_eval (the oracle drives, so episodes run to the goal and the paths are long; the
+# every world family with dqn_dovs_eval (the oracle drives, its first search only as when the shipped files were
+# learned, so episodes run to the goal and the paths are long; the
 # tracker runs in the loop and its tracks are recorded beside the true paths): crowds of 5, 10 and 15 walking people,
 # and corridors, doorways, clutter and junctions of 4, 8 and 12 people (the people, never the paper's discs: the
 # planners apply the prediction to people only); seed 22601 to train on, 22602 (half as many episodes) to measure on. Then it trains and exports the predictor (+ .json
@@ -30,7 +31,8 @@ for spec in $worlds; do
       if [ "$seed" = 22601 ]; then train+=("$dir"); else valid+=("$dir"); fi
       [ -f "$dir/paths.json" ] && continue
       "$eval_tool" --generate "$seed" --obstacles "$n" --episodes "$k" --threads 2 --world "$family" \
-        --sensor "$sensor" --methods oracle --predict-people none --no-report --trajectories 1000 --out "$dir" | tail -1
+        --sensor "$sensor" --methods oracle --oracle-retries none --predict-people none --no-report --trajectories 1000 \
+        --out "$dir" | tail -1
     done
   done
 done

@@ -37,7 +37,7 @@ const char* kUsage =
     "                     [--threads N] [--out DIR]\n"
     "                     [--model PATH] [--shield NAME=VALUE,...] [--reference METHOD] [--trajectories N]\n"
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
-    "                     [--bound NAME=VALUE,...]\n"
+    "                     [--oracle-retries none|N=V,...;N=V,...] [--bound NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
     "                     [--odom-noise LEVEL] [--route on|off]\n"
     "                     [--no-report]\n"
@@ -81,7 +81,13 @@ const char* kUsage =
     "                      (-1: all; K: K periods of the true future, then constant velocity), social_prediction\n"
     "                      (0/1: people by the social force model instead), prediction_growth_mps (0),\n"
     "                      acceleration_prediction_s (0), learned_prediction (a people predictor file,\n"
-    "                      models/people_predictor.dqnp; with true_future_periods=0)\n"
+    "                      models/people_predictor.dqnp; with true_future_periods=0), terminal_periods (0:\n"
+    "                      a sequence's end must have a way on for this many periods more)\n"
+    "  --oracle-retries R  the oracle's further searches, each a whole episode of its own, on an episode its\n"
+    "                      first search does not solve, until one does: none, or ;-separated N=V,... lists\n"
+    "                      applied to --oracle's (default 'terminal_periods=10;horizon_periods=30,beam_width=320;\n"
+    "                      horizon_periods=30,beam_width=320,terminal_periods=10;horizon_periods=40,\n"
+    "                      beam_width=640'); only where it reads the whole future (no true_future_periods)\n"
     "  --bound N=V,...     the bound's grid: cell_m (0.01; each period adds a cell diagonal to the robot's reach),\n"
     "                      body_margin_m (0.02: bodies shrunk by it), grid_margin_m (1: the grid around the walls)\n"
     "  --reference METHOD  method of the time ratios (default dqn_dovs when evaluated, else the first method)\n"
@@ -275,6 +281,17 @@ Options parse(int argc, char** argv) {
         return dqn_dovs::setOracleParameter(o.eval.oracle, n, v);
       });
       if (const std::string e = o.eval.oracle.validate(); !e.empty()) throw UsageError("--oracle: " + e);
+    } else if (flag == "--oracle-retries") {
+      const std::string v = value();
+      o.eval.oracle_retries.clear();
+      if (v != "none") {
+        size_t begin = 0;
+        while (begin <= v.size()) {
+          const size_t end = std::min(v.find(';', begin), v.size());
+          o.eval.oracle_retries.push_back(v.substr(begin, end - begin));
+          begin = end + 1;
+        }
+      }
     } else if (flag == "--bound") {
       setNamedValues(flag, value(), [&](const std::string& n, const std::string& v) {
         return dqn_dovs::setReachBoundParameter(o.eval.bound, n, v);
@@ -320,6 +337,12 @@ Options parse(int argc, char** argv) {
     });
   }
   if (const std::string e = o.eval.episode.tracker.validate(); !e.empty()) throw UsageError("--tracker: " + e);
+  for (const std::string& spec : o.eval.oracle_retries) {  // each applies to the first search's parameters
+    dqn_dovs::OracleConfig retry = o.eval.oracle;
+    std::string e = dqn_dovs::applyOracleParameters(retry, spec);
+    if (e.empty()) e = retry.validate();
+    if (!e.empty()) throw UsageError("--oracle-retries: '" + spec + "': " + e);
+  }
   if (o.reference.empty()) {
     const auto& m = o.eval.methods;
     o.reference = std::find(m.begin(), m.end(), "dqn_dovs") != m.end() ? "dqn_dovs" : m.front();

@@ -16,6 +16,9 @@ namespace {
 
 constexpr int kSubsteps = 4;  // collision checks per control period
 constexpr float kInf = std::numeric_limits<float>::infinity();
+// Added to the cost of a sequence whose end has no way on (terminal_periods): more than any horizon's time and path
+// to go, so every end with a way on ranks first.
+constexpr double kUnsafeEndPenalty_s = 1.0e4;
 
 }  // namespace
 
@@ -23,6 +26,8 @@ std::string OracleConfig::validate() const {
   std::ostringstream os;
   if (horizon_periods < 1 || horizon_periods > 100)
     os << "oracle horizon_periods " << horizon_periods << " not in [1, 100]";
+  else if (terminal_periods < 0 || horizon_periods + terminal_periods > 100)
+    os << "oracle terminal_periods " << terminal_periods << " must be >= 0 and, with horizon_periods, at most 100";
   else if (beam_width < 1)
     os << "oracle beam_width " << beam_width << " must be >= 1";
   else if (window_samples < 1 || window_samples > 10)
@@ -62,6 +67,8 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
   const double x = *parsed;
   if (name == "horizon_periods")
     config.horizon_periods = static_cast<int>(x);
+  else if (name == "terminal_periods")
+    config.terminal_periods = static_cast<int>(x);
   else if (name == "beam_width")
     config.beam_width = static_cast<int>(x);
   else if (name == "window_samples")
@@ -82,12 +89,35 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
     return "oracle parameter 'social_prediction' = '" + value + "' is not 0 or 1";
   else
     return "unknown oracle parameter '" + name +
-           "' (horizon_periods, beam_width, window_samples, grid_cell_m, clearance_margin_m, true_future_periods, "
-           "social_prediction, prediction_growth_mps, acceleration_prediction_s, learned_prediction)";
+           "' (horizon_periods, terminal_periods, beam_width, window_samples, grid_cell_m, clearance_margin_m, "
+           "true_future_periods, social_prediction, prediction_growth_mps, acceleration_prediction_s, "
+           "learned_prediction)";
   return {};
 }
 
-OraclePlanner::OraclePlanner(const OracleConfig& config) : config_(config) {
+std::vector<std::string> defaultOracleRetries() {
+  return {"terminal_periods=10", "horizon_periods=30,beam_width=320",
+          "horizon_periods=30,beam_width=320,terminal_periods=10", "horizon_periods=40,beam_width=640"};
+}
+
+std::string applyOracleParameters(OracleConfig& config, const std::string& spec) {
+  size_t begin = 0;
+  while (begin <= spec.size()) {
+    const size_t end = std::min(spec.find(',', begin), spec.size());
+    const std::string item = spec.substr(begin, end - begin);
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos || eq == 0) return "'" + item + "' is not NAME=VALUE";
+    if (std::string e = setOracleParameter(config, item.substr(0, eq), item.substr(eq + 1)); !e.empty()) return e;
+    begin = end + 1;
+  }
+  return {};
+}
+
+OraclePlanner::OraclePlanner(const OracleConfig& config, std::vector<OracleConfig> retries)
+    : config_(config), retries_(std::move(retries)) {
+  for (const OracleConfig& r : retries_) {
+    if (const std::string e = r.validate(); !e.empty()) throw PlannerError("oracle retry: " + e);
+  }
   if (const std::string e = config_.validate(); !e.empty()) throw PlannerError(e);
   if (!config_.learned_prediction.empty()) {
     try {
@@ -291,8 +321,36 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
 }
 
 const std::vector<std::vector<Circle>>& OraclePlanner::futureBodies(const sim::World& world) {
-  rollObstacles(world, world.config().robot.dt / kSubsteps, config_.horizon_periods * kSubsteps);
+  rollObstacles(world, world.config().robot.dt / kSubsteps,
+                (config_.horizon_periods + config_.terminal_periods) * kSubsteps);
   return future_;
+}
+
+bool OraclePlanner::touches(const Vec2& p, double radius, int substep) const {
+  if (wallClearance(p) < radius) return true;
+  for (const Circle& b : future_[static_cast<size_t>(substep)]) {
+    if ((p - b.center).squaredNorm() < (radius + b.radius) * (radius + b.radius)) return true;
+  }
+  return false;
+}
+
+bool OraclePlanner::terminalSafe(const Pose2& pose, const Twist2& twist, const RobotLimits& limits,
+                                 int from_substep) const {
+  const double sub_dt = limits.dt / kSubsteps, radius = limits.radius + config_.clearance_margin_m;
+  const Twist2 held[] = {decelerationCommand(twist, limits), twist, Twist2{twist.v, limits.w_max},
+                         Twist2{twist.v, -limits.w_max}, Twist2{limits.v_max, twist.w}};
+  for (const Twist2& u : held) {
+    Pose2 q = pose;
+    Twist2 v = twist;
+    bool hit = false;
+    for (int s = 0; s < config_.terminal_periods * kSubsteps && !hit; ++s) {
+      v = applyAccelerationLimits(v, u, limits, sub_dt);
+      q = integrateUnicycle(q, v.v, v.w, sub_dt);
+      hit = touches(q.position(), radius, from_substep + s);
+    }
+    if (!hit) return true;
+  }
+  return false;
 }
 
 PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle reads the world itself*/) {
@@ -346,14 +404,7 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
             child.twist = applyAccelerationLimits(child.twist, commands[c], limits, sub_dt * substeps_per_chunk);
           }
           child.pose = integrateUnicycle(child.pose, child.twist.v, child.twist.w, sub_dt);
-          const Vec2 p = child.pose.position();
-          if (wallClearance(p) < radius) hit = true;
-          for (const Circle& b : future_[static_cast<size_t>(depth * kSubsteps + s)]) {
-            if ((p - b.center).squaredNorm() < (radius + b.radius) * (radius + b.radius)) {
-              hit = true;
-              break;
-            }
-          }
+          hit = touches(child.pose.position(), radius, depth * kSubsteps + s);
         }
         if (hit) {
           // The trajectory that stays free longest, should every one collide.
@@ -374,6 +425,9 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
           return d;
         }
         child.cost = t_end + to_go / limits.v_max;
+        if (config_.terminal_periods > 0 && depth == periods - 1 &&
+            !terminalSafe(child.pose, child.twist, limits, periods * kSubsteps))
+          child.cost += kUnsafeEndPenalty_s;
         const int64_t k = keyOf(child);
         const auto it = seen.find(k);
         if (it == seen.end()) {

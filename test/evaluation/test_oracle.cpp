@@ -104,6 +104,58 @@ TEST(Oracle, FindsTheDoorAroundTheWall) {
   EXPECT_EQ(r.outcome, Outcome::kSuccess) << r.last_decision;
 }
 
+TEST(Oracle, TriesFurtherSearchesOnAnEpisodeItsFirstSearchDoesNotSolve) {
+  // The door world without people: a first search that keeps 0.45 m beyond the robot's radius cannot fit through
+  // the 0.9-1.2 m door; a retry that keeps 2 cm goes through, and its record stands.
+  sim::WorldFamilyConfig w;
+  w.family = sim::WorldFamily::kDoorway;
+  w.people = 0;
+  const EvalScenario s = scenarioOf(sim::generateWorld(w, 3), 3);
+  EvalConfig eval;
+  eval.episode = perfectInformation();
+  eval.episode.reward.max_steps = 150;
+  eval.oracle.horizon_periods = 5;
+  eval.oracle.beam_width = 20;
+  eval.oracle.clearance_margin_m = 0.45;
+  const auto run = [&](const std::vector<std::string>& retries) {
+    eval.oracle_retries = retries;
+    EXPECT_EQ(eval.validate(), "");
+    std::unique_ptr<Planner> planner = makeEvalPlanner("oracle", eval);
+    Episode episode(eval.episode);
+    return runEpisode(*planner, episode, "oracle", s, false);
+  };
+  const EpisodeRecord alone = run({});
+  ASSERT_NE(alone.outcome, Outcome::kSuccess) << alone.last_decision;
+  EXPECT_EQ(alone.last_decision.find("(search"), std::string::npos) << alone.last_decision;
+  EXPECT_EQ(alone.last_decision.find("searches failed"), std::string::npos) << alone.last_decision;
+
+  const EpisodeRecord retried = run({"clearance_margin_m=0.3", "clearance_margin_m=0.02"});
+  EXPECT_EQ(retried.outcome, Outcome::kSuccess) << retried.last_decision;
+  EXPECT_NE(retried.last_decision.find("(search 3 of 3)"), std::string::npos) << retried.last_decision;
+  EXPECT_GT(retried.min_clearance_m, 0.0);
+
+  // Every search fails: the first one's record, saying how many were tried.
+  const EpisodeRecord failed = run({"clearance_margin_m=0.4"});
+  EXPECT_EQ(failed.outcome, alone.outcome);
+  EXPECT_EQ(failed.time_s, alone.time_s);
+  EXPECT_NE(failed.last_decision.find("(2 searches failed)"), std::string::npos) << failed.last_decision;
+
+  // Over a prediction the best of several whole runs would be hindsight: no retries there.
+  eval.oracle.true_future_periods = 0;
+  const EpisodeRecord predicted = run({"clearance_margin_m=0.02"});
+  EXPECT_NE(predicted.outcome, Outcome::kSuccess) << predicted.last_decision;
+  EXPECT_EQ(predicted.last_decision.find("(search"), std::string::npos) << predicted.last_decision;
+
+  // A retry that names no parameter, or a bad value, is refused naming the retry.
+  eval.oracle.true_future_periods = -1;
+  eval.oracle_retries = {"beam_width=40", "clearance"};
+  EXPECT_NE(eval.validate().find("oracle retry 'clearance': 'clearance' is not NAME=VALUE"), std::string::npos)
+      << eval.validate();
+  eval.oracle_retries = {"terminal_periods=-1"};
+  EXPECT_NE(eval.validate().find("terminal_periods"), std::string::npos) << eval.validate();
+  EXPECT_THROW(makeEvalPlanner("oracle", eval), EvalError);
+}
+
 /// A fast disc coming straight at a robot at rest that cannot reverse, 0.75 m between their surfaces: contact 0.5 s
 /// after the start, 0.2 s after the first decision (the episode senses 0.3 s first).
 sim::Scenario fastDiscHeadOn() {
@@ -121,6 +173,29 @@ TEST(Oracle, SaysWhenEveryTrajectoryCollides) {
   const EpisodeRecord r = run("oracle", fastDiscHeadOn());
   EXPECT_EQ(r.outcome, Outcome::kCollision);
   EXPECT_NE(r.last_decision.find("collides"), std::string::npos) << r.last_decision;
+}
+
+TEST(Oracle, ChecksTheEndOfASequenceForAWayOnWhenToldTo) {
+  // terminal_periods: the bodies are rolled that much further than the horizon, for the check of each end.
+  OracleConfig c;
+  EXPECT_EQ(setOracleParameter(c, "terminal_periods", "10"), "");
+  EXPECT_EQ(c.terminal_periods, 10);
+  sim::World world(fastDiscHeadOn(), sim::WorldConfig{}, 1);
+  EXPECT_EQ(OraclePlanner(c).futureBodies(world).size(), static_cast<size_t>((20 + 10) * 4));
+  c.terminal_periods = 81;
+  EXPECT_NE(c.validate().find("terminal_periods 81"), std::string::npos) << c.validate();
+  EXPECT_EQ(defaultOracleRetries().front(), "terminal_periods=10");
+  // With the check on, the fast disc is still unavoidable, and a free goal still reached.
+  EvalConfig eval;
+  eval.episode = perfectInformation();
+  eval.oracle.terminal_periods = 10;
+  eval.oracle_retries = {};
+  for (const auto& [scenario, outcome] : {std::make_pair(fastDiscHeadOn(), Outcome::kCollision),
+                                          std::make_pair(emptyRoom({-2.5, 0.0, 0.0}, {2.5, 0.0}), Outcome::kSuccess)}) {
+    std::unique_ptr<Planner> planner = makeEvalPlanner("oracle", eval);
+    Episode episode(eval.episode);
+    EXPECT_EQ(runEpisode(*planner, episode, "oracle", scenarioOf(scenario), false).outcome, outcome);
+  }
 }
 
 TEST(Oracle, ReadsOnlyAsMuchOfTheFutureAsItIsTold) {

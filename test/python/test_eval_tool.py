@@ -123,9 +123,18 @@ def test_the_oracle_runs_beside_the_planners_and_its_share_is_reported(tmp_path)
     assert "s_dovs.oracle_share" in json.load(open(out / "summary.json"))
     for bad, said in ((["--oracle", "beam=3"], "unknown oracle parameter 'beam'"),
                       (["--oracle", "beam_width=0"], "beam_width 0 must be >= 1"),
-                      (["--oracle", "beam_width"], "NAME=VALUE")):
+                      (["--oracle", "beam_width"], "NAME=VALUE"),
+                      (["--oracle-retries", "beam_width=40;horizon"], "--oracle-retries: 'horizon': 'horizon' is not"),
+                      (["--oracle-retries", "horizon_periods=101"], "horizon_periods 101 not in [1, 100]")):
         proc = subprocess.run(cmd[:-2] + bad, capture_output=True, text=True, timeout=60, cwd=ROOT)
         assert proc.returncode == 2 and said in proc.stderr, proc.stderr
+    # The retries are recorded with the run; `none` leaves one search.
+    assert json.load(open(out / "run.json"))["oracle_retries"][0] == "terminal_periods=10"
+    proc = subprocess.run(cmd + ["--oracle-retries", "none", "--methods", "oracle"], capture_output=True, text=True,
+                          timeout=600, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    assert json.load(open(out / "run.json"))["oracle_retries"] == []
+    assert not any("(search" in r["last_decision"] for r in csv.DictReader(open(out / "results.csv")))
 
 
 def test_the_bound_runs_through_the_tool_and_its_bad_arguments_are_named(tmp_path):

@@ -73,6 +73,10 @@ struct EvalConfig {
   ActionShieldConfig shield;
   /// The oracle's search (method `oracle`); its success rule and stepping come from `episode`.
   OracleConfig oracle;
+  /// The oracle's further searches on an episode its first one does not solve (defaultOracleRetries; each
+  /// NAME=VALUE,... applied to `oracle`); empty: one search only. Not used when the oracle reads a prediction
+  /// (true_future_periods >= 0), where the best of several runs would be hindsight.
+  std::vector<std::string> oracle_retries = defaultOracleRetries();
   /// The reachability bound's grid (method `bound`); its success rule, step limit and stepping come from `episode`.
   ReachBoundConfig bound;
   /// Everything about one episode: simulator, tracker, DOVS, reward, perfect_info (false: tracker in the loop).

@@ -32,9 +32,12 @@ struct OracleConfig {
   int window_samples = 2;            ///< lattice steps per half-diagonal of the dynamic window (13 commands at 2)
   double grid_cell_m = 0.1;          ///< clearance field and path-length grid
   double clearance_margin_m = 0.02;  ///< clearance kept beyond touching (m): the search checks 4 instants a period
-  double scan_period_s = 0.1;        ///< the episode steps the world in chunks of this (a velocity change each)
-  double goal_tolerance_m = 0.15;    ///< success as the episode counts it: this close to the goal ...
-  double goal_speed_mps = 0.2;       ///< ... and slower than this
+  /// A sequence's end at the horizon is safe when one of a few held commands (brake, hold, turn either way at full
+  /// rate, speed up) keeps it free this many periods further; unsafe ends rank after every safe one. 0: off.
+  int terminal_periods = 0;
+  double scan_period_s = 0.1;      ///< the episode steps the world in chunks of this (a velocity change each)
+  double goal_tolerance_m = 0.15;  ///< success as the episode counts it: this close to the goal ...
+  double goal_speed_mps = 0.2;     ///< ... and slower than this
   /// Diagnostic (not the ceiling when set): how many control periods of the simulator's true future the search
   /// reads; from then on every obstacle and person goes on at the constant (speed, turn rate) it has at that moment,
   /// as a planner with perfect information could predict it. -1: the whole horizon (the oracle); 0: a constant-
@@ -59,7 +62,17 @@ struct OracleConfig {
   std::string validate() const;
 };
 
-/// Sets one search parameter by name (horizon_periods, beam_width, window_samples, grid_cell_m,
+/// The searches the evaluation's `oracle` tries after its first one on an episode that one did not solve, each as
+/// NAME=VALUE,... applied to the first search's parameters, in order, until one succeeds (dqn_dovs_eval
+/// --oracle-retries): its end checked for a way on (terminal_periods), then longer horizons and wider beams. Each
+/// one is a full episode of its own; the world's future does not depend on the robot, so any search that reaches the
+/// goal shows the episode solvable.
+std::vector<std::string> defaultOracleRetries();
+
+/// Applies NAME=VALUE,... (setOracleParameter for each) to config; "" on success, otherwise why not.
+std::string applyOracleParameters(OracleConfig& config, const std::string& spec);
+
+/// Sets one search parameter by name (horizon_periods, terminal_periods, beam_width, window_samples, grid_cell_m,
 /// clearance_margin_m, true_future_periods, social_prediction: 0 or 1, prediction_growth_mps,
 /// acceleration_prediction_s, learned_prediction: a file); "" on success, otherwise why not (unknown name, not a
 /// number). Call validate() after.
@@ -67,7 +80,9 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
 
 class OraclePlanner : public Planner {
  public:
-  explicit OraclePlanner(const OracleConfig& config = OracleConfig{});
+  /// `retries`: the searches runEpisode tries, each a whole episode, when this one does not reach the goal.
+  explicit OraclePlanner(const OracleConfig& config = OracleConfig{}, std::vector<OracleConfig> retries = {});
+  const std::vector<OracleConfig>& retries() const { return retries_; }
   std::string name() const override { return "oracle"; }
   void reset() override;
   /// The world it may read at the next decision (the episode's, true state). Must be set before decide().
@@ -92,8 +107,13 @@ class OraclePlanner : public Planner {
   double pathToGoal(const Vec2& p) const;
   /// The obstacles' and people's bodies at every physics sub-step of the horizon.
   void rollObstacles(const sim::World& world, double sub_dt, int substeps);
+  /// Whether a robot centred at p touches a wall or a body of physics sub-step `substep` (kept `radius` away).
+  bool touches(const Vec2& p, double radius, int substep) const;
+  /// Whether a node at the horizon stays free for terminal_periods more under one of the held commands.
+  bool terminalSafe(const Pose2& pose, const Twist2& twist, const RobotLimits& limits, int from_substep) const;
 
   OracleConfig config_;
+  std::vector<OracleConfig> retries_;
   const sim::World* world_ = nullptr;
   bool statics_ready_ = false;
   Vec2 goal_ = Vec2::Zero();
