@@ -97,7 +97,7 @@ std::string setOracleParameter(OracleConfig& config, const std::string& name, co
 
 std::vector<std::string> defaultOracleRetries() {
   return {"terminal_periods=10", "horizon_periods=30,beam_width=320",
-          "horizon_periods=30,beam_width=320,terminal_periods=10", "horizon_periods=40,beam_width=640"};
+          "horizon_periods=30,beam_width=320,terminal_periods=10"};
 }
 
 std::string applyOracleParameters(OracleConfig& config, const std::string& spec) {
