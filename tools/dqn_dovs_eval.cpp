@@ -337,12 +337,9 @@ Options parse(int argc, char** argv) {
     });
   }
   if (const std::string e = o.eval.episode.tracker.validate(); !e.empty()) throw UsageError("--tracker: " + e);
-  for (const std::string& spec : o.eval.oracle_retries) {  // each applies to the first search's parameters
-    dqn_dovs::OracleConfig retry = o.eval.oracle;
-    std::string e = dqn_dovs::applyOracleParameters(retry, spec);
-    if (e.empty()) e = retry.validate();
-    if (!e.empty()) throw UsageError("--oracle-retries: '" + spec + "': " + e);
-  }
+  std::vector<dqn_dovs::OracleConfig> retries;  // each applies to the first search's parameters
+  if (const std::string e = dqn_dovs::oracleRetrySearches(o.eval.oracle, o.eval.oracle_retries, retries); !e.empty())
+    throw UsageError("--oracle-retries: " + e);
   if (o.reference.empty()) {
     const auto& m = o.eval.methods;
     o.reference = std::find(m.begin(), m.end(), "dqn_dovs") != m.end() ? "dqn_dovs" : m.front();

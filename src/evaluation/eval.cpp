@@ -22,26 +22,9 @@ namespace dqn_dovs {
 
 namespace {
 
-/// The oracle's searches after the first: each retry applied to `base`. Throws EvalError naming a bad retry.
-std::vector<OracleConfig> oracleRetries(const OracleConfig& base, const std::vector<std::string>& retries) {
+std::string oracleRetriesError(const OracleConfig& base, const std::vector<std::string>& specs) {
   std::vector<OracleConfig> searches;
-  for (const std::string& spec : retries) {
-    OracleConfig c = base;
-    std::string e = applyOracleParameters(c, spec);
-    if (e.empty()) e = c.validate();
-    if (!e.empty()) throw EvalError("oracle retry '" + spec + "': " + e);
-    searches.push_back(c);
-  }
-  return searches;
-}
-
-std::string oracleRetriesError(const OracleConfig& base, const std::vector<std::string>& retries) {
-  try {
-    oracleRetries(base, retries);
-  } catch (const EvalError& e) {
-    return e.what();
-  }
-  return {};
+  return oracleRetrySearches(base, specs, searches);
 }
 
 }  // namespace
@@ -207,9 +190,12 @@ std::unique_ptr<Planner> makeEvalPlanner(const std::string& method, const EvalCo
     oracle.scan_period_s = config.episode.scan_period_s;
     // Retries only where the oracle reads the whole future: over a prediction (a diagnostic of what a planner with
     // it could do) the best of several whole runs would be hindsight.
-    return std::make_unique<OraclePlanner>(oracle, oracle.true_future_periods < 0
-                                                       ? oracleRetries(oracle, config.oracle_retries)
-                                                       : std::vector<OracleConfig>{});
+    std::vector<OracleConfig> retries;
+    if (oracle.true_future_periods < 0) {
+      if (const std::string e = oracleRetrySearches(oracle, config.oracle_retries, retries); !e.empty())
+        throw EvalError(e);
+    }
+    return std::make_unique<OraclePlanner>(oracle, retries);
   }
   if (method == "bound") {
     ReachBoundConfig bound = config.bound;

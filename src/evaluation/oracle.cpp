@@ -113,6 +113,19 @@ std::string applyOracleParameters(OracleConfig& config, const std::string& spec)
   return {};
 }
 
+std::string oracleRetrySearches(const OracleConfig& base, const std::vector<std::string>& specs,
+                                std::vector<OracleConfig>& searches) {
+  searches.clear();
+  for (const std::string& spec : specs) {
+    OracleConfig c = base;
+    std::string e = applyOracleParameters(c, spec);
+    if (e.empty()) e = c.validate();
+    if (!e.empty()) return "oracle retry '" + spec + "': " + e;
+    searches.push_back(c);
+  }
+  return {};
+}
+
 OraclePlanner::OraclePlanner(const OracleConfig& config, std::vector<OracleConfig> retries)
     : config_(config), retries_(std::move(retries)) {
   for (const OracleConfig& r : retries_) {

@@ -124,7 +124,7 @@ def test_the_oracle_runs_beside_the_planners_and_its_share_is_reported(tmp_path)
     for bad, said in ((["--oracle", "beam=3"], "unknown oracle parameter 'beam'"),
                       (["--oracle", "beam_width=0"], "beam_width 0 must be >= 1"),
                       (["--oracle", "beam_width"], "NAME=VALUE"),
-                      (["--oracle-retries", "beam_width=40;horizon"], "--oracle-retries: 'horizon': 'horizon' is not"),
+                      (["--oracle-retries", "beam_width=40;horizon"], "--oracle-retries: oracle retry 'horizon': 'horizon' is not"),
                       (["--oracle-retries", "horizon_periods=101"], "horizon_periods 101 not in [1, 100]")):
         proc = subprocess.run(cmd[:-2] + bad, capture_output=True, text=True, timeout=60, cwd=ROOT)
         assert proc.returncode == 2 and said in proc.stderr, proc.stderr

@@ -72,6 +72,11 @@ std::vector<std::string> defaultOracleRetries();
 /// Applies NAME=VALUE,... (setOracleParameter for each) to config; "" on success, otherwise why not.
 std::string applyOracleParameters(OracleConfig& config, const std::string& spec);
 
+/// The searches of `specs` (each NAME=VALUE,... applied to a copy of `base`) into `searches`; "" on success,
+/// otherwise "oracle retry 'SPEC': why" for the first one that names no parameter or is not valid.
+std::string oracleRetrySearches(const OracleConfig& base, const std::vector<std::string>& specs,
+                                std::vector<OracleConfig>& searches);
+
 /// Sets one search parameter by name (horizon_periods, terminal_periods, beam_width, window_samples, grid_cell_m,
 /// clearance_margin_m, true_future_periods, social_prediction: 0 or 1, prediction_growth_mps,
 /// acceleration_prediction_s, learned_prediction: a file); "" on success, otherwise why not (unknown name, not a
