@@ -13,12 +13,12 @@
 # A run the tool stops (a world it cannot generate) keeps only failed.txt, its error; the others go on, the report
 # shows it as not run and the script exits 1 at the end.
 # Run from anywhere (make benchmark-worlds does); one progress line per run with its wall time. With the defaults
-# (24 runs x 3 methods x 50 episodes) about 16 min on 2 cores. The planners: about 3 min (189 s measured while the
-# machine also compiled; the doorway and junction runs take 15-20 s each, the others 3-8 s). The oracle: about
-# 1500 CPU-s, mostly where it times out (100 s of simulated time, up to 5 CPU-s): measured per episode (dqn_dovs_eval
-# --methods oracle --world W --generate 11001 --obstacles N --episodes 2) at N = 10 room 0.4, crowd 0.6, corridor
-# 0.9, clutter 0.9, junction 1.3 and doorway 3.5 CPU-s; at N = 5 / 15 junction 2.2 / 5.0, doorway 2.8 / 4.2,
-# corridor 0.8 / 0.8, clutter 0.3 / 0.6. So a doorway or junction run takes up to 2 min, the others under 40 s.
+# (24 runs x 3 methods x 50 episodes) about 31 min on 2 cores (1879 s measured). The planners: about 3 min (189 s
+# measured while the machine also compiled). The rest is the oracle, mostly its further searches on the episodes its
+# first search does not solve (docs/planners.md, "Several searches"), each a whole episode of up to 100 s of
+# simulated time: the doorway at N = 15 about 6 min, the corridor, clutter and junction at N = 15 3-3.5 min each, at
+# N = 10 1-3.5 min,
+# the crowds and the room under 1 min.
 # ORACLE=0 leaves it out (about 3 min).
 # The planners see people as the robot's pipeline shows them where legs are paired (every family but the room): moving
 # on the arc of the learned people prediction (dqn_dovs_eval --predict-people; launch/pipeline.launch's default).
