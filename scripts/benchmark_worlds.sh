@@ -17,8 +17,7 @@
 # measured while the machine also compiled). The rest is the oracle, mostly its further searches on the episodes its
 # first search does not solve (docs/planners.md, "Several searches"), each a whole episode of up to 100 s of
 # simulated time: the doorway at N = 15 about 6 min, the corridor, clutter and junction at N = 15 3-3.5 min each, at
-# N = 10 1-3.5 min,
-# the crowds and the room under 1 min.
+# N = 10 1-3.5 min, the crowds and the room under 1 min.
 # ORACLE=0 leaves it out (about 3 min).
 # The planners see people as the robot's pipeline shows them where legs are paired (every family but the room): moving
 # on the arc of the learned people prediction (dqn_dovs_eval --predict-people; launch/pipeline.launch's default).
