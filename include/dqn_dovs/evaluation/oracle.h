@@ -10,8 +10,9 @@
 // corridors and doorways do not trap it.
 //
 // It is not deployable (it reads the simulator's future); it bounds what any planner could do on the same
-// episodes. The search is a beam search: an episode it solves is solvable; one it fails is, with high
-// probability, unsolvable for the robot's kinodynamics (`note` says when every searched trajectory collided).
+// episodes. The search is a beam search: an episode it solves is solvable; one it fails may not be, so the
+// evaluation runs such an episode again with wider searches (defaultOracleRetries) until one solves it (`note` says
+// which, or when every searched trajectory collided).
 #pragma once
 
 #include <cstdint>
@@ -95,8 +96,9 @@ class OraclePlanner : public Planner {
   /// Throws PlannerError when no world was set.
   PlannerDecision decide(const PlannerInput& input) override;
   /// The bodies the search checks against, as decide() computes them from `world`: one list per collision check
-  /// (4 per control period over the horizon; index 0 is a quarter period from now), obstacles then people. With
-  /// acceleration_prediction_s it also remembers the people's velocities, for the next call's acceleration.
+  /// (4 per control period over the horizon and terminal_periods; index 0 is a quarter period from now), obstacles then
+  /// people. With acceleration_prediction_s it also remembers the people's velocities, for the next call's
+  /// acceleration.
   const std::vector<std::vector<Circle>>& futureBodies(const sim::World& world);
 
  private:
