@@ -7,11 +7,12 @@
 # did not solve. It is a ceiling, never a baseline. ORACLE=0 leaves it out. `bound` (the limit from above: the
 # episodes no robot within the limits can solve; it does not depend on the perception) runs once on the same
 # episodes into docs/benchmark/bound/ (about 1 min); BOUND=0 leaves it out.
-# Run from anywhere (make benchmark-table does). With the defaults (2 x 10500 episodes) about 17 min on an idle
-# 2-core machine: 1960 CPU-s. The eight planners: 1000 CPU-s measured from a 2-episode run (tracker 0.065, perfect
-# information 0.042 CPU-s per episode); the oracle: 0.32 CPU-s per episode in either run (measured on N = 1..15,
-# 2 episodes each: dqn_dovs_eval --methods oracle --obstacles 1-15 --episodes 2 --threads 1, 9.6 s), 960 CPU-s. With
-# ORACLE=0 about 10 min. Proportionally longer when the cores are shared.
+# Run from anywhere (make benchmark-table does). With the defaults (2 x 13500 episodes) about 20 min on a 2-core
+# machine (1188 s measured, 2347 CPU-s). The eight planners: 1000 CPU-s measured from a 2-episode run (tracker 0.065,
+# perfect information 0.042 CPU-s per episode); the oracle: the rest, about 0.45 CPU-s per episode in either run, its
+# first search 0.32 (dqn_dovs_eval --methods oracle --obstacles 1-15 --episodes 2 --threads 1, 9.6 s) and its further
+# searches on the 8 % of episodes the first one does not solve (docs/planners.md, "Several searches"). With ORACLE=0
+# about 10 min. Proportionally longer when the cores are shared.
 # Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
 # METHODS (all eight), ORACLE (1: add oracle to METHODS unless it is there; 0: leave it out), BOUND (1: the bound's
 # run; 0: none), DQN_DOVS_EVAL (default
