@@ -34,7 +34,9 @@
 // a wall or piece of furniture, reported moving (>= 0.1 m/s), and the centre and speed RMSE split by the track's
 // state (pos_rmse_young_m / _observed_m / _coasting_m, speed_rmse_observed_mps / _coasting_mps,
 // coasting_pair_fraction; speed_rmse_young_mps and young_pair_fraction for tracks younger than 1 s; the reported
-// radius against the body's, radius_rmse_m and radius_bias_m; TrackingSummary).
+// radius against the body's, radius_rmse_m and radius_bias_m; what constant-velocity coasting could give at best,
+// pos_rmse_cv_bound_m, speed_rmse_cv_bound_mps and their coasting pairs alone, pos_rmse_coasting_cv_bound_m and
+// speed_rmse_coasting_cv_bound_mps; TrackingSummary).
 //
 // --only original|people runs one part; --people-seed B takes the people's worlds from seeds B + k (default 12000);
 // --families LIST (comma-separated) picks the people part's families (default: every family but the room; `room` adds
@@ -418,6 +420,11 @@ int main(int argc, char** argv) {
         figures[key + "speed_rmse_observed_mps"] = r.summary.speed_rmse_observed_mps;
         figures[key + "speed_rmse_coasting_mps"] = r.summary.speed_rmse_coasting_mps;
         figures[key + "coasting_pair_fraction"] = r.summary.coasting_pair_fraction;
+        // What carrying a hidden person at constant velocity could give at best (docs/tracker.md, "Metrics").
+        figures[key + "pos_rmse_coasting_cv_bound_m"] = r.summary.pos_rmse_coasting_cv_bound_m;
+        figures[key + "speed_rmse_coasting_cv_bound_mps"] = r.summary.speed_rmse_coasting_cv_bound_mps;
+        figures[key + "pos_rmse_cv_bound_m"] = r.summary.pos_rmse_cv_bound_m;
+        figures[key + "speed_rmse_cv_bound_mps"] = r.summary.speed_rmse_cv_bound_mps;
         // What a planner reads of tracks just born, left out of speed_rmse_mps (docs/tracker.md, "Metrics").
         figures[key + "speed_rmse_young_mps"] = r.summary.speed_rmse_young_mps;
         figures[key + "young_pair_fraction"] = r.summary.young_pair_fraction;

@@ -73,17 +73,40 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
     const auto hits_before = last_hits_.find(o.id);
     const bool observed = hits_before == last_hits_.end() || o.hits > hits_before->second;
     (observed ? pos_err_observed_ : pos_err_coasting_).push_back(pos_err_.back());
+    // The constant-velocity bound: a coasting pair scored from the truth's state at the track's last measurement.
+    Vec2 bound_velocity = Vec2::Zero();
+    const auto hit = last_hit_scan_.find(o.id);
+    const std::vector<std::pair<Vec2, Vec2>>& history = history_[i];
+    const bool bounded = !observed && hit != last_hit_scan_.end() && hit->second >= first_scan_ &&
+                         hit->second - first_scan_ < history.size();
+    if (bounded) {
+      const std::pair<Vec2, Vec2>& then = history[hit->second - first_scan_];
+      const double dt = static_cast<double>(scans_ - hit->second) * period_s;
+      bound_velocity = then.second;
+      pos_err_coasting_cv_.push_back((then.first + dt * then.second - t.center).norm());
+    } else if (!observed) {
+      pos_err_coasting_cv_.push_back(pos_err_.back());
+    }
     if (t.is_static) {
       static_speed_.push_back(o.speed);
     } else if (t.speed >= config_.moving_speed_mps) {
       speed_err_.push_back(o.speed - t.speed);
       (observed ? speed_err_observed_ : speed_err_coasting_).push_back(speed_err_.back());
+      if (!observed) speed_err_coasting_cv_.push_back(bounded ? bound_velocity.norm() - t.speed : speed_err_.back());
       heading_err_deg_.push_back(std::abs(angleDiff(o.heading, t.heading)) * 180.0 / kPi);
       turn_err_.push_back(o.turn_rate - t.turn_rate);
     }
   }
   false_tracks_ += static_cast<size_t>(std::count(obs_matched.begin(), obs_matched.end(), false));
-  for (const TrackedObstacle& o : scene.obstacles) last_hits_[o.id] = o.hits;
+  for (const TrackedObstacle& o : scene.obstacles) {
+    const auto before = last_hits_.find(o.id);
+    if (before == last_hits_.end() || o.hits > before->second) last_hit_scan_[o.id] = scans_;
+    last_hits_[o.id] = o.hits;
+  }
+  for (size_t i = 0; i < nt; ++i) {
+    const MovingObstacle& t = truths[i];
+    history_[i].emplace_back(t.center, t.speed * Vec2(std::cos(t.heading), std::sin(t.heading)));
+  }
   return truth_to_obs;
 }
 
@@ -113,6 +136,20 @@ TrackingSummary TrackingEvaluator::summary() const {
   s.speed_rmse_coasting_mps = rootMeanSquare(speed_err_coasting_);
   s.coasting_pair_fraction =
       pos_err_.empty() ? nan : static_cast<double>(pos_err_coasting_.size()) / static_cast<double>(pos_err_.size());
+  s.pos_rmse_coasting_cv_bound_m = rootMeanSquare(pos_err_coasting_cv_);
+  s.speed_rmse_coasting_cv_bound_mps = rootMeanSquare(speed_err_coasting_cv_);
+  // Every pair as scored, the coasting ones replaced by their bound (the same count: one bound per coasting pair).
+  const auto replaced = [](const std::vector<double>& all, const std::vector<double>& coasting,
+                           const std::vector<double>& bound) {
+    if (all.empty()) return std::numeric_limits<double>::quiet_NaN();
+    double sum = 0.0;
+    for (double x : all) sum += x * x;
+    for (double x : coasting) sum -= x * x;
+    for (double x : bound) sum += x * x;
+    return std::sqrt(std::max(sum, 0.0) / static_cast<double>(all.size()));
+  };
+  s.pos_rmse_cv_bound_m = replaced(pos_err_, pos_err_coasting_, pos_err_coasting_cv_);
+  s.speed_rmse_cv_bound_mps = replaced(speed_err_, speed_err_coasting_, speed_err_coasting_cv_);
   s.speed_rmse_young_mps = rootMeanSquare(speed_err_young_);
   s.young_pair_fraction =
       pos_err_.empty() ? nan : static_cast<double>(pos_err_young_.size()) / static_cast<double>(pos_err_.size());

@@ -122,3 +122,32 @@ TEST(TrackingMetrics, RadiusErrorIsScoredOverEveryMatchedPairWithItsSign) {
   EXPECT_NEAR(r.radius_rmse_m, std::sqrt((0.01 + 0.0025) / 2.0), 1e-12);
   EXPECT_NEAR(r.radius_bias_m, 0.025, 1e-12);
 }
+
+TEST(TrackingMetrics, CoastingPairsAreBoundedByTheTruthAtTheTracksLastMeasurement) {
+  TrackingEvaluator ev;
+  TrackedScene s;
+  auto hit = [](TrackedObstacle o, int hits) {
+    o.hits = hits;
+    return o;
+  };
+  // Scan 1: measured, 0.1 m off; the truth walks along x at 0.6 m/s.
+  s.obstacles = {hit(track(4, 0.1, 0.0, 0.6, 2.0), 10)};
+  ev.addScan(s, {truth(0.0, 0.0, 0.6)}, {}, 0.1);
+  // Scans 2 and 3: no hit. The truth turns to +y (scan 2) and slows to 0.3 m/s (scan 3); the track goes on along
+  // x at 0.8 m/s. The bound carries the truth of scan 1 on at (0.6, 0): exact at scan 2, 0.085 m off at scan 3.
+  s.obstacles = {hit(track(4, 0.2, 0.0, 0.8, 2.1), 10)};
+  ev.addScan(s, {truth(0.06, 0.0, 0.6, kPi / 2.0)}, {}, 0.1);
+  s.obstacles = {hit(track(4, 0.26, 0.0, 0.8, 2.2), 10)};
+  ev.addScan(s, {truth(0.06, 0.06, 0.3, kPi / 2.0)}, {}, 0.1);
+  const TrackingSummary r = ev.summary();
+  EXPECT_NEAR(r.pos_rmse_coasting_m, std::sqrt((0.14 * 0.14 + 0.0436) / 2.0), 1e-12);
+  EXPECT_NEAR(r.pos_rmse_coasting_cv_bound_m, std::sqrt(0.0072 / 2.0), 1e-12);
+  EXPECT_NEAR(r.pos_rmse_cv_bound_m, std::sqrt((0.01 + 0.0072) / 3.0), 1e-12);
+  EXPECT_NEAR(r.speed_rmse_coasting_mps, std::sqrt((0.04 + 0.25) / 2.0), 1e-12);
+  EXPECT_NEAR(r.speed_rmse_coasting_cv_bound_mps, std::sqrt(0.09 / 2.0), 1e-12);
+  EXPECT_NEAR(r.speed_rmse_cv_bound_mps, std::sqrt(0.09 / 3.0), 1e-12);
+  // A new episode forgets the truths' past: the same id reported again is measured, and nothing is bounded.
+  ev.beginEpisode();
+  ev.addScan(s, {truth(0.06, 0.06, 0.3, kPi / 2.0)}, {}, 0.1);
+  EXPECT_NEAR(ev.summary().pos_rmse_coasting_cv_bound_m, std::sqrt(0.0072 / 2.0), 1e-12);
+}

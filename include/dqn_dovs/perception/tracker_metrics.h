@@ -52,6 +52,16 @@ struct TrackingSummary {
   double speed_rmse_coasting_mps = 0.0;
   /// Share of the matched pairs whose track was coasting.
   double coasting_pair_fraction = 0.0;
+  /// A bound on what constant-velocity coasting can give: each coasting pair scored as if its track had been exact
+  /// at its last measurement (the obstacle's true centre and velocity at that scan) and had gone on at that velocity
+  /// since. pos_rmse_cv_bound_m and speed_rmse_cv_bound_mps are pos_rmse_m and speed_rmse_mps with the coasting pairs
+  /// scored so, the other pairs as they are; the _coasting_ figures are the coasting pairs alone. What is left in
+  /// them is how the hidden obstacle's motion changed, which no measurement showed; for a track carried at constant
+  /// velocity (people) the rest of its coasting error is the error of its state at that last measurement.
+  double pos_rmse_coasting_cv_bound_m = 0.0;
+  double speed_rmse_coasting_cv_bound_mps = 0.0;
+  double pos_rmse_cv_bound_m = 0.0;
+  double speed_rmse_cv_bound_mps = 0.0;
   /// The speed error of the tracks younger than min_track_age_s (left out of speed_rmse_mps), matched to obstacles
   /// moving at least moving_speed_mps, and the share of the matched pairs whose track is that young: what a planner
   /// reads of a track just born (a person found again after their track was dropped starts here).
@@ -73,6 +83,9 @@ class TrackingEvaluator {
     last_id_.clear();
     last_scan_.clear();
     last_hits_.clear();
+    last_hit_scan_.clear();
+    history_.clear();
+    first_scan_ = scans_ + 1;
   }
 
   /// Scores one scan. truths[k] is true obstacle k (stable index within the episode; is_static marks the
@@ -86,12 +99,16 @@ class TrackingEvaluator {
 
  private:
   TrackingMetricsConfig config_;
-  std::map<size_t, int> last_id_;       // truth index -> last matched track id in this episode
-  std::map<size_t, size_t> last_scan_;  // truth index -> scan number of its last match
-  std::map<int, int> last_hits_;        // track id -> its hit count when last reported in this episode
+  std::map<size_t, int> last_id_;        // truth index -> last matched track id in this episode
+  std::map<size_t, size_t> last_scan_;   // truth index -> scan number of its last match
+  std::map<int, int> last_hits_;         // track id -> its hit count when last reported in this episode
+  std::map<int, size_t> last_hit_scan_;  // track id -> the scan at which its hit count last grew
+  // truth index -> its true (centre, velocity) at every scan of this episode, index = scan number - first_scan_
+  std::map<size_t, std::vector<std::pair<Vec2, Vec2>>> history_;
+  size_t first_scan_ = 1;
   std::vector<double> pos_err_, speed_err_, heading_err_deg_, turn_err_, static_speed_;
   std::vector<double> pos_err_young_, pos_err_observed_, pos_err_coasting_, speed_err_observed_, speed_err_coasting_,
-      speed_err_young_, radius_err_;
+      speed_err_young_, radius_err_, pos_err_coasting_cv_, speed_err_coasting_cv_;
   size_t scans_ = 0, false_tracks_ = 0, should_see_ = 0, missed_ = 0, switches_ = 0, crowded_switches_ = 0,
          gap_switches_ = 0, pairs_ = 0;
   double truth_minutes_ = 0.0;
