@@ -64,6 +64,14 @@ std::string TrackerConfig::validate() const {
     return badField("structure_max_fraction", structure_max_fraction, "must be in (0, 1]");
   if (leg_min_points < 1) return badField("leg_min_points", leg_min_points, "must be >= 1");
   if (!positive(lone_leg_std_m)) return badField("lone_leg_std_m", lone_leg_std_m, "must be > 0 (m)");
+  if (!nonNegative(hip_half_width_m)) return badField("hip_half_width_m", hip_half_width_m, "must be >= 0 (m)");
+  if (!positive(gait_step_base_m)) return badField("gait_step_base_m", gait_step_base_m, "must be > 0 (m)");
+  if (!nonNegative(gait_step_per_speed_s))
+    return badField("gait_step_per_speed_s", gait_step_per_speed_s, "must be >= 0 (s)");
+  if (!nonNegative(gait_rate_std)) return badField("gait_rate_std", gait_rate_std, "must be >= 0");
+  if (!positive(gait_offset_std_m)) return badField("gait_offset_std_m", gait_offset_std_m, "must be > 0 (m)");
+  if (!nonNegative(gait_memory_s)) return badField("gait_memory_s", gait_memory_s, "must be >= 0 (s)");
+  if (!positive(gait_min_speed_mps)) return badField("gait_min_speed_mps", gait_min_speed_mps, "must be > 0 (m/s)");
   if (!nonNegative(merged_legs_max_span_m))
     return badField("merged_legs_max_span_m", merged_legs_max_span_m, "must be >= 0 (m); 0 disables");
   if (!positive(merged_legs_max_radius_m))
@@ -162,6 +170,14 @@ const std::vector<TrackerField>& trackerFields() {
       {"merged_legs_max_span", &TrackerConfig::merged_legs_max_span_m},
       {"merged_legs_max_radius", &TrackerConfig::merged_legs_max_radius_m},
       {"merged_legs_std", &TrackerConfig::merged_legs_std_m},
+      {"gait_model", nullptr, nullptr, &TrackerConfig::gait_model},
+      {"hip_half_width", &TrackerConfig::hip_half_width_m},
+      {"gait_step_base", &TrackerConfig::gait_step_base_m},
+      {"gait_step_per_speed", &TrackerConfig::gait_step_per_speed_s},
+      {"gait_rate_std", &TrackerConfig::gait_rate_std},
+      {"gait_offset_std", &TrackerConfig::gait_offset_std_m},
+      {"gait_memory", &TrackerConfig::gait_memory_s},
+      {"gait_min_speed", &TrackerConfig::gait_min_speed_mps},
       {"structure_memory", &TrackerConfig::structure_memory_s},
       {"structure_cell", &TrackerConfig::structure_cell_m},
       {"structure_min_scans", nullptr, &TrackerConfig::structure_min_scans},
@@ -502,6 +518,60 @@ bool ObstacleTracker::mergedWithAnotherTrack(size_t i, const std::vector<int>& t
   return false;
 }
 
+GaitParams ObstacleTracker::gaitParams() const {
+  GaitParams g;
+  g.step_base_m = config_.gait_step_base_m;
+  g.step_per_speed_s = config_.gait_step_per_speed_s;
+  g.rate_std = config_.gait_rate_std;
+  g.offset_std_m = config_.gait_offset_std_m;
+  return g;
+}
+
+void ObstacleTracker::updateGait(Track& track, const CircleDetection& detection, double stamp_s) const {
+  if (!config_.pair_legs || !config_.gait_model || !detection.paired_legs || track.hits < 2) return;
+  const Vec2 v = track.ekf.velocity();
+  const double speed = v.norm();
+  if (speed < config_.gait_min_speed_mps) {
+    track.gait.reset();  // standing, or too slow to know which way is forward
+    return;
+  }
+  const Vec2 forward = v / speed, left(-forward.y(), forward.x());
+  // The left leg is the one on the left of the walking direction: the pair's first leg or the second.
+  const Vec2 left_leg = detection.leg_offset.dot(left) >= 0.0 ? detection.leg_offset : Vec2(-detection.leg_offset);
+  track.gait.update(left_leg.dot(forward), speed, stamp_s, config_.gait_memory_s, gaitParams());
+}
+
+void ObstacleTracker::placeLoneLeg(const Track& track, const CircleDetection& detection, double stamp_s, Vec2& z,
+                                   Eigen::Matrix2d& r) const {
+  if (!config_.pair_legs || !config_.gait_model || !detection.lone_leg || track.hits < 2 || !track.gait.active() ||
+      stamp_s - track.gait.stamp() > config_.gait_memory_s) {
+    return;
+  }
+  const Vec2 v = track.ekf.velocity();
+  const double speed = v.norm();
+  if (speed < config_.gait_min_speed_mps) return;
+  const Vec2 forward = v / speed, left(-forward.y(), forward.x());
+  double swing = 0.0, swing_var = 0.0;
+  track.gait.predict(speed, stamp_s, gaitParams(), swing, swing_var);
+  // The left leg's predicted offset from the body's centre; the right leg's is its negative.
+  const Vec2 d = config_.hip_half_width_m * left + swing * forward;
+  const double base_var = config_.gait_offset_std_m * config_.gait_offset_std_m;
+  const Eigen::Matrix2d along = forward * forward.transpose();
+  // Which leg it is: each hypothesis weighed by how well the body it implies fits the track's prediction.
+  const Eigen::Matrix2d spread =
+      track.ekf.covariance().topLeftCorner<2, 2>() + swing_var * along + base_var * Eigen::Matrix2d::Identity();
+  const Eigen::Matrix2d information = spread.inverse();
+  const Vec2 c = track.ekf.position();
+  const Vec2 if_left = z - d - c, if_right = z + d - c;
+  const double w_left =
+      1.0 / (1.0 + std::exp(0.5 * if_left.dot(information * if_left) - 0.5 * if_right.dot(information * if_right)));
+  if (!std::isfinite(w_left)) return;
+  // The two-body mixture by its mean and covariance.
+  const double k = 2.0 * w_left - 1.0;
+  z -= k * d;
+  r = base_var * Eigen::Matrix2d::Identity() + swing_var * along + (1.0 - k * k) * d * d.transpose();
+}
+
 void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection, double stamp_s, bool maneuver) {
   // An object's arc cut short by a passing leg, or a leg beside it, can look like legs: among its own returns.
   const bool as_object = detection.from_legs && config_.objects_refit_leg_detections && isObjectTrack(track);
@@ -527,8 +597,9 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
       }
     }
   }
-  const Vec2 z = measured.circle.center;
-  const Eigen::Matrix2d r = measurementCovariance(measured);
+  Vec2 z = measured.circle.center;
+  Eigen::Matrix2d r = measurementCovariance(measured);
+  if (!as_object) placeLoneLeg(track, detection, stamp_s, z, r);
   const bool stood_still = track.stationary;
   const Vec2 rest_position = track.stationary_position;
   const Vec2 previous_z = track.recent_hits.empty() ? z : track.recent_hits.back().second;
@@ -571,6 +642,7 @@ void ObstacleTracker::updateTrack(Track& track, const CircleDetection& detection
     track.ekf.updateStandingStill(config_.stationary_speed_std_mps, config_.stationary_turn_rate_std_rps);
   }
   track.ekf.clampTurnRate(config_.max_turn_rate_rps);
+  if (!as_object) updateGait(track, detection, stamp_s);
   track.hits += 1;
   (detection.from_legs ? track.leg_hits : track.object_hits) += 1;
   track.last_hit_s = stamp_s;

@@ -247,6 +247,8 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
     person.fit_rms_m = std::max(circles[p.a].fit_rms_m, circles[p.b].fit_rms_m);
     person.free_fit = true;  // its radius speaks for the person
     person.from_legs = true;
+    person.paired_legs = true;
+    person.leg_offset = 0.5 * (ca - cb);
     person.points = std::move(circles[p.a].points);  // both legs are used up: their returns move to the person
     person.points.insert(person.points.end(), circles[p.b].points.begin(), circles[p.b].points.end());
     out.push_back(person);
@@ -262,6 +264,7 @@ void pairLegs(const TrackerConfig& config, std::vector<CircleDetection>& circles
     person.fit_rms_m = std::max(circles[i].fit_rms_m, config.lone_leg_std_m);
     person.free_fit = true;
     person.from_legs = true;
+    person.lone_leg = true;
     person.points = std::move(circles[i].points);
     out.push_back(person);
   }

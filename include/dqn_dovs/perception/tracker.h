@@ -13,6 +13,7 @@
 #include "dqn_dovs/common/geometry.h"
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/perception/ctrv_ekf.h"
+#include "dqn_dovs/perception/gait.h"
 #include "dqn_dovs/perception/known_structure.h"
 #include "dqn_dovs/perception/static_map.h"
 
@@ -99,6 +100,27 @@ struct TrackerConfig {
   double merged_legs_max_radius_m = 0.18;
   /// Standard deviation of a person's centre placed on two merged legs (m).
   double merged_legs_std_m = 0.06;
+  /// Among people: a lone leg is placed back on its body by the person's gait (GaitFilter, gait.h), learned from the
+  /// pairs of legs: the leg stands hip_half_width_m to one side of the body's centre line and, along the walking
+  /// direction, where the gait's swing puts it; which of the two legs it is, is weighed by how well each fits the
+  /// track's prediction. Applies to a track walking at gait_min_speed_mps or more whose last pair of legs is at most
+  /// gait_memory_s old; other lone legs are taken as before (lone_leg_std_m).
+  bool gait_model = true;
+  /// Lateral offset of each leg from the body's centre line (m).
+  double hip_half_width_m = 0.1;
+  /// Step length at walking speed v: gait_step_base_m + gait_step_per_speed_s * v (m); two steps are one cycle.
+  double gait_step_base_m = 0.3;
+  double gait_step_per_speed_s = 0.3;
+  /// Prior spread of the log of a person's cadence against that nominal one, learned per track (0: nominal only).
+  double gait_rate_std = 0.25;
+  /// Standard deviation of a leg pair's offset along the walking direction, and of a lone leg placed by the gait
+  /// (m; the uncertainty of the predicted swing is added to the latter).
+  double gait_offset_std_m = 0.03;
+  /// A lone leg is placed by the gait at most this long after the track's last pair of legs, and a pair after a
+  /// longer gap starts the gait again (s).
+  double gait_memory_s = 1.0;
+  /// Slowest walking speed whose gait is followed (m/s): the direction of walking must be known.
+  double gait_min_speed_mps = 0.3;
 
   // --- static structure ---------------------------------------------------------------------------------
   /// Memory of the walls seen (StaticMap): a circle detection with at least structure_max_fraction of its
@@ -308,6 +330,12 @@ struct CircleDetection {
   /// A person seen by their legs (TrackerConfig::pair_legs): its centre is the body's, placed from the legs, not a
   /// circle fitted to `points` (the legs' returns).
   bool from_legs = false;
+  /// A person placed on one leg alone (the other hidden or not found).
+  bool lone_leg = false;
+  /// A person placed between both legs; leg_offset is half the first leg's centre minus the second's (the first leg's
+  /// offset from the body's centre, the second's being its negative).
+  bool paired_legs = false;
+  Vec2 leg_offset = Vec2::Zero();
 };
 
 /// Everything found in one scan (fixed frame); the tracker keeps the last one for display.
@@ -409,8 +437,17 @@ class ObstacleTracker {
     /// The last scan saw through where it stands (seenThrough, a held object) or showed its disc empty
     /// (seenClearThrough, a coasting track; TrackerConfig::drop_seen_through): it is dropped.
     bool seen_through = false;
+    /// Among people: the gait seen in the pairs of legs (TrackerConfig::gait_model).
+    GaitFilter gait;
   };
 
+  /// A lone leg's detection as a measurement of the track's body (TrackerConfig::gait_model): z and r are the
+  /// detection's centre and covariance on entry and the body's on return; unchanged when the gait does not apply.
+  void placeLoneLeg(const Track& track, const CircleDetection& detection, double stamp_s, Vec2& z,
+                    Eigen::Matrix2d& r) const;
+  /// Feeds a pair of legs to the track's gait (after its filter's update), or forgets the gait of a track too slow.
+  void updateGait(Track& track, const CircleDetection& detection, double stamp_s) const;
+  GaitParams gaitParams() const;
   /// Among people (pair_legs), an object rather than a person: hit three times or more, at least as often by non-leg
   /// detections as by legs.
   bool isObjectTrack(const Track& track) const {
