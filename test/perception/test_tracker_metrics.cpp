@@ -31,6 +31,12 @@ TrackedObstacle track(int id, double x, double y, double speed, double age_s, do
   return o;
 }
 
+/// `o` with its hit count set (a count that grows between two scans says the track was measured).
+TrackedObstacle hit(TrackedObstacle o, int hits) {
+  o.hits = hits;
+  return o;
+}
+
 }  // namespace
 
 TEST(TrackingMetrics, ErrorsSwitchesFalseAndMissed) {
@@ -82,10 +88,6 @@ TEST(TrackingMetrics, EpisodesDoNotShareIds) {
 TEST(TrackingMetrics, ErrorsAreSplitIntoYoungObservedAndCoastingTracks) {
   TrackingEvaluator ev;
   TrackedScene s;
-  auto hit = [](TrackedObstacle o, int hits) {
-    o.hits = hits;
-    return o;
-  };
   // Scan 1: id 1 young (0.1 m off); id 2 old, reported for the first time: observed (0.2 m off, speed +0.1).
   // Id 3 young on a mover (on its centre, speed +0.3: young pairs have a speed error of their own).
   s.obstacles = {hit(track(1, 0.1, 0.0, 0.0, 0.5), 3), hit(track(2, 5.2, 0.0, 0.7, 2.0), 20),
@@ -126,10 +128,6 @@ TEST(TrackingMetrics, RadiusErrorIsScoredOverEveryMatchedPairWithItsSign) {
 TEST(TrackingMetrics, CoastingPairsAreBoundedByTheTruthAtTheTracksLastMeasurement) {
   TrackingEvaluator ev;
   TrackedScene s;
-  auto hit = [](TrackedObstacle o, int hits) {
-    o.hits = hits;
-    return o;
-  };
   // Scan 1: measured, 0.1 m off; the truth walks along x at 0.6 m/s.
   s.obstacles = {hit(track(4, 0.1, 0.0, 0.6, 2.0), 10)};
   ev.addScan(s, {truth(0.0, 0.0, 0.6)}, {}, 0.1);
