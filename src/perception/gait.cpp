@@ -27,6 +27,15 @@ Eigen::Matrix2d oscillator(double w, double dt) {
   return f;
 }
 
+/// w times the derivative of oscillator(w, dt) by w: how the transition changes with the log of the rate.
+Eigen::Matrix2d oscillatorByLogRate(double w, double dt) {
+  if (w < 1e-6) return Eigen::Matrix2d::Zero();
+  const double c = std::cos(w * dt), s = std::sin(w * dt);
+  Eigen::Matrix2d d;
+  d << -dt * s, (dt * c * w - s) / (w * w), -s - w * dt * c, -dt * s;
+  return w * d;
+}
+
 }  // namespace
 
 double gaitNominalRate(double speed_mps, const GaitParams& params) {
@@ -36,22 +45,13 @@ double gaitNominalRate(double speed_mps, const GaitParams& params) {
 
 void GaitFilter::propagate(double speed_mps, double dt, const GaitParams& params, State& x, Covariance& p) const {
   if (!(dt > 0.0)) return;
-  const double nominal = gaitNominalRate(speed_mps, params);
-  auto move = [&](const State& from) {
-    State to = from;
-    to.head<2>() = oscillator(nominal * std::exp(from(2)), dt) * from.head<2>();
-    return to;
-  };
-  const State x0 = x;
-  x = move(x0);
-  // Jacobian: the oscillator's block, and the cadence's column by a central difference.
+  const double w = gaitNominalRate(speed_mps, params) * std::exp(x(2));
+  const Eigen::Matrix2d transition = oscillator(w, dt);
+  // Jacobian: the oscillator's block, and the cadence's column.
   Covariance f = Covariance::Identity();
-  f.topLeftCorner<2, 2>() = oscillator(nominal * std::exp(x0(2)), dt);
-  constexpr double h = 1e-5;
-  State up = x0, down = x0;
-  up(2) += h;
-  down(2) -= h;
-  f.block<2, 1>(0, 2) = (move(up).head<2>() - move(down).head<2>()) / (2.0 * h);
+  f.topLeftCorner<2, 2>() = transition;
+  f.block<2, 1>(0, 2) = oscillatorByLogRate(w, dt) * x.head<2>();
+  x.head<2>() = transition * x.head<2>();
   Covariance q = Covariance::Zero();
   const double a2 = kSwingAccelNoise * kSwingAccelNoise;
   q(0, 0) = 0.25 * dt * dt * dt * dt * a2;

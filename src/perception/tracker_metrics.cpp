@@ -73,26 +73,24 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
     const auto hits_before = last_hits_.find(o.id);
     const bool observed = hits_before == last_hits_.end() || o.hits > hits_before->second;
     (observed ? pos_err_observed_ : pos_err_coasting_).push_back(pos_err_.back());
-    // The constant-velocity bound: a coasting pair scored from the truth's state at the track's last measurement.
-    Vec2 bound_velocity = Vec2::Zero();
-    const auto hit = last_hit_scan_.find(o.id);
-    const std::vector<std::pair<Vec2, Vec2>>& history = history_[i];
-    const bool bounded = !observed && hit != last_hit_scan_.end() && hit->second >= first_scan_ &&
-                         hit->second - first_scan_ < history.size();
-    if (bounded) {
-      const std::pair<Vec2, Vec2>& then = history[hit->second - first_scan_];
-      const double dt = static_cast<double>(scans_ - hit->second) * period_s;
-      bound_velocity = then.second;
-      pos_err_coasting_cv_.push_back((then.first + dt * then.second - t.center).norm());
-    } else if (!observed) {
-      pos_err_coasting_cv_.push_back(pos_err_.back());
+    // The constant-velocity bound: a coasting pair scored from the truth's state at the track's last measurement
+    // (as the tracker scored it when that state is unknown: the truth appeared after that measurement).
+    const std::pair<Vec2, Vec2>* then = nullptr;
+    if (!observed) {
+      const auto hit = last_hit_scan_.find(o.id);
+      const auto past = history_.find(i);
+      if (hit != last_hit_scan_.end() && past != history_.end()) then = past->second.at(hit->second);
+      const double dt = then != nullptr ? static_cast<double>(scans_ - hit->second) * period_s : 0.0;
+      pos_err_coasting_cv_.push_back(then != nullptr ? (then->first + dt * then->second - t.center).norm()
+                                                     : pos_err_.back());
     }
     if (t.is_static) {
       static_speed_.push_back(o.speed);
     } else if (t.speed >= config_.moving_speed_mps) {
       speed_err_.push_back(o.speed - t.speed);
       (observed ? speed_err_observed_ : speed_err_coasting_).push_back(speed_err_.back());
-      if (!observed) speed_err_coasting_cv_.push_back(bounded ? bound_velocity.norm() - t.speed : speed_err_.back());
+      if (!observed)
+        speed_err_coasting_cv_.push_back(then != nullptr ? then->second.norm() - t.speed : speed_err_.back());
       heading_err_deg_.push_back(std::abs(angleDiff(o.heading, t.heading)) * 180.0 / kPi);
       turn_err_.push_back(o.turn_rate - t.turn_rate);
     }
@@ -105,7 +103,9 @@ std::vector<int> TrackingEvaluator::addScan(const TrackedScene& scene, const std
   }
   for (size_t i = 0; i < nt; ++i) {
     const MovingObstacle& t = truths[i];
-    history_[i].emplace_back(t.center, t.speed * Vec2(std::cos(t.heading), std::sin(t.heading)));
+    TruthHistory& past = history_[i];
+    if (past.states.empty()) past.first_scan = scans_;
+    past.states.emplace_back(t.center, t.speed * Vec2(std::cos(t.heading), std::sin(t.heading)));
   }
   return truth_to_obs;
 }

@@ -149,3 +149,17 @@ TEST(TrackingMetrics, CoastingPairsAreBoundedByTheTruthAtTheTracksLastMeasuremen
   ev.addScan(s, {truth(0.06, 0.06, 0.3, kPi / 2.0)}, {}, 0.1);
   EXPECT_NEAR(ev.summary().pos_rmse_coasting_cv_bound_m, std::sqrt(0.0072 / 2.0), 1e-12);
 }
+
+TEST(TrackingMetrics, TheBoundReadsATruthThatAppearedLateAtItsOwnScans) {
+  TrackingEvaluator ev;
+  TrackedScene s;
+  // Scan 1: one truth, still. Scan 2: a second truth appears at (5, 0) walking along +x at 1 m/s, measured. Scan 3:
+  // its track coasts; the truth turned to +y. The bound carries the scan-2 state: (5.1, 0) against (5, 0.1).
+  s.obstacles = {hit(track(1, 0.0, 0.0, 0.0, 2.0), 10)};
+  ev.addScan(s, {truth(0, 0, 0.0)}, {}, 0.1);
+  s.obstacles = {hit(track(1, 0.0, 0.0, 0.0, 2.1), 11), hit(track(2, 5.0, 0.0, 1.0, 2.0), 10)};
+  ev.addScan(s, {truth(0, 0, 0.0), truth(5.0, 0.0, 1.0)}, {}, 0.1);
+  s.obstacles = {hit(track(1, 0.0, 0.0, 0.0, 2.2), 12), hit(track(2, 5.1, 0.0, 1.0, 2.1), 10)};
+  ev.addScan(s, {truth(0, 0, 0.0), truth(5.0, 0.1, 1.0, kPi / 2.0)}, {}, 0.1);
+  EXPECT_NEAR(ev.summary().pos_rmse_coasting_cv_bound_m, std::sqrt(0.02), 1e-12);
+}

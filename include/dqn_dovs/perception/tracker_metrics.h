@@ -85,7 +85,6 @@ class TrackingEvaluator {
     last_hits_.clear();
     last_hit_scan_.clear();
     history_.clear();
-    first_scan_ = scans_ + 1;
   }
 
   /// Scores one scan. truths[k] is true obstacle k (stable index within the episode; is_static marks the
@@ -103,9 +102,15 @@ class TrackingEvaluator {
   std::map<size_t, size_t> last_scan_;   // truth index -> scan number of its last match
   std::map<int, int> last_hits_;         // track id -> its hit count when last reported in this episode
   std::map<int, size_t> last_hit_scan_;  // track id -> the scan at which its hit count last grew
-  // truth index -> its true (centre, velocity) at every scan of this episode, index = scan number - first_scan_
-  std::map<size_t, std::vector<std::pair<Vec2, Vec2>>> history_;
-  size_t first_scan_ = 1;
+  // A truth's true (centre, velocity) at every scan since it first appeared in this episode.
+  struct TruthHistory {
+    size_t first_scan = 0;
+    std::vector<std::pair<Vec2, Vec2>> states;  // states[k]: at scan first_scan + k
+    const std::pair<Vec2, Vec2>* at(size_t scan) const {
+      return scan >= first_scan && scan - first_scan < states.size() ? &states[scan - first_scan] : nullptr;
+    }
+  };
+  std::map<size_t, TruthHistory> history_;  // truth index -> its history
   std::vector<double> pos_err_, speed_err_, heading_err_deg_, turn_err_, static_speed_;
   std::vector<double> pos_err_young_, pos_err_observed_, pos_err_coasting_, speed_err_observed_, speed_err_coasting_,
       speed_err_young_, radius_err_, pos_err_coasting_cv_, speed_err_coasting_cv_;
