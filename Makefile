@@ -20,10 +20,11 @@ help:
 	@echo "make fuzz    libFuzzer targets (fuzz/), FUZZ_SECONDS=600 each (make fuzz FUZZ_TARGETS=scenario for one)"
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
-	@echo "make benchmark-table  docs/benchmark.md: every method on the shared scenarios, tracker and perfect information, with the oracle and the bound (EPISODES=100, ORACLE=0 / BOUND=0 without them)"
+	@echo "make benchmark-table  docs/benchmark.md: every method on the package's room scenarios (SCENARIOS=DIR: another set, e.g. the external RUMOR set, docs/external_benchmark.md; PAPER=CSV: the paper's table beside), tracker and perfect information, with the oracle and the bound (EPISODES=100, ORACLE=0 / BOUND=0 without them)"
 	@echo "make benchmark-worlds  docs/benchmark_worlds.md: dqn_dovs vs s_dovs (and the oracle) on every world family, LIDAR profile and people model (EPISODES=50, ORACLE=0 without the oracle)"
 	@echo "make select-model RUN=runs/NAME  rank a training run's snapshots on held-out generated scenarios"
-	@echo "make demo    the ROS pipeline in simulation on shared scenarios (WORLD=clutter: a building world with people)"
+	@echo "make demo    the ROS pipeline in simulation on the package's demo scenarios (WORLD=clutter: a building world with people)"
+	@echo "make clean-clone-demo  clone the committed HEAD into an empty temporary folder and run make demo there (the repository stands alone)"
 	@echo "make soak    the full pipeline in real time over random scenarios for SOAK_SECONDS (3600) s: crashes, RSS, deadlines"
 
 setup:
@@ -53,7 +54,7 @@ performance-report: setup
 	@PYTHONPATH=$(CURDIR)/python MPLBACKEND=Agg .venv/bin/python -m dqn_dovs_py.performance_report --benches "$(BENCHES)"
 
 benchmark-table: build
-	@bash scripts/benchmark_table.sh
+	@SCENARIOS="$(SCENARIOS)" PAPER="$(PAPER)" bash scripts/benchmark_table.sh
 
 .PHONY: benchmark-worlds
 benchmark-worlds: build
@@ -70,6 +71,10 @@ bench-run-%:
 
 demo: build
 	@WORLD="$(WORLD)" bash scripts/demo.sh
+
+.PHONY: clean-clone-demo
+clean-clone-demo:
+	@bash scripts/clean_clone_demo.sh
 
 soak: build
 	@SOAK_SECONDS=$(SOAK_SECONDS) bash scripts/soak.sh

@@ -46,7 +46,7 @@ struct Tally {
 
 int main(int argc, char** argv) {
   EvalConfig config;
-  config.scenarios_dir = "../shared/scenarios/rumor";
+  config.scenarios_dir = dqn_dovs::sim::kDefaultScenariosDir;
   config.episodes = 20;
   std::string out_path = "bench/results/baselines.json";
   for (int i = 1; i < argc; ++i) {

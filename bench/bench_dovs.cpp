@@ -26,7 +26,7 @@ namespace {
 using namespace dqn_dovs;
 
 struct Args {
-  std::string scenarios = "../shared/scenarios/rumor";
+  std::string scenarios = dqn_dovs::sim::kDefaultScenariosDir;
   std::string out = "bench/results/dovs.json";
   int scenes = 1500;
   unsigned long seed = 7;

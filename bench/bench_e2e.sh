@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End-to-end latency of the ROS pipeline: simulator_node (wall clock, 10 Hz scans of a shared scenario) ->
+# End-to-end latency of the ROS pipeline: simulator_node (wall clock, 10 Hz scans of one of the package's scenarios) ->
 # obstacle_tracker_node -> dovs_node -> planner_node as launch/pipeline.launch starts them, twice: each node its
 # own process, then the three as nodelets in one manager (nodelets:=true). planner_node publishes on
 # planner/latency, for every velocity space it chooses an action for, the time from the stamp of the scan
@@ -8,7 +8,7 @@
 # next control tick (every 0.2 s, by design), which this figure leaves out.
 # Run from the repository root (scripts/bench.sh does): bash bench/bench_e2e.sh bench/results/e2e.json
 # Environment: DQN_DOVS_SETUP (default install/setup.sh), ROS_PORT (11474), DURATION (40 s of sampling),
-# SCENARIO (a .dovs file; default rumor/1-8/3).
+# SCENARIO (a .dovs file; default data/scenarios/room/1-8/3).
 set -euo pipefail
 out_json="${1:-bench/results/e2e.json}"
 root="$(pwd)"
@@ -16,7 +16,7 @@ root="$(pwd)"
 . "$root/scripts/env.sh"
 setup="${DQN_DOVS_SETUP:-install/setup.sh}"
 [ -f "$setup" ] || { echo "bench_e2e: $setup does not exist; run 'make build' (or set DQN_DOVS_SETUP)" >&2; exit 2; }
-scenario="$(realpath -m "${SCENARIO:-$root/../shared/scenarios/rumor/1-8/3.dovs}")"
+scenario="$(realpath -m "${SCENARIO:-$root/data/scenarios/room/1-8/3.dovs}")"
 [ -f "$scenario" ] || { echo "bench_e2e: scenario $scenario does not exist" >&2; exit 2; }
 model="$root/models/dqn_dovs.dqnw"
 port="${ROS_PORT:-11474}"

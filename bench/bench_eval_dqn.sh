@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# DQN-DOVS (models/dqn_dovs.dqnw) and S-DOVS over the shared evaluation scenarios (1..15 obstacles, tracker in
+# DQN-DOVS (models/dqn_dovs.dqnw) and S-DOVS over the package's room scenarios (SCENARIOS=DIR for another set) (1..15 obstacles, tracker in
 # the loop) with the evaluation CLI; writes to the JSON path $1 the flat figures of dqn_dovs (success_mean,
 # success_1..success_15, collision_mean, timeout_mean, danger_frequency), s_dovs_success_mean,
 # time_ratio_vs_sdovs (s_dovs's total time over dqn_dovs's on the episodes both solved), episodes_per_count,
@@ -26,7 +26,7 @@ export LD_LIBRARY_PATH="$(pwd)/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 out_dir="bench/results/eval-dqn"
 mkdir -p "$out_dir" "$(dirname "$out_json")"
 start=$(date +%s.%N)
-"$exe" --methods dqn_dovs,s_dovs --model "$model" --scenarios ../shared/scenarios/rumor --obstacles "$obstacles" \
+"$exe" --methods dqn_dovs,s_dovs --model "$model" --scenarios "${SCENARIOS:-data/scenarios/room}" --obstacles "$obstacles" \
   --episodes "$episodes" --threads 2 --trajectories 0 --out "$out_dir/"
 end=$(date +%s.%N)
 PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs_py.eval_figures --eval-dir "$out_dir" --method dqn_dovs --rival s_dovs \

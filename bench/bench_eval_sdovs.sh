@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# S-DOVS over the shared evaluation scenarios (1..15 obstacles, tracker in the loop) with the evaluation CLI;
+# S-DOVS over the package's room scenarios (SCENARIOS=DIR for another set) (1..15 obstacles, tracker in the loop) with the evaluation CLI;
 # writes the flat figures (success_mean, success_1..success_15, episodes_per_count, wall_s) to the JSON path $1.
 # Run from the repository root (scripts/bench.sh does): bash bench/bench_eval_sdovs.sh bench/results/eval-sdovs.json
 set -euo pipefail
@@ -16,7 +16,7 @@ fi
 out_dir="bench/results/eval-sdovs"
 mkdir -p "$out_dir" "$(dirname "$out_json")"
 start=$(date +%s.%N)
-"$exe" --methods s_dovs --scenarios ../shared/scenarios/rumor --obstacles 1-15 --episodes "$episodes" \
+"$exe" --methods s_dovs --scenarios "${SCENARIOS:-data/scenarios/room}" --obstacles 1-15 --episodes "$episodes" \
   --threads 2 --out "$out_dir/"
 end=$(date +%s.%N)
 PYTHONPATH="$(pwd)/python" .venv/bin/python -m dqn_dovs_py.eval_figures --eval-dir "$out_dir" --method s_dovs \

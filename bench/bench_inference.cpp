@@ -38,7 +38,7 @@ double percentile(std::vector<double> v, double p) {
 
 int main(int argc, char** argv) {
   std::string out_path = "bench/results/inference.json";
-  std::string scenarios = "../shared/scenarios/rumor";  // accepted for a uniform interface; not needed here
+  std::string scenarios = "data/scenarios/room";  // accepted for a uniform interface; not needed here
   int decisions = 20000;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];

@@ -90,7 +90,7 @@ Run measure(const std::vector<sim::Scenario>& scenarios, const sim::WorldConfig&
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_dir = "../shared/scenarios/rumor";
+  std::string scenario_dir = dqn_dovs::sim::kDefaultScenariosDir;
   std::string out_path = "bench/results/sim.json";
   long total_steps = 30000;
   for (int i = 1; i < argc; ++i) {

@@ -238,7 +238,7 @@ PeopleRun trackPeople(const std::string& family, const std::string& sensor, int 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_dir = "../shared/scenarios/rumor";
+  std::string scenario_dir = dqn_dovs::sim::kDefaultScenariosDir;
   std::string out_path = "bench/results/tracker.json";
   int episodes = 3;
   double duration_s = 20.0;

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates docs/benchmark.md: every method on the shared scenarios with the evaluation CLI, once with the
+# Regenerates docs/benchmark.md: every method on a folder of room scenarios (SCENARIOS, default the package's own
+# data/scenarios/room; an external set such as the authors' RUMOR test scenarios by SCENARIOS=DIR,
+# docs/external_benchmark.md) with the evaluation CLI, once with the
 # LIDAR + tracker in the loop (docs/benchmark/tracker/) and once with perfect information
 # (docs/benchmark/perfect/), then python/dqn_dovs_py/benchmark_report.py writes the tables, plots and verdicts.
 # `oracle` (docs/planners.md section 9: the physical limit, a search that reads the simulator's future) runs on the
@@ -13,7 +15,8 @@
 # first search 0.32 (dqn_dovs_eval --methods oracle --obstacles 1-15 --episodes 2 --threads 1, 9.6 s) and its further
 # searches on the 8 % of episodes the first one does not solve (docs/planners.md, "Several searches"). With ORACLE=0
 # about 10 min. Proportionally longer when the cores are shared.
-# Environment: EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
+# Environment: SCENARIOS (data/scenarios/room: a folder laid out as 1-N/K.dovs), PAPER (none: a CSV of the paper's
+# Table 1, whose columns are then drawn beside ours), EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
 # METHODS (all eight), ORACLE (1: add oracle to METHODS unless it is there; 0: leave it out), BOUND (1: the bound's
 # run; 0: none), DQN_DOVS_EVAL (default
 # install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md), OUT_DIR (docs/benchmark).
@@ -32,7 +35,9 @@ case "${ORACLE:-1}" in
   0) methods=$(echo ",$methods," | sed 's/,oracle,/,/g; s/^,//; s/,$//') ;;
   *) echo "benchmark_table: ORACLE must be 0 or 1 (got '$ORACLE')" >&2; exit 2 ;;
 esac
-scenarios="../shared/scenarios/rumor"
+scenarios="${SCENARIOS:-data/scenarios/room}"
+paper="${PAPER:-}"
+[ -z "$paper" ] || [ -f "$paper" ] || { echo "benchmark_table: PAPER=$paper is not a file" >&2; exit 2; }
 exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
 out_doc="${OUT_DOC:-docs/benchmark.md}"
 out_dir="${OUT_DIR:-docs/benchmark}"
@@ -41,7 +46,7 @@ export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 
 [ -x "$exe" ] || { echo "benchmark_table: $exe not found; run 'make build' (or set DQN_DOVS_EVAL)" >&2; exit 2; }
 [ -f "$model" ] || { echo "benchmark_table: model $model not found" >&2; exit 2; }
-[ -d "$scenarios" ] || { echo "benchmark_table: scenarios $scenarios not found" >&2; exit 2; }
+[ -d "$scenarios" ] || { echo "benchmark_table: SCENARIOS=$scenarios is not a folder (laid out as 1-N/K.dovs)" >&2; exit 2; }
 [ -x .venv/bin/python ] || { echo "benchmark_table: .venv missing; run 'make setup'" >&2; exit 2; }
 
 mkdir -p "$out_dir"
@@ -91,5 +96,5 @@ PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.run_info --out "$out_d
 
 MPLBACKEND=Agg PYTHONPATH="$root/python" .venv/bin/python -m dqn_dovs_py.benchmark_report \
   --tracker "$out_dir/tracker/results.csv" --perfect "$out_dir/perfect/results.csv" \
-  --paper ../shared/reference/paper_table1.csv --discussion docs/benchmark_discussion.md \
+  --paper "$paper" --discussion docs/benchmark_discussion.md \
   --run-info "$out_dir/run_info.json" --plots "$out_dir" --out "$out_doc" --bound "$out_dir/bound/results.csv"

@@ -9,7 +9,7 @@ log=log/build.last.txt
 mkdir -p log
 if ! colcon build --base-paths . --build-base build --install-base install --merge-install \
       --event-handlers console_start_end- \
-      --cmake-args -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON >"$log" 2>&1; then
+      --cmake-args -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON $(ccache_args) >"$log" 2>&1; then
   echo "[build] colcon build failed; last lines of $log:" >&2
   grep -E "error|Error|FAILED" "$log" | head -40 >&2 || true
   tail -40 "$log" >&2

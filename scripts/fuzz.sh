@@ -26,7 +26,8 @@ failed=0
 
 echo "[fuzz] building ${targets[*]} in $bf/ (clang++, -fsanitize=fuzzer,address,undefined)"
 if [ ! -f "$bf/build.ninja" ]; then
-  cmake -S . -B "$bf" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DDQN_DOVS_CORE_ONLY=ON -DDQN_DOVS_FUZZ=ON \
+  # shellcheck disable=SC2046
+  cmake -S . -B "$bf" -G Ninja $(ccache_args) -DCMAKE_CXX_COMPILER=clang++ -DDQN_DOVS_CORE_ONLY=ON -DDQN_DOVS_FUZZ=ON \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" >"$bf/logs/cmake.txt" 2>&1 || {
     echo "[fuzz] FAILED: cmake configure of $bf (log $bf/logs/cmake.txt):"; tail -15 "$bf/logs/cmake.txt"
     rm -f "$bf/build.ninja"; echo; echo "0 passed, $((2 * ${#targets[@]})) failed"; exit 1; }
@@ -36,13 +37,13 @@ if ! cmake --build "$bf" -j "$jobs" >"$bf/logs/build.txt" 2>&1; then
   echo; echo "0 passed, $((2 * ${#targets[@]})) failed"; exit 1
 fi
 
-# Seeds: tiny networks, simulated scans, Dovs messages and the scenario files of a few shared scenarios.
+# Seeds: tiny networks, simulated scans, Dovs messages and a few of the package's own scenario files.
 scenarios=()
 for s in 1-1/1 1-5/2 1-12/3; do
-  f=../shared/scenarios/rumor/$s.dovs
+  f=data/scenarios/room/$s.dovs
   [ -f "$f" ] && scenarios+=("$f")
 done
-[ ${#scenarios[@]} -gt 0 ] || echo "[fuzz] note: ../shared/scenarios not found: seeds without scenarios"
+[ ${#scenarios[@]} -gt 0 ] || echo "[fuzz] note: data/scenarios/room not found: seeds without scenarios"
 if ! "$bf/fuzz/fuzz_make_seeds" "$bf/seeds" "${scenarios[@]}" >"$bf/logs/seeds.txt" 2>&1; then
   echo "[fuzz] FAILED: making the seeds:"; cat "$bf/logs/seeds.txt"
   echo; echo "0 passed, $((2 * ${#targets[@]})) failed"; exit 1

@@ -4,7 +4,7 @@
 # route's subgoals in worlds with walls) and the map (when the simulator publishes one), for DURATION simulated
 # seconds (default 14), lz4-compressed. After recording a new bag, regenerate the expectations with
 # scripts/regenerate_bag_expectations.sh.
-#   scripts/record_test_bag.sh [SCENARIO.dovs] [OUT.bag]      test/data/replay.bag: a shared scenario, the room
+#   scripts/record_test_bag.sh [SCENARIO.dovs] [OUT.bag]      test/data/replay.bag: one of the package's scenarios, the room
 #   SIM_ARGS="world:=clutter seed:=3 obstacles:=6 odom_noise:=low tracker_map:=true dovs_map:=true" \
 #     scripts/record_test_bag.sh - test/data/replay_people_map.bag   a generated building world with people and map
 # Environment: DQN_DOVS_SETUP (default install/setup.sh; e.g. build_me/devel/setup.sh), ROS_PORT (11472),
@@ -12,7 +12,7 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 # Absolute paths: the nodes run in ROS_HOME.
-scenario="${1:-$root/../shared/scenarios/rumor/1-2/1.dovs}"
+scenario="${1:-$root/data/scenarios/room/1-2/1.dovs}"
 [ "$scenario" = - ] || scenario="$(realpath -m "$scenario")"
 out="$(realpath -m "${2:-$root/test/data/replay.bag}")"
 cd "$root"

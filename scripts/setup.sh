@@ -27,6 +27,7 @@ APT_PACKAGES=(
   googletest libgtest-dev libgmock-dev
   pybind11-dev python3-pybind11 python3-dev python3-venv python3-numpy python3-yaml
   clang libclang-rt-14-dev libfuzzer-14-dev  # fuzz targets (fuzz/, make fuzz)
+  ccache  # compiler cache: a clean clone's builds (colcon, ASan, fuzz) reuse what this machine compiled before
   time bc  # make bench: peak memory per benchmark (GNU time), wall times
 )
 

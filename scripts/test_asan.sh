@@ -16,7 +16,8 @@ for f in $(core_test_sources); do tests+=("$(basename "$f" .cpp)"); done
 t0=$(date +%s)
 echo "[asan] building the core gtests (${#tests[@]}) in $ba/ with -fsanitize=address,undefined"
 if [ ! -f "$ba/CMakeCache.txt" ]; then
-  cmake -S . -B "$ba" -G Ninja -DDQN_DOVS_CORE_ONLY=ON -DDQN_DOVS_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  # shellcheck disable=SC2046
+  cmake -S . -B "$ba" -G Ninja $(ccache_args) -DDQN_DOVS_CORE_ONLY=ON -DDQN_DOVS_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" >"$ba/cmake.log" 2>&1 || {
     echo "[asan] FAILED: cmake configure (log $ba/cmake.log)"; tail -15 "$ba/cmake.log"; rm -f "$ba/CMakeCache.txt"
     echo; echo "0 passed, 1 failed"; exit 1; }

@@ -39,15 +39,17 @@ const char* kUsage =
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--oracle-retries none|N=V,...;N=V,...] [--bound NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
-    "                     [--odom-noise LEVEL] [--route on|off]\n"
-    "                     [--no-report]\n"
+    "                     [--odom-noise LEVEL] [--route on|off] [--start-clear S]\n"
+    "                     [--no-report] [--write-scenarios DIR]\n"
     "  --methods           planners to evaluate, comma-separated (default s_dovs); oracle: the physical limit\n"
     "                      from below, a search that reads the simulator's future (not deployable); bound: the\n"
     "                      limit from above, where no robot within the limits can get (success: the goal may\n"
     "                      be reachable, at the earliest at time_s; collision: unavoidable; timeout: out of\n"
     "                      reach in time); the bound refuses people who see the robot (their future is not\n"
     "                      fixed by the seed then)\n"
-    "  --scenarios DIR     folder laid out as 1-N/K.dovs (default ../shared/scenarios/rumor)\n"
+    "  --scenarios DIR     folder laid out as 1-N/K.dovs (default data/scenarios/room: the package's own set, drawn\n"
+    "                      by this generator; data/scenarios/README.md). An external set such as the authors'\n"
+    "                      RUMOR test scenarios is named here (docs/external_benchmark.md)\n"
     "  --generate SEED     seeded random scenarios instead of a folder\n"
     "  --obstacles A-B     obstacle counts A..B, or a single count (default 1-15)\n"
     "  --episodes K        episodes 1..K per obstacle count (default 100)\n"
@@ -100,6 +102,11 @@ const char* kUsage =
     "  --odom-noise LEVEL  wheel-odometry drift: none (default), low, high; the robot plans in its odom frame\n"
     "  --route on|off      on (default): in worlds with walls (not the room) the robot follows a route on the\n"
     "                      known walls and furniture, as planner_node does; off: it drives at the goal itself\n"
+    "  --start-clear S     --generate, room: no moving obstacle reaches the robot's start on its own arc in the\n"
+    "                      first S s (default 0: the paper's distribution); the demo's episodes use 3\n"
+    "  --write-scenarios DIR  write the episodes as DIR/1-N/K.dovs (the format of --scenarios) and stop; with\n"
+    "                      --generate, the room family only (use --dynamic-fraction 1: files keep every obstacle\n"
+    "                      moving, and --dynamic-fraction makes the last ones static when they are read)\n"
     "  --no-report         write the records only (results.csv, run.json, paths.json), not the summaries\n"
     "The summaries and plots come from the Python reporter, python -m dqn_dovs_py.report OUT (interpreter\n"
     "$DQN_DOVS_PYTHON, package folder $DQN_DOVS_PYTHON_DIR; defaults: the build's venv and source tree).\n";
@@ -189,6 +196,7 @@ std::string resolvePeoplePredictor(const std::string& choice, const std::string&
 struct Options {
   EvalConfig eval;
   std::string out_dir = "eval_results";
+  std::string write_scenarios;  ///< --write-scenarios DIR: write the episodes' scenario files there and stop
   std::string reference;
   std::string predict_people = "auto";  ///< a file, auto or none (resolved after the world options)
   int trajectories = 3;
@@ -198,7 +206,7 @@ struct Options {
 
 Options parse(int argc, char** argv) {
   Options o;
-  o.eval.scenarios_dir = "../shared/scenarios/rumor";
+  o.eval.scenarios_dir = dqn_dovs::sim::kDefaultScenariosDir;
   bool have_scenarios = false, have_generate = false;
   std::vector<std::string> tracker_overrides;
   for (int i = 1; i < argc; ++i) {
@@ -316,6 +324,11 @@ Options parse(int argc, char** argv) {
       checkName(flag, o.eval.route, {"on", "off"});
     } else if (flag == "--people-see-robot") {
       o.eval.people_see_robot = true;
+    } else if (flag == "--start-clear") {
+      o.eval.generated_start_clear_s = parseDouble(flag, value(), 0.0, 60.0);
+    } else if (flag == "--write-scenarios") {
+      o.write_scenarios = value();
+      if (o.write_scenarios.empty()) throw UsageError("--write-scenarios needs a non-empty folder");
     } else if (flag == "--no-report") {
       o.report = false;
     } else if (flag == "--trajectories") {
@@ -328,6 +341,10 @@ Options parse(int argc, char** argv) {
   if (o.eval.episode.perfect_info && o.eval.episode.track_truth != dqn_dovs::TrackTruth::kNone)
     throw UsageError("--track-truth corrects the tracker's tracks; with --perfect-info there is no tracker");
   if (have_generate) o.eval.scenarios_dir.clear();
+  if (o.eval.generated_start_clear_s > 0.0 && (!have_generate || o.eval.world != "room"))
+    throw UsageError("--start-clear applies to generated room scenarios: it needs --generate SEED and --world room");
+  if (!o.write_scenarios.empty() && o.eval.world != "room")
+    throw UsageError("--write-scenarios writes .dovs files, which hold the room's discs only (--world room)");
   if (o.eval.world != "room" && !have_generate) throw UsageError("--world " + o.eval.world + " needs --generate SEED");
   dqn_dovs::applyWorldOptions(o.eval);
   o.eval.episode.people_predictor = resolvePeoplePredictor(o.predict_people, o.eval.world, o.eval.episode.perfect_info);
@@ -346,8 +363,9 @@ Options parse(int argc, char** argv) {
   } else if (std::find(o.eval.methods.begin(), o.eval.methods.end(), o.reference) == o.eval.methods.end()) {
     throw UsageError("--reference '" + o.reference + "' is not one of --methods");
   }
-  if (!o.eval.scenarios_dir.empty() && !std::filesystem::is_directory(o.eval.scenarios_dir)) {
-    throw UsageError("--scenarios: '" + o.eval.scenarios_dir + "' is not a folder");
+  if (!o.help && !o.eval.scenarios_dir.empty() && !std::filesystem::is_directory(o.eval.scenarios_dir)) {
+    throw UsageError("--scenarios: '" + o.eval.scenarios_dir + "' is not a folder" +
+                     (have_scenarios ? "" : " (the default, relative to the package's root: run from there)"));
   }
   return o;
 }
@@ -409,6 +427,25 @@ int runReporter(const std::string& out_dir) {
   std::cerr << "dqn_dovs_eval: the reporter failed (" << python << " -m dqn_dovs_py.report " << out_dir
             << "); the records are in " << out_dir << "\n";
   return 1;
+}
+
+/// --write-scenarios: every episode's scenario as DIR/1-N/K.dovs; returns the exit status.
+int writeScenarios(const Options& o) {
+  namespace fs = std::filesystem;
+  const std::vector<dqn_dovs::EvalScenario> scenarios = dqn_dovs::loadEvalScenarios(o.eval);
+  for (const dqn_dovs::EvalScenario& s : scenarios) {
+    const fs::path dir = fs::path(o.write_scenarios) / ("1-" + std::to_string(s.obstacles));
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec || !fs::is_directory(dir)) {
+      std::cerr << "dqn_dovs_eval: --write-scenarios: cannot create folder '" << dir.string() << "': " << ec.message()
+                << "\n";
+      return 1;
+    }
+    dqn_dovs::sim::saveDovsScenario(s.scenario, (dir / (std::to_string(s.episode) + ".dovs")).string());
+  }
+  std::cerr << "dqn_dovs_eval: wrote " << scenarios.size() << " scenario files into " << o.write_scenarios << "\n";
+  return 0;
 }
 
 int run(const Options& o, const std::string& command) {
@@ -477,6 +514,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
+    if (!options.write_scenarios.empty()) return writeScenarios(options);
     return run(options, commandLine(argc, argv));
   } catch (const std::exception& e) {
     std::cerr << "dqn_dovs_eval: " << e.what() << "\n";

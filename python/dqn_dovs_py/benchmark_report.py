@@ -1,7 +1,7 @@
 """docs/benchmark.md from two evaluation runs (tracker in the loop, perfect information) and the paper's table.
 
     python -m dqn_dovs_py.benchmark_report --tracker docs/benchmark/tracker/results.csv \
-        --perfect docs/benchmark/perfect/results.csv --paper ../shared/reference/paper_table1.csv \
+        --perfect docs/benchmark/perfect/results.csv [--paper PAPER_TABLE1.csv] \
         --discussion docs/benchmark_discussion.md --run-info docs/benchmark/run_info.json \
         --plots docs/benchmark --out docs/benchmark.md
 
@@ -678,7 +678,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--tracker", default="docs/benchmark/tracker/results.csv")
     p.add_argument("--perfect", default="docs/benchmark/perfect/results.csv")
-    p.add_argument("--paper", default="../shared/reference/paper_table1.csv")
+    p.add_argument("--paper", default="", help="CSV of the paper's Table 1 (optional: its columns beside ours)")
     p.add_argument("--discussion", default="docs/benchmark_discussion.md")
     p.add_argument("--run-info", default="docs/benchmark/run_info.json")
     p.add_argument("--plots", default="docs/benchmark", help="folder of the PNGs")

@@ -10,7 +10,7 @@ dqn_dovs_eval's results.csv, and compare.md / compare.csv: success per point, po
 network's paired sign test (exact, two-sided, episodes matched by point, count and number) against the reference
 and against the baseline, and against any other network named with --pair. With --reuse, a run whose results are
 already in --out from the same command, evaluation tool and network bytes is read instead of run again (networks
-can then be added to a comparison later). Decisions are made on seeds kept for them, never on ../shared/scenarios.
+can then be added to a comparison later). Decisions are made on seeds kept for them, never on the external benchmark scenarios (docs/external_benchmark.md).
 
 With --predict-people FILE the planners see the people of every world family on the arcs of that learned prediction,
 as the robot's dovs_node and `make benchmark-worlds` give them (the room's discs are never predicted); the

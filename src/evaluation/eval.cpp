@@ -51,6 +51,9 @@ std::string EvalConfig::validate() const {
     os << "dynamic_fraction = " << dynamic_fraction << ": must be in [0, 1]";
   } else if (!(std::isfinite(generated_goal_distance_min_m) && generated_goal_distance_min_m >= 0.0)) {
     os << "generated_goal_distance_min_m = " << generated_goal_distance_min_m << ": must be finite and >= 0";
+  } else if (!(std::isfinite(generated_start_clear_s) && generated_start_clear_s >= 0.0 &&
+               generated_start_clear_s <= 60.0)) {
+    os << "generated_start_clear_s = " << generated_start_clear_s << ": must be in [0, 60]";
   } else if (route != "on" && route != "off") {
     os << "route = '" << route << "': must be on or off";
   } else if (threads < 1 || threads > 256) {
@@ -148,6 +151,7 @@ std::vector<EvalScenario> loadEvalScenarios(const EvalConfig& config) {
         g.obstacle_type = sim::ObstacleType::kBoth;
         g.dynamic_fraction = config.dynamic_fraction;
         g.goal_distance_min_m = config.generated_goal_distance_min_m;
+        g.start_clear_s = config.generated_start_clear_s;
         g.random_robot_heading = false;  // as in the evaluation files
         const uint64_t scenario_seed = episodeSeed(config.seed ^ 0x5CE7A210ULL, n, k);
         try {

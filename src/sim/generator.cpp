@@ -17,6 +17,25 @@ std::string bad(const char* field, double value, const std::string& why) {
 
 bool positiveFinite(double x) { return std::isfinite(x) && x > 0.0; }
 
+/// Whether `o`, moving on its own (v, w) arc from its start, comes within `clearance` (centre to centre) of `robot`
+/// in the first `horizon_s` seconds, while its centre stays inside the room (0.05 s steps).
+bool reachesStart(const MovingObstacle& o, const Vec2& robot, double clearance, double horizon_s, double room_half) {
+  constexpr double kStep = 0.05;
+  const double inside = room_half - o.radius;
+  for (double t = 0.0; t <= horizon_s + 1e-9; t += kStep) {
+    Vec2 p = o.center;
+    if (std::abs(o.turn_rate) < 1e-9) {
+      p += o.speed * t * Vec2(std::cos(o.heading), std::sin(o.heading));
+    } else {
+      const double r = o.speed / o.turn_rate, h = o.heading + o.turn_rate * t;
+      p += Vec2(r * (std::sin(h) - std::sin(o.heading)), -r * (std::cos(h) - std::cos(o.heading)));
+    }
+    if (std::abs(p.x()) > inside || std::abs(p.y()) > inside) return false;
+    if ((p - robot).norm() < clearance) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 std::string GeneratorConfig::validate() const {
@@ -61,6 +80,12 @@ std::string GeneratorConfig::validate() const {
     return bad("radius_max_m", radius_max_m, "must be >= radius_min_m and < spawn_half_size_m (m)");
   }
   if (max_attempts < 1) return bad("max_attempts", max_attempts, "must be >= 1");
+  if (!(std::isfinite(start_clear_s) && start_clear_s >= 0.0 && start_clear_s <= 60.0)) {
+    return bad("start_clear_s", start_clear_s, "must be in [0, 60] (s)");
+  }
+  if (!(std::isfinite(start_clear_margin_m) && start_clear_margin_m >= 0.0)) {
+    return bad("start_clear_margin_m", start_clear_margin_m, "must be finite and >= 0 (m)");
+  }
   return {};
 }
 
@@ -102,50 +127,64 @@ Scenario generateScenario(const GeneratorConfig& config, uint64_t seed) {
   s.obstacles.reserve(static_cast<size_t>(count));
   for (int i = 0; i < count; ++i) {
     MovingObstacle o;
-    o.radius = rng.uniform(config.radius_min_m, config.radius_max_m);
-    placed = false;
-    for (int attempt = 0; attempt < config.max_attempts && !placed; ++attempt) {
-      const Vec2 c(rng.uniform(-h, h), rng.uniform(-h, h));
-      // The goal keeps a robot-sized clearance so that a static obstacle can never cover it.
-      bool ok = (c - robot).norm() >= std::max(config.min_separation_m, config.robot_radius_m + o.radius) &&
-                (c - s.goal).norm() >= std::max(config.min_separation_m, config.robot_radius_m + o.radius);
-      for (size_t j = 0; ok && j < s.obstacles.size(); ++j) {
-        const MovingObstacle& other = s.obstacles[j];
-        ok = (c - other.center).norm() >= std::max(config.min_separation_m, o.radius + other.radius);
+    for (int clear_attempt = 0;; ++clear_attempt) {
+      o.radius = rng.uniform(config.radius_min_m, config.radius_max_m);
+      placed = false;
+      for (int attempt = 0; attempt < config.max_attempts && !placed; ++attempt) {
+        const Vec2 c(rng.uniform(-h, h), rng.uniform(-h, h));
+        // The goal keeps a robot-sized clearance so that a static obstacle can never cover it.
+        bool ok = (c - robot).norm() >= std::max(config.min_separation_m, config.robot_radius_m + o.radius) &&
+                  (c - s.goal).norm() >= std::max(config.min_separation_m, config.robot_radius_m + o.radius);
+        for (size_t j = 0; ok && j < s.obstacles.size(); ++j) {
+          const MovingObstacle& other = s.obstacles[j];
+          ok = (c - other.center).norm() >= std::max(config.min_separation_m, o.radius + other.radius);
+        }
+        if (ok) {
+          o.center = c;
+          placed = true;
+        }
       }
-      if (ok) {
-        o.center = c;
-        placed = true;
+      if (!placed) {
+        std::ostringstream os;
+        os << "scenario generator (seed " << seed << "): could not place obstacle " << i + 1 << " of " << count
+           << " with " << config.min_separation_m << " m separation after " << config.max_attempts
+           << " attempts (too many obstacles for the spawn square?)";
+        throw ScenarioError(os.str());
+      }
+      // Every draw happens whatever the obstacle type, so the positions of a seed do not depend on the type.
+      o.heading = rng.uniform(-kPi, kPi);
+      const double speed = rng.uniform(config.speed_min_mps, config.speed_max_mps);
+      const double turn_rate = rng.uniform(-config.turn_rate_max_rps, config.turn_rate_max_rps);
+      const double moving_draw = rng.uniform01();
+      bool moving = false;
+      switch (config.obstacle_type) {
+        case ObstacleType::kNone:
+        case ObstacleType::kStatic:
+          moving = false;
+          break;
+        case ObstacleType::kDynamic:
+          moving = true;
+          break;
+        case ObstacleType::kBoth:
+          moving = moving_draw < config.dynamic_fraction;
+          break;
+      }
+      o.speed = moving ? speed : 0.0;
+      o.turn_rate = moving ? turn_rate : 0.0;
+      o.is_static = !moving;
+      if (config.start_clear_s <= 0.0 || !moving ||
+          !reachesStart(o, robot, config.robot_radius_m + o.radius + config.start_clear_margin_m, config.start_clear_s,
+                        config.room_half_size_m)) {
+        break;
+      }
+      if (clear_attempt + 1 >= config.max_attempts) {
+        std::ostringstream os;
+        os << "scenario generator (seed " << seed << "): obstacle " << i + 1 << " of " << count
+           << " reaches the robot's start within start_clear_s = " << config.start_clear_s << " s on every one of "
+           << config.max_attempts << " draws";
+        throw ScenarioError(os.str());
       }
     }
-    if (!placed) {
-      std::ostringstream os;
-      os << "scenario generator (seed " << seed << "): could not place obstacle " << i + 1 << " of " << count
-         << " with " << config.min_separation_m << " m separation after " << config.max_attempts
-         << " attempts (too many obstacles for the spawn square?)";
-      throw ScenarioError(os.str());
-    }
-    // Every draw happens whatever the obstacle type, so the positions of a seed do not depend on the type.
-    o.heading = rng.uniform(-kPi, kPi);
-    const double speed = rng.uniform(config.speed_min_mps, config.speed_max_mps);
-    const double turn_rate = rng.uniform(-config.turn_rate_max_rps, config.turn_rate_max_rps);
-    const double moving_draw = rng.uniform01();
-    bool moving = false;
-    switch (config.obstacle_type) {
-      case ObstacleType::kNone:
-      case ObstacleType::kStatic:
-        moving = false;
-        break;
-      case ObstacleType::kDynamic:
-        moving = true;
-        break;
-      case ObstacleType::kBoth:
-        moving = moving_draw < config.dynamic_fraction;
-        break;
-    }
-    o.speed = moving ? speed : 0.0;
-    o.turn_rate = moving ? turn_rate : 0.0;
-    o.is_static = !moving;
     s.obstacles.push_back(o);
   }
   return s;

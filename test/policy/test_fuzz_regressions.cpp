@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "targets.h"
+#include "test_paths.h"
 
 namespace fs = std::filesystem;
 using namespace dqn_dovs;

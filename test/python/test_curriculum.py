@@ -151,7 +151,7 @@ def test_default_curriculum_is_the_papers_stages_rebalanced():
     assert [s.episodes for s in default.stages[:-1]] == [s.episodes for s in paper.stages[:-1]]
     assert default.stages[-1].episodes > paper.stages[-1].episodes
     assert default.stages[-1].episodes >= 0.4 * default.total_episodes
-    # Goals like the evaluation's (../shared/scenarios/README.md, dqn_dovs_eval --generate): at least 4 m.
+    # Goals like the evaluation's (data/scenarios/README.md, dqn_dovs_eval --generate): at least 4 m.
     for stage in default.stages[1:]:
         assert stage.goal_distance_m == stage.goal_distance_start_m == (4.0, 12.0)
     first = default.stages[0]

@@ -248,9 +248,9 @@ def test_summary_markdown_layout(summary):
 
 
 def test_header_of_a_scenario_folder_with_perfect_information():
-    run = rp.RunInfo(**{**RUN, "scenarios": "../shared/scenarios/rumor", "perfect_info": True, "dynamic_fraction": 1})
+    run = rp.RunInfo(**{**RUN, "scenarios": "data/scenarios/room", "perfect_info": True, "dynamic_fraction": 1})
     header = rp.run_header(run).splitlines()
-    assert header[1] == "Scenarios: `../shared/scenarios/rumor`; obstacles 2-3, 3 episodes each; dynamic fraction 1  "
+    assert header[1] == "Scenarios: `data/scenarios/room`; obstacles 2-3, 3 episodes each; dynamic fraction 1  "
     assert header[2].startswith("Perception: perfect information (ground truth); ")
     predicted = rp.run_header(rp.RunInfo(**{**RUN, "people_predictor": "models/people_predictor_tracks.dqnp"}))
     assert ("Perception: LIDAR + tracker in the loop; moving obstacles on the arcs of the learned prediction "

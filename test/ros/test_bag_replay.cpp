@@ -13,6 +13,7 @@
 #include "dovs_node.h"
 #include "obstacle_tracker_node.h"
 #include "ros_params.h"
+#include "test_paths.h"
 
 namespace {
 

@@ -15,6 +15,8 @@
 #include <fstream>
 #include <string>
 
+#include "test_paths.h"
+
 namespace {
 
 struct NodeRun {
@@ -54,11 +56,10 @@ NodeRun runPlanner(const std::string& name, const std::string& args, double run_
   return runNode("planner_node", name, args, run_s);
 }
 
-/// A refusal to start: exit code 1, within a few seconds (not the harness's timeout), with a FATAL line that
-/// names `culprit`.
+/// A refusal to start: exit code 1 (a node that hung would be ended by the harness's timeout, exit code 124), with a
+/// FATAL line that names `culprit`.
 void expectFatal(const NodeRun& r, const std::string& culprit, const std::string& what) {
-  EXPECT_EQ(r.exit_code, 1) << what << ":\n" << r.output;
-  EXPECT_LT(r.seconds, 10.0) << what << ": the node must fail fast";
+  EXPECT_EQ(r.exit_code, 1) << what << " (124: it did not stop by itself):\n" << r.output;
   const size_t fatal = r.output.find("FATAL");
   ASSERT_NE(fatal, std::string::npos) << what << ": no FATAL message:\n" << r.output;
   const size_t line_end = r.output.find('\n', fatal);
@@ -185,7 +186,8 @@ TEST(PlannerBadParams, RobotDescriptionLargerThanTheRadiusIsRefusedSmallerIsAWar
 
 TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
   struct Case {
-    const char *exe, *culprit, *args;
+    const char *exe, *culprit;
+    std::string args;
   };
   const std::array<Case, 14> cases = {{
       {"dovs_node", "max_input_age", "_max_input_age:=0.0"},
@@ -197,7 +199,8 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
       // A people predictor that cannot be read: the parameter and the file are named.
       {"dovs_node", "people_predictor: people predictor '/nonexistent/people.dqnp': cannot be opened",
        "_people_predictor:=/nonexistent/people.dqnp"},
-      {"dovs_node", "not a people predictor file", "_people_predictor:=" DQN_DOVS_SOURCE_DIR "/models/dqn_dovs.dqnw"},
+      {"dovs_node", "not a people predictor file",
+       "_people_predictor:=" + std::string(DQN_DOVS_SOURCE_DIR) + "/models/dqn_dovs.dqnw"},
       {"obstacle_tracker_node", "tf_timeout", "_tf_timeout:=9.0"},
       // Every tracker parameter is read by its config/tracker.yaml name; a misspelt one is named, not ignored.
       {"obstacle_tracker_node", "reacquire_speed", "_tracker/reacquire_speed:=-1.0"},

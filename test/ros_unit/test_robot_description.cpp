@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "robot_description.h"
+#include "test_paths.h"
 
 namespace {
 

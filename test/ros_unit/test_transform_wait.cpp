@@ -46,20 +46,17 @@ TEST_F(TransformWaiterTest, AvailableTransformIsReturnedWithoutWaiting) {
 
 TEST_F(TransformWaiterTest, WaitEndsWhenTheTransformArrives) {
   TransformWaiter waiter(buffer_);
-  // The stamp is past the newest transform; another thread (as the tf listener would) stores a later one.
-  const double timeout_s = 20.0;
+  // The stamp is past the newest transform; another thread (as the tf listener would) stores a later one. The
+  // timeout is longer than the test may run: only the arrival can end this wait.
+  const double timeout_s = 3600.0;
   std::thread listener([this] {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     buffer_.setTransform(odomToBase(10.2, 3.0), "test");
   });
-  const auto start = std::chrono::steady_clock::now();
   geometry_msgs::TransformStamped t;
   EXPECT_NO_THROW(t = waiter.lookup("odom", "base", ros::Time(10.15), timeout_s));
-  const double waited_s = secondsSince(start);
   listener.join();
   EXPECT_NEAR(t.transform.translation.x, 2.5, 1e-9);
-  // Woken by the arrival, not by the end of the wait.
-  EXPECT_LT(waited_s, 0.5 * timeout_s);
 }
 
 TEST_F(TransformWaiterTest, MissingTransformFailsAfterTheTimeoutWithTf2sReason) {
@@ -75,10 +72,8 @@ TEST_F(TransformWaiterTest, MissingTransformFailsAfterTheTimeoutWithTf2sReason) 
   } catch (const tf2::TransformException& e) {
     EXPECT_NE(std::string(e.what()).find("no_such_frame"), std::string::npos) << e.what();
   }
-  // An empty frame is refused at once.
-  start = std::chrono::steady_clock::now();
-  EXPECT_THROW(waiter.lookup("odom", "", ros::Time(10.05), 5.0), tf2::InvalidArgumentException);
-  EXPECT_LT(secondsSince(start), 2.5);
+  // An empty frame is refused at once: with a wait longer than the test may run, anything else would hang it.
+  EXPECT_THROW(waiter.lookup("odom", "", ros::Time(10.05), 3600.0), tf2::InvalidArgumentException);
 }
 
 TEST_F(TransformWaiterTest, StaysUsableAfterAWaitThatTimedOut) {

@@ -7,11 +7,12 @@
 
 #include "dqn_dovs/sim/scenario.h"
 #include "sim_test_helpers.h"
+#include "test_paths.h"
 
 namespace dqn_dovs::sim {
 namespace {
 
-const std::string kRumor = std::string(DQN_DOVS_SHARED_DIR) + "/scenarios/rumor";
+const std::string kRoom = std::string(DQN_DOVS_SCENARIOS_DIR) + "/room";
 
 // Loads `path` expecting a ScenarioError whose message names the file and contains `reason`.
 void expectLoadError(const std::string& path, const std::string& reason) {
@@ -25,36 +26,36 @@ void expectLoadError(const std::string& path, const std::string& reason) {
   }
 }
 
-TEST(LoadDovsScenario, ReadsAPublishedEpisode) {
-  const Scenario s = loadDovsScenario(kRumor + "/1-5/1.dovs");
+TEST(LoadDovsScenario, ReadsACarriedEpisode) {
+  const Scenario s = loadDovsScenario(kRoom + "/1-5/1.dovs");
   EXPECT_EQ(s.name, "1-5/1");
   EXPECT_DOUBLE_EQ(s.room_half_size_m, 4.0);
-  EXPECT_NEAR(s.robot_start.x, 1.2410, 1e-4);
-  EXPECT_NEAR(s.robot_start.y, -2.4144, 1e-4);
+  EXPECT_NEAR(s.robot_start.x, 2.9528, 1e-4);
+  EXPECT_NEAR(s.robot_start.y, 2.5631, 1e-4);
   EXPECT_EQ(s.robot_start.theta, 0.0);
-  EXPECT_NEAR(s.goal.x(), -2.0557, 1e-4);
-  EXPECT_NEAR(s.goal.y(), 0.6279, 1e-4);
+  EXPECT_NEAR(s.goal.x(), 1.5938, 1e-4);
+  EXPECT_NEAR(s.goal.y(), -2.8249, 1e-4);
   ASSERT_EQ(s.obstacles.size(), 5u);
   const MovingObstacle& o = s.obstacles[0];
-  EXPECT_NEAR(o.center.x(), 2.2206, 1e-4);
-  EXPECT_NEAR(o.center.y(), 1.4797, 1e-4);
-  EXPECT_NEAR(o.heading, 2.4992, 1e-4);
-  EXPECT_NEAR(o.speed, 1.1984, 1e-4);
-  EXPECT_NEAR(o.turn_rate, -0.0389, 1e-4);
+  EXPECT_NEAR(o.center.x(), 0.3174, 1e-4);
+  EXPECT_NEAR(o.center.y(), 0.5875, 1e-4);
+  EXPECT_NEAR(o.heading, -1.1106, 1e-4);
+  EXPECT_NEAR(o.speed, 0.3518, 1e-4);
+  EXPECT_NEAR(o.turn_rate, -0.4117, 1e-4);
   EXPECT_DOUBLE_EQ(o.radius, 0.2);
   EXPECT_FALSE(o.is_static);
-  EXPECT_NEAR(s.obstacles[4].center.x(), 2.3181, 1e-4);
-  EXPECT_NEAR(s.obstacles[4].heading, -2.6944, 1e-4);
-  EXPECT_NEAR(s.obstacles[4].turn_rate, 0.1609, 1e-4);
+  EXPECT_NEAR(s.obstacles[4].center.x(), 2.4924, 1e-4);
+  EXPECT_NEAR(s.obstacles[4].heading, 0.9013, 1e-4);
+  EXPECT_NEAR(s.obstacles[4].turn_rate, 0.2474, 1e-4);
   EXPECT_TRUE(s.static_segments.empty());
   // The radius is a parameter.
-  EXPECT_DOUBLE_EQ(loadDovsScenario(kRumor + "/1-5/1.dovs", 0.35).obstacles[2].radius, 0.35);
+  EXPECT_DOUBLE_EQ(loadDovsScenario(kRoom + "/1-5/1.dovs", 0.35).obstacles[2].radius, 0.35);
 }
 
-TEST(LoadDovsScenario, EveryPublishedFileMatchesTheDocumentedGenerator) {
+TEST(LoadDovsScenario, EveryCarriedFileMatchesTheDocumentedDistribution) {
   for (int n = 1; n <= 15; ++n) {
     for (int k = 1; k <= 100; ++k) {
-      const std::string path = kRumor + "/1-" + std::to_string(n) + "/" + std::to_string(k) + ".dovs";
+      const std::string path = kRoom + "/1-" + std::to_string(n) + "/" + std::to_string(k) + ".dovs";
       const Scenario s = loadDovsScenario(path);
       ASSERT_EQ(s.obstacles.size(), static_cast<size_t>(n)) << path;
       ASSERT_GE((s.goal - s.robot_start.position()).norm(), 4.0) << path;
@@ -138,7 +139,7 @@ TEST(LoadDovsScenario, NegativeSpeedBecomesTheSameForwardMotionAndZeroMotionIsSt
 
 TEST(SaveDovsScenario, RoundTripsExactly) {
   test::TempDir dir;
-  Scenario s = loadDovsScenario(kRumor + "/1-12/37.dovs");
+  Scenario s = loadDovsScenario(kRoom + "/1-12/37.dovs");
   applyDynamicFraction(s, 0.85);
   const std::string path = dir.file("copy.dovs");
   saveDovsScenario(s, path);
@@ -172,7 +173,7 @@ TEST(ApplyDynamicFraction, MakesTheLastRoundedShareStatic) {
   // round(0.15 * N): N = 1 -> 0, 3 -> 0, 4 -> 1, 10 -> 2 (1.5 rounds up), 15 -> 2.
   const std::pair<int, size_t> cases[] = {{1, 0}, {3, 0}, {4, 1}, {7, 1}, {10, 2}, {14, 2}, {15, 2}};
   for (const auto& [n, expected_static] : cases) {
-    Scenario s = loadDovsScenario(kRumor + "/1-" + std::to_string(n) + "/3.dovs");
+    Scenario s = loadDovsScenario(kRoom + "/1-" + std::to_string(n) + "/3.dovs");
     const Scenario original = s;
     applyDynamicFraction(s, 0.85);
     size_t n_static = 0;
@@ -190,7 +191,7 @@ TEST(ApplyDynamicFraction, MakesTheLastRoundedShareStatic) {
     }
     EXPECT_EQ(n_static, expected_static) << "N = " << n;
   }
-  Scenario s = loadDovsScenario(kRumor + "/1-6/1.dovs");
+  Scenario s = loadDovsScenario(kRoom + "/1-6/1.dovs");
   Scenario all_static = s;
   applyDynamicFraction(all_static, 0.0);
   for (const auto& o : all_static.obstacles) EXPECT_TRUE(o.is_static);
@@ -290,6 +291,50 @@ TEST(GenerateScenario, RespectsEveryConstraint) {
   }
   EXPECT_EQ(counts.size(), 10u);  // every count 3..12 occurs
   EXPECT_NEAR(static_cast<double>(dynamic) / total, 0.85, 0.03);
+}
+
+// Where obstacle `o` is after t s on its own (v, w) arc (no walls).
+Vec2 onArc(const MovingObstacle& o, double t) {
+  if (std::abs(o.turn_rate) < 1e-12) return o.center + o.speed * t * Vec2(std::cos(o.heading), std::sin(o.heading));
+  const double r = o.speed / o.turn_rate, h = o.heading + o.turn_rate * t;
+  return o.center + r * Vec2(std::sin(h) - std::sin(o.heading), std::cos(o.heading) - std::cos(h));
+}
+
+TEST(GenerateScenario, AClearStartKeepsEveryArcOffTheRobotForItsTime) {
+  GeneratorConfig g;
+  g.obstacle_count_min = g.obstacle_count_max = 12;
+  g.dynamic_fraction = 1.0;
+  g.goal_distance_min_m = 4.0;
+  int reached_without = 0;
+  for (uint64_t seed = 1; seed <= 40; ++seed) {
+    g.start_clear_s = 0.0;
+    const Scenario plain = generateScenario(g, seed);
+    g.start_clear_s = 3.0;
+    const Scenario clear = generateScenario(g, seed);
+    const Vec2 robot = clear.robot_start.position();
+    // Reached within 3 s: robot radius + obstacle radius + margin, while inside the room.
+    auto reaches = [&](const Scenario& s) {
+      for (const MovingObstacle& o : s.obstacles) {
+        for (double t = 0.0; t <= 3.0; t += 0.01) {
+          const Vec2 p = onArc(o, t);
+          if (std::abs(p.x()) > 4.0 - o.radius || std::abs(p.y()) > 4.0 - o.radius) break;
+          if ((p - robot).norm() < g.robot_radius_m + o.radius + g.start_clear_margin_m - 0.01) return true;
+        }
+      }
+      return false;
+    };
+    EXPECT_FALSE(reaches(clear)) << "seed " << seed;
+    reached_without += reaches(plain) ? 1 : 0;
+    // The robot and the goal do not depend on the rule.
+    EXPECT_EQ(clear.robot_start.position(), plain.robot_start.position());
+    EXPECT_EQ(clear.goal, plain.goal);
+  }
+  EXPECT_GT(reached_without, 5);  // the rule has something to do: 12 obstacles often reach the start
+  g.start_clear_s = -0.5;
+  EXPECT_NE(g.validate().find("start_clear_s"), std::string::npos);
+  g.start_clear_s = 0.0;
+  g.start_clear_margin_m = std::nan("");
+  EXPECT_NE(g.validate().find("start_clear_margin_m"), std::string::npos);
 }
 
 TEST(GenerateScenario, ObstacleTypes) {

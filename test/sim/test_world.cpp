@@ -4,11 +4,12 @@
 #include <limits>
 
 #include "dqn_dovs/sim/world.h"
+#include "test_paths.h"
 
 namespace dqn_dovs::sim {
 namespace {
 
-const std::string kRumor = std::string(DQN_DOVS_SHARED_DIR) + "/scenarios/rumor";
+const std::string kRoom = std::string(DQN_DOVS_SCENARIOS_DIR) + "/room";
 
 Scenario emptyRoom(Pose2 start = {}) {
   Scenario s;
@@ -192,7 +193,7 @@ TEST(World, ObstaclesStayInsideTheRoomAndKeepMoving) {
   c.lidar.beams = 8;  // the scan is not used here
   for (int n = 5; n <= 15; n += 5) {
     for (int k = 1; k <= 10; ++k) {
-      const Scenario s = loadDovsScenario(kRumor + "/1-" + std::to_string(n) + "/" + std::to_string(k) + ".dovs");
+      const Scenario s = loadDovsScenario(kRoom + "/1-" + std::to_string(n) + "/" + std::to_string(k) + ".dovs");
       World w(s, c, 1);
       // Border turns take pi / 0.65 = 4.8 s (25 steps) and always end facing into the room, so an obstacle is
       // never still for longer than one turn; a longer standstill means it is trapped at a wall or corner.
@@ -337,7 +338,7 @@ TEST(World, ScanSeesObstaclesFromTheMountedLaser) {
 }
 
 TEST(World, DeterministicBySeed) {
-  const Scenario s = loadDovsScenario(kRumor + "/1-10/7.dovs");
+  const Scenario s = loadDovsScenario(kRoom + "/1-10/7.dovs");
   World a(s, WorldConfig(), 77), b(s, WorldConfig(), 77), c(s, WorldConfig(), 78);
   LaserScan2 sa, sb, sc;
   for (int k = 0; k < 100; ++k) {

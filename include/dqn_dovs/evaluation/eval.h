@@ -65,6 +65,9 @@ struct EvalConfig {
   std::string route = "on";
   /// Goal distance of generated scenarios: at least this far from the robot, as in the evaluation files, m.
   double generated_goal_distance_min_m = 4.0;
+  /// Generated room scenarios: no moving obstacle reaches the robot's start sooner than this on its own arc (s;
+  /// sim::GeneratorConfig::start_clear_s; 0: no such rule, the paper's distribution).
+  double generated_start_clear_s = 0.0;
   /// Worker threads (each with its own planners and episode); results do not depend on it.
   int threads = 1;
   /// Weight file of the `dqn_dovs` method.

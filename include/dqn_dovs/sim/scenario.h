@@ -35,6 +35,11 @@ constexpr double kDefaultObstacleRadius = 0.2;
 constexpr double kMaxScenarioSpeedMps = 10.0;
 constexpr double kMaxScenarioTurnRateRadps = 10.0;
 
+/// The package's own room scenarios, laid out as 1-N/K.dovs (data/scenarios/README.md: drawn by this generator,
+/// the seed and the command there), relative to the package's root: the default of dqn_dovs_eval --scenarios
+/// and of the benchmarks.
+constexpr const char* kDefaultScenariosDir = "data/scenarios/room";
+
 /// Reads a `.dovs` scenario (little-endian float64 rows of 5; row 0 robot x, y, theta, goal_x, goal_y; rows
 /// 1..N obstacles x, y, theta, v, w). Every obstacle gets `obstacle_radius_m`; an obstacle with v = w = 0 is
 /// marked static; a negative v is stored as the equivalent forward motion (heading + pi, speed |v|).
@@ -111,6 +116,13 @@ struct GeneratorConfig {
   double radius_max_m = 0.2;
   /// true: robot start heading uniform in [-pi, pi); false: heading 0 as in the evaluation files.
   bool random_robot_heading = true;
+  /// A moving obstacle whose own (v, w) arc, followed from the start, would come within start_clear_margin_m of
+  /// the robot's disc at its start before this many seconds is drawn again (position and motion), so that the
+  /// robot has this long to act before anything can reach it standing still (s; 0: no such rule, and a seed
+  /// draws exactly what it drew before the rule existed). The arc is followed while it stays in the room.
+  double start_clear_s = 0.0;
+  /// See start_clear_s (m, surface to surface).
+  double start_clear_margin_m = 0.1;
   /// Rejection-sampling budget per placed item (goal or obstacle) before giving up with a ScenarioError.
   int max_attempts = 2000;
 
