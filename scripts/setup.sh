@@ -44,18 +44,41 @@ if [ ${#missing[@]} -gt 0 ]; then
     echo "[setup] apt-get install failed; see /tmp/dqn_dovs_apt.log" >&2; tail -20 /tmp/dqn_dovs_apt.log >&2; exit 1; }
 fi
 
-# Python venv for the trainer and the Python tests (Debian's python3, so ROS python
-# modules stay importable through --system-site-packages).
+# Python venv for the trainer and the Python tests (Debian's python3, so ROS python modules stay importable through
+# --system-site-packages). The venv (PyTorch and its libraries: gigabytes) is made once per machine and set of
+# requirements, in $DQN_DOVS_VENV_CACHE (default ~/.cache/dqn_dovs/venv-HASH, HASH of python/requirements.txt and the
+# interpreter), and .venv links to it: a second checkout on the same machine is set up in a second.
+# DQN_DOVS_VENV_CACHE=none keeps the venv in .venv itself. An existing .venv folder is kept and brought up to date.
 venv="$here/.venv"
-stamp="$venv/.requirements.stamp"
 req="$here/python/requirements.txt"
-if [ ! -x "$venv/bin/python" ]; then
-  echo "[setup] creating Python venv in .venv"
-  /usr/bin/python3 -m venv --system-site-packages "$venv"
-fi
-if [ -f "$req" ] && { [ ! -f "$stamp" ] || ! cmp -s "$req" "$stamp"; }; then
-  echo "[setup] installing Python requirements into .venv"
-  "$venv/bin/pip" install -q --disable-pip-version-check -r "$req"
-  cp "$req" "$stamp"
+python=/usr/bin/python3
+install_requirements() {  # $1: the venv
+  if [ ! -x "$1/bin/python" ]; then
+    echo "[setup] creating Python venv in $1"
+    "$python" -m venv --system-site-packages "$1"
+  fi
+  if [ -f "$req" ] && { [ ! -f "$1/.requirements.stamp" ] || ! cmp -s "$req" "$1/.requirements.stamp"; }; then
+    echo "[setup] installing Python requirements into $1"
+    "$1/bin/pip" install -q --disable-pip-version-check -r "$req"
+    cp "$req" "$1/.requirements.stamp"
+  fi
+}
+cache="${DQN_DOVS_VENV_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/dqn_dovs}"
+if [ "$cache" = none ] || { [ -d "$venv" ] && [ ! -L "$venv" ]; }; then
+  install_requirements "$venv"
+else
+  key=$({ cat "$req" 2>/dev/null; "$python" -c 'import sys; print(sys.version)'; } | sha256sum | cut -c1-16)
+  shared="$cache/venv-$key"
+  mkdir -p "$cache"
+  # One checkout at a time makes it; the others wait for it.
+  (
+    flock 9
+    install_requirements "$shared"
+  ) 9>"$shared.lock"
+  if [ "$(readlink "$venv" 2>/dev/null)" != "$shared" ]; then
+    rm -f "$venv"
+    ln -s "$shared" "$venv"
+    echo "[setup] .venv -> $shared"
+  fi
 fi
 exit 0

@@ -12,7 +12,7 @@
 #include "dqn_dovs/evaluation/episode.h"
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/planning/route.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs {
 namespace {

@@ -11,7 +11,7 @@
 #include "dqn_dovs/common/robot_model.h"
 #include "dqn_dovs/evaluation/eval.h"
 #include "sim_test_helpers.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs {
 namespace {

@@ -19,7 +19,7 @@
 #include "dqn_dovs/evaluation/oracle.h"
 #include "dqn_dovs/evaluation/reach_bound.h"
 #include "dqn_dovs/sim/worlds.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs {
 namespace {

@@ -11,7 +11,7 @@
 #include "dqn_dovs/planning/s_dovs.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/sim/scenario.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs {
 namespace {

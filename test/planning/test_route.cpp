@@ -14,7 +14,7 @@
 #include "dqn_dovs/planning/route.h"
 #include "dqn_dovs/planning/route_map.h"
 #include "dqn_dovs/sim/map.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs {
 namespace {

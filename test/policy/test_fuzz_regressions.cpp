@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "source_paths.h"
 #include "targets.h"
-#include "test_paths.h"
 
 namespace fs = std::filesystem;
 using namespace dqn_dovs;

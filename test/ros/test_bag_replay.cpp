@@ -13,7 +13,7 @@
 #include "dovs_node.h"
 #include "obstacle_tracker_node.h"
 #include "ros_params.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace {
 

@@ -15,7 +15,7 @@
 #include <fstream>
 #include <string>
 
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace {
 

@@ -19,7 +19,7 @@
 #include "dqn_dovs/sim/scenario.h"
 #include "obstacle_test_helpers.h"
 #include "pipeline_steps.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs {
 namespace {

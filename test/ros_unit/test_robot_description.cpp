@@ -5,7 +5,7 @@
 #include <sstream>
 
 #include "robot_description.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace {
 

@@ -7,7 +7,7 @@
 
 #include "dqn_dovs/sim/scenario.h"
 #include "sim_test_helpers.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs::sim {
 namespace {

@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "dqn_dovs/sim/world.h"
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs::sim {
 namespace {

@@ -1,5 +1,5 @@
 // Where the tests find the package's files (the source tree, test/data, data/scenarios). The folders are compiled
-// into one small library (test_paths.cpp), not into every test's command line, so that a test compiles the same
+// into one small library (source_paths.cpp), not into every test's command line, so that a test compiles the same
 // in any checkout and a compiler cache shares it between checkouts.
 #pragma once
 

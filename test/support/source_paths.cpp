@@ -1,4 +1,4 @@
-#include "test_paths.h"
+#include "source_paths.h"
 
 namespace dqn_dovs::test {
 const char* sourceDir() { return DQN_DOVS_PATH_SOURCE; }
