@@ -15,22 +15,30 @@ set +u; . install/setup.sh; set -u
 mkdir -p log
 
 passed=0; failed=0
+rm -f log/check.gtests.counts
 bin=build/dqn_dovs/devel/lib/dqn_dovs
-echo "[check] gtests without a ROS master"
-for src in $(core_test_sources) test/ros_unit/test_*.cpp; do
-  name=$(basename "$src" .cpp)
-  exe="$bin/$name"
-  if [ ! -x "$exe" ]; then
-    echo "[check] $name: not built ($exe)"; failed=$((failed + 1)); continue
-  fi
-  if "$exe" >"log/check.$name.txt" 2>&1; then
-    passed=$((passed + 1))
-  else
-    echo "[check] $name FAILED (log/check.$name.txt):"; grep -E "FAILED|Failure" "log/check.$name.txt" | head -10
-    failed=$((failed + 1))
-  fi
-done
-echo "[check] gtests: $passed executables passed, $failed failed"
+t0=$(date +%s)
+# The gtests in the background, beside the Python tests: the two halves take about as long.
+(
+  p=0; f=0
+  for src in $(core_test_sources) test/ros_unit/test_*.cpp; do
+    name=$(basename "$src" .cpp)
+    exe="$bin/$name"
+    if [ ! -x "$exe" ]; then
+      echo "[check] $name: not built ($exe)"; f=$((f + 1)); continue
+    fi
+    if "$exe" >"log/check.$name.txt" 2>&1; then
+      p=$((p + 1))
+    else
+      echo "[check] $name FAILED (log/check.$name.txt):"; grep -E "FAILED|Failure" "log/check.$name.txt" | head -10
+      f=$((f + 1))
+    fi
+  done
+  echo "[check] gtests: $p executables passed, $f failed ($(( $(date +%s) - t0 )) s)"
+  echo "$p $f" >log/check.gtests.counts
+) >log/check.gtests.txt 2>&1 &
+gtests=$!
+trap 'kill $gtests 2>/dev/null' EXIT
 
 echo "[check] Python tests (pytest, without the training smoke run and the sweep)"
 PYTHONPATH="$root/python${PYTHONPATH:+:$PYTHONPATH}" DQN_DOVS_BIN_DIR="$root/install/lib/dqn_dovs" \
@@ -40,6 +48,13 @@ PYTHONPATH="$root/python${PYTHONPATH:+:$PYTHONPATH}" DQN_DOVS_BIN_DIR="$root/ins
   >log/check.pytest.txt 2>&1
 py_status=$?
 tail -n 3 log/check.pytest.txt
+echo "[check] Python tests: $(( $(date +%s) - t0 )) s"
+wait $gtests
+trap - EXIT
+echo "[check] gtests without a ROS master"
+cat log/check.gtests.txt
+read -r g_pass g_fail <log/check.gtests.counts 2>/dev/null || { g_pass=0; g_fail=1; }
+passed=$((passed + g_pass)); failed=$((failed + g_fail))
 py_passed=$(grep -oE "[0-9]+ passed" log/check.pytest.txt | tail -n 1 | grep -oE "[0-9]+" || echo 0)
 py_failed=$(grep -oE "[0-9]+ (failed|error)" log/check.pytest.txt | grep -oE "[0-9]+" | paste -sd+ - | bc 2>/dev/null || echo 0)
 [ -n "$py_failed" ] || py_failed=0
