@@ -39,6 +39,7 @@ const char* kUsage =
     "                     [--dovs NAME=VALUE,...] [--tracker NAME=VALUE,...] [--oracle NAME=VALUE,...]\n"
     "                     [--oracle-retries none|N=V,...;N=V,...] [--bound NAME=VALUE,...]\n"
     "                     [--world FAMILY] [--sensor PROFILE] [--people-model MODEL] [--people-see-robot]\n"
+    "                     [--people-mix MIX]\n"
     "                     [--odom-noise LEVEL] [--route on|off] [--start-clear S]\n"
     "                     [--no-report] [--write-scenarios DIR]\n"
     "  --methods           planners to evaluate, comma-separated (default s_dovs); oracle: the physical limit\n"
@@ -98,7 +99,11 @@ const char* kUsage =
     "                      clutter, junction (N = people; needs --generate)\n"
     "  --sensor PROFILE    LIDAR profile: sim (default), hokuyo, urg04lx, rplidar_a1\n"
     "  --people-model M    how people move: social_force (default), orca or constant\n"
-    "  --people-see-robot  people see the robot and give way (default: it is invisible to them)\n"
+    "  --people-see-robot  every person attentive (--people-mix attentive=1; default: the robot is invisible to them)\n"
+    "  --people-mix MIX    how people treat the robot, each drawing a behaviour at spawn: shares of attentive\n"
+    "                      (notices it ahead after a reaction delay, then gives way), impassive (walks around it,\n"
+    "                      never slower for it) and oblivious (does not see it), e.g.\n"
+    "                      attentive=0.6,impassive=0.2,oblivious=0.2 (default oblivious=1; docs/simulator.md)\n"
     "  --odom-noise LEVEL  wheel-odometry drift: none (default), low, high; the robot plans in its odom frame\n"
     "  --route on|off      on (default): in worlds with walls (not the room) the robot follows a route on the\n"
     "                      known walls and furniture, as planner_node does; off: it drives at the goal itself\n"
@@ -322,6 +327,13 @@ Options parse(int argc, char** argv) {
     } else if (flag == "--route") {
       o.eval.route = value();
       checkName(flag, o.eval.route, {"on", "off"});
+    } else if (flag == "--people-mix") {
+      o.eval.people_mix = value();
+      try {
+        dqn_dovs::sim::PeopleMix::parse(o.eval.people_mix);
+      } catch (const dqn_dovs::sim::SimError& e) {
+        throw UsageError(std::string("--people-mix: ") + e.what());
+      }
     } else if (flag == "--people-see-robot") {
       o.eval.people_see_robot = true;
     } else if (flag == "--start-clear") {

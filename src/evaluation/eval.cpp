@@ -22,6 +22,22 @@ namespace dqn_dovs {
 
 namespace {
 
+/// Why a people mix text cannot be read ("" when it can).
+std::string peopleMixError(const std::string& text) {
+  try {
+    sim::PeopleMix::parse(text);
+  } catch (const sim::SimError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+/// The behaviours of an evaluation's people as run.json states them.
+std::string peopleMixText(const EvalConfig& c) {
+  if (c.people_see_robot) return sim::PeopleMix::allAttentive().str();
+  return c.people_mix.empty() ? sim::PeopleMix().str() : sim::PeopleMix::parse(c.people_mix).str();
+}
+
 std::string oracleRetriesError(const OracleConfig& base, const std::vector<std::string>& specs) {
   std::vector<OracleConfig> searches;
   return oracleRetrySearches(base, specs, searches);
@@ -66,9 +82,12 @@ std::string EvalConfig::validate() const {
     os << e;
   } else if (const std::string e = bound.validate(); !e.empty()) {
     os << e;
-  } else if (people_see_robot && std::find(methods.begin(), methods.end(), "bound") != methods.end()) {
+  } else if (!people_mix.empty() && !peopleMixError(people_mix).empty()) {
+    os << peopleMixError(people_mix);
+  } else if ((people_see_robot || (!people_mix.empty() && sim::PeopleMix::parse(people_mix).anyReacts())) &&
+             std::find(methods.begin(), methods.end(), "bound") != methods.end()) {
     os << "method bound needs people who ignore the robot (their future is then fixed by the seed): "
-          "drop people_see_robot";
+          "drop people_see_robot, or a people mix where anyone reacts";
   }
   return os.str();
 }
@@ -94,6 +113,13 @@ void applyWorldOptions(EvalConfig& config) {
   }
   config.episode.route.enabled = config.route == "on";
   config.episode.world.people.see_robot = config.people_see_robot;
+  if (!config.people_mix.empty()) {
+    try {
+      config.episode.world.people.mix = sim::PeopleMix::parse(config.people_mix);
+    } catch (const sim::SimError& e) {
+      throw EvalError(e.what());
+    }
+  }
   // People are seen by their legs: the tracker pairs them (the paper's room has none).
   config.episode.tracker.pair_legs = config.world != "room";
   // The tracker's straightness thresholds follow the scanner's range noise.
@@ -616,6 +642,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"world\": " << jsonString(config.world) << ",\n  \"sensor\": " << jsonString(config.sensor)
       << ",\n  \"people_model\": " << jsonString(config.people_model)
       << ",\n  \"people_see_robot\": " << (config.people_see_robot ? "true" : "false")
+      << ",\n  \"people_mix\": " << jsonString(peopleMixText(config))
       << ",\n  \"odom_noise\": " << jsonString(config.odom_noise) << ",\n  \"route\": " << jsonString(config.route)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"track_truth\": " << jsonString(trackTruthName(config.episode.track_truth))

@@ -287,6 +287,7 @@ void OraclePlanner::rollObstacles(const sim::World& world, double sub_dt, int su
     sim::PeopleConfig pc = future.crowd().config();
     pc.model = sim::PeopleModel::kSocialForce;
     pc.see_robot = false;
+    pc.mix = sim::PeopleMix();  // the prediction's people do not react to the robot
     crowd = sim::Crowd(specs, pc);
   }
   for (int k = known; k < substeps; ++k) {

@@ -192,8 +192,9 @@ double farthestFromStart(double v0, double a, double v_max, double t) {
 
 ReachBoundResult reachBound(const sim::World& world, const ReachBoundConfig& config) {
   if (const std::string e = config.validate(); !e.empty()) throw PlannerError(e);
-  if (world.config().people.see_robot) {
-    throw PlannerError("bound: the people see the robot, so their future depends on it and cannot be rolled ahead");
+  if (world.config().people.effectiveMix().anyReacts()) {
+    throw PlannerError("bound: people react to the robot (people mix " + world.config().people.effectiveMix().str() +
+                       "), so their future depends on it and cannot be rolled ahead");
   }
   const RobotLimits& limits = world.config().robot;
   const double cell = config.cell_m, half_diagonal = 0.5 * std::sqrt(2.0) * cell;

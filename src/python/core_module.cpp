@@ -100,8 +100,9 @@ class VecEnv {
   }
 
   /// The mixture of worlds that episodes reset from now on are drawn from: each entry is a world_options mapping
-  /// (world, sensor, people_model, people_see_robot, odom_noise, route, people_predictor), drawn with probability
-  /// weight / sum of weights. With one world no draw is made, so a single world replays the same scenarios as before.
+  /// (world, sensor, people_model, people_see_robot, people_mix, odom_noise, route, people_predictor), drawn with
+  /// probability weight / sum of weights. With one world no draw is made, so a single world replays the same scenarios
+  /// as before.
   void setWorlds(const std::vector<std::map<std::string, std::string>>& worlds, const std::vector<double>& weights) {
     if (worlds.empty()) throw std::invalid_argument("set_worlds: at least one world is needed");
     if (weights.size() != worlds.size()) {
@@ -417,6 +418,8 @@ class VecEnv {
         if (value != "true" && value != "false")
           throw std::invalid_argument(where + ": people_see_robot must be true or false, got '" + value + "'");
         world.people_see_robot = value == "true";
+      } else if (key == "people_mix") {
+        world.people_mix = value;  // applyWorldOptions names a mix it cannot read
       } else if (key == "odom_noise") {
         world.odom_noise = value;
       } else if (key == "route") {
@@ -425,8 +428,8 @@ class VecEnv {
         world.episode.people_predictor = value;  // the Episode names a missing or unusable file
       } else {
         throw std::invalid_argument(where + ": unknown key '" + key +
-                                    "' (world, sensor, people_model, people_see_robot, odom_noise, route, "
-                                    "people_predictor)");
+                                    "' (world, sensor, people_model, people_see_robot, people_mix, odom_noise, "
+                                    "route, people_predictor)");
       }
     }
     WorldVariant v;
@@ -570,7 +573,8 @@ PYBIND11_MODULE(_core, m) {
            py::arg("dovs_parameters") = std::map<std::string, std::string>{},
            "world_options: the evaluation's world flags by name (world: room, crowd, corridor, doorway, clutter, "
            "junction, with the stage's obstacle counts as people; sensor; people_model; people_see_robot: true or "
-           "false; odom_noise; route: on (default: routes in worlds with walls, as the robot follows them) or off; "
+           "false; people_mix: attentive=A,impassive=I,oblivious=O shares; odom_noise; route: on (default: routes in "
+           "worlds with walls, as the robot follows them) or off; "
            "people_predictor: a people predictor file whose predicted arcs the DOVS takes, as --predict-people). "
            "dovs_parameters: the DOVS model's parameters by name (config/dovs.yaml dovs/*, e.g. grid_contact_horizon), "
            "applied in every world.")

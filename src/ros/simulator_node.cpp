@@ -160,6 +160,15 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
     throw ParameterError(std::string("simulator: ") + e.what());
   }
   world_config_.people.see_robot = param<bool>(pnh_, "people/see_robot", false);
+  // How people treat the robot (sim::PeopleMix: attentive, impassive, oblivious shares); empty: all oblivious.
+  const std::string mix = param<std::string>(pnh_, "people/mix", "");
+  if (!mix.empty()) {
+    try {
+      world_config_.people.mix = sim::PeopleMix::parse(mix);
+    } catch (const sim::SimConfigError& e) {
+      throw ParameterError("parameter '" + pnh_.resolveName("people/mix") + "': " + e.what());
+    }
+  }
 
   // First scenario: a .dovs file when `scenario` is set, else the generator with `seed`.
   const std::string scenario_path = param<std::string>(pnh_, "scenario", "");

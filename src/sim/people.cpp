@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "dqn_dovs/common/orca_lp.h"
+#include "dqn_dovs/common/random.h"
 #include "dqn_dovs/sim/errors.h"
 
 namespace dqn_dovs::sim {
@@ -32,6 +33,93 @@ bool straightWalkIsClear(const Vec2& a, const Vec2& b, double radius, const std:
 bool isWaypoint(const PersonSpec& spec, size_t k) { return !spec.pass_through.empty() && spec.pass_through[k]; }
 
 }  // namespace
+
+const char* personBehaviorName(PersonBehavior behavior) {
+  switch (behavior) {
+    case PersonBehavior::kOblivious:
+      return "oblivious";
+    case PersonBehavior::kImpassive:
+      return "impassive";
+    case PersonBehavior::kAttentive:
+      return "attentive";
+  }
+  return "?";
+}
+
+PeopleMix PeopleMix::parse(const std::string& text) {
+  PeopleMix m{0.0, 0.0, 0.0};
+  bool seen[3] = {false, false, false};
+  std::stringstream ss(text);
+  std::string item;
+  int entries = 0;
+  while (std::getline(ss, item, ',')) {
+    const size_t eq = item.find('=');
+    if (eq == std::string::npos) {
+      throw SimConfigError("people mix '" + text + "': '" + item + "' is not BEHAVIOUR=SHARE");
+    }
+    const std::string name = item.substr(0, eq), value = item.substr(eq + 1);
+    double share = 0.0;
+    size_t used = 0;
+    try {
+      share = std::stod(value, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != value.size() || value.empty() || !std::isfinite(share) || share < 0.0) {
+      throw SimConfigError("people mix '" + text + "': the share of '" + name + "' must be a number >= 0, got '" +
+                           value + "'");
+    }
+    int k = -1;
+    for (int b = 0; b < 3; ++b) {
+      if (name == personBehaviorName(static_cast<PersonBehavior>(b))) k = b;
+    }
+    if (k < 0) {
+      throw SimConfigError("people mix '" + text + "': '" + name + "' is not one of oblivious, impassive, attentive");
+    }
+    if (seen[k]) throw SimConfigError("people mix '" + text + "': '" + name + "' is given twice");
+    seen[k] = true;
+    (k == 0 ? m.oblivious : k == 1 ? m.impassive : m.attentive) = share;
+    ++entries;
+  }
+  if (entries == 0) throw SimConfigError("people mix '" + text + "' is empty (e.g. attentive=0.6,oblivious=0.4)");
+  const double total = m.attentive + m.impassive + m.oblivious;
+  if (!(total > 0.0)) throw SimConfigError("people mix '" + text + "': every share is 0");
+  m.attentive /= total;
+  m.impassive /= total;
+  m.oblivious /= total;
+  return m;
+}
+
+std::string PeopleMix::str() const {
+  std::ostringstream os;
+  const double total = attentive + impassive + oblivious;
+  for (const auto& [name, share] :
+       {std::pair<const char*, double>{"attentive", attentive}, {"impassive", impassive}, {"oblivious", oblivious}}) {
+    if (share <= 0.0) continue;
+    os << (os.str().empty() ? "" : ",") << name << "=" << share / total;
+  }
+  return os.str();
+}
+
+std::string PeopleMix::validate() const {
+  for (const auto& [name, share] :
+       {std::pair<const char*, double>{"attentive", attentive}, {"impassive", impassive}, {"oblivious", oblivious}}) {
+    if (!(std::isfinite(share) && share >= 0.0)) {
+      std::ostringstream os;
+      os << "people mix share '" << name << "' = " << share << ": must be finite and >= 0";
+      return os.str();
+    }
+  }
+  if (!(attentive + impassive + oblivious > 0.0)) return "people mix: every share is 0";
+  return {};
+}
+
+PersonBehavior PeopleMix::pick(double u) const {
+  const double total = attentive + impassive + oblivious;
+  if (u * total < attentive) return PersonBehavior::kAttentive;
+  if (u * total < attentive + impassive) return PersonBehavior::kImpassive;
+  return PersonBehavior::kOblivious;
+}
 
 const char* peopleModelName(PeopleModel model) {
   switch (model) {
@@ -88,12 +176,32 @@ std::string PeopleConfig::validate() const {
   }
   if (!(std::isfinite(anisotropy) && anisotropy >= 0.0 && anisotropy <= 1.0)) {
     os << "people parameter 'anisotropy' = " << anisotropy << ": must be in [0, 1]";
+    return os.str();
+  }
+  if (const std::string e = mix.validate(); !e.empty()) return e;
+  if (!(std::isfinite(notice_fov_rad) && notice_fov_rad > 0.0 && notice_fov_rad <= 2.0 * 3.141592653589793 + 1e-12)) {
+    os << "people parameter 'notice_fov_rad' = " << notice_fov_rad << ": must be in (0, 2 pi]";
+  } else if (!(std::isfinite(notice_range_m) && notice_range_m >= 0.0)) {
+    os << "people parameter 'notice_range_m' = " << notice_range_m << ": must be finite and >= 0";
+  } else if (!(std::isfinite(reaction_min_s) && reaction_min_s >= 0.0 && std::isfinite(reaction_max_s) &&
+               reaction_max_s >= reaction_min_s)) {
+    os << "people parameters 'reaction_min_s' = " << reaction_min_s << ", 'reaction_max_s' = " << reaction_max_s
+       << ": must be finite with 0 <= min <= max";
+  } else if (!(std::isfinite(yield_strength_min) && yield_strength_min >= 0.0 && std::isfinite(yield_strength_max) &&
+               yield_strength_max >= yield_strength_min)) {
+    os << "people parameters 'yield_strength_min' = " << yield_strength_min
+       << ", 'yield_strength_max' = " << yield_strength_max << ": must be finite with 0 <= min <= max";
   }
   return os.str();
 }
 
-Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config) : config_(config) {
+Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config, uint64_t seed) : config_(config) {
   if (const std::string e = config_.validate(); !e.empty()) throw SimConfigError(e);
+  // The behaviours' own stream: three draws per person, whatever it draws, so that person i's draws depend only on
+  // the seed and i.
+  constexpr uint64_t kBehaviorStreamTag = 0xBE4A71C0DE5ULL;
+  Rng rng(seed ^ kBehaviorStreamTag);
+  const PeopleMix mix = config_.effectiveMix();
   for (size_t i = 0; i < people.size(); ++i) {
     const PersonSpec& s = people[i];
     bool ok = s.position.allFinite() && std::isfinite(s.heading_rad) && finitePositive(s.body_radius_m) &&
@@ -114,6 +222,11 @@ Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config) 
     if (config_.model == PeopleModel::kConstant || s.destinations.empty()) {
       p.velocity = s.preferred_speed_mps * Vec2(std::cos(s.heading_rad), std::sin(s.heading_rad));
     }
+    const double u = rng.uniform01(), reaction = rng.uniform01(), strength = rng.uniform01();
+    p.behavior = mix.pick(u);
+    p.reaction_s = config_.reaction_min_s + reaction * (config_.reaction_max_s - config_.reaction_min_s);
+    p.yield_strength =
+        config_.yield_strength_min + strength * (config_.yield_strength_max - config_.yield_strength_min);
     people_.push_back(p);
   }
 }
@@ -136,8 +249,28 @@ void Crowd::step(double dt_s, const std::vector<Segment>& walls, const Circle& r
   for (int k = 0; k < n && dt_s > 0.0; ++k) substep(dt_s / n, walls, robot, robot_velocity);
 }
 
+void Crowd::notice(double dt, const Circle& robot) {
+  for (Person& p : people_) {
+    if (p.behavior != PersonBehavior::kAttentive) continue;
+    const Vec2 to = robot.center - p.position;
+    const double gap = to.norm() - p.spec.body_radius_m - robot.radius;
+    if (gap > config_.notice_range_m) {  // out of range: forgotten
+      p.noticed = false;
+      p.seen_s = 0.0;
+      continue;
+    }
+    if (p.noticed) continue;
+    const Vec2 heading(std::cos(p.heading_rad), std::sin(p.heading_rad));
+    const double n = to.norm();
+    const bool in_view = n < 1e-9 || heading.dot(to / n) >= std::cos(0.5 * config_.notice_fov_rad) - 1e-12;
+    p.seen_s = in_view ? p.seen_s + dt : 0.0;
+    if (in_view && p.seen_s >= p.reaction_s - 1e-12) p.noticed = true;
+  }
+}
+
 void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity) {
   const size_t count = people_.size();
+  notice(dt, robot);
   std::vector<Vec2> velocity(count);
   // Group centroids from the states at the start of the step (every person is updated from the same snapshot).
   std::map<int, std::pair<Vec2, int>> groups;
@@ -165,7 +298,8 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
     // V = A B exp(-(b - R) / B), where b is the semi-minor axis of the ellipse through the person's position with
     // foci at the other's position and where the other will be after step_time_s (so people moving toward each
     // other repel earlier), and R the sum of the radii; the force is -grad V (central differences).
-    auto repel = [&](const Vec2& other, double other_radius, const Vec2& other_velocity) {
+    // Returns the force rather than adding it, so that the robot's can be scaled or turned sideways.
+    auto repulsion = [&](const Vec2& other, double other_radius, const Vec2& other_velocity) -> Vec2 {
       const Vec2 step = config_.step_time_s * other_velocity;
       const double s = step.norm(), radii = p.spec.body_radius_m + other_radius;
       auto potential = [&](const Vec2& r) {
@@ -174,19 +308,29 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
         return config_.person_repulsion_mps2 * config_.person_range_m * std::exp(-(b - radii) / config_.person_range_m);
       };
       const Vec2 r = p.position - other;
-      if (r.norm() < 1e-9) return;
+      if (r.norm() < 1e-9) return Vec2::Zero();
       constexpr double h = 1e-5;
       const Vec2 f(-(potential(r + Vec2(h, 0)) - potential(r - Vec2(h, 0))) / (2 * h),
                    -(potential(r + Vec2(0, h)) - potential(r - Vec2(0, h))) / (2 * h));
       // Anisotropy: full strength for what lies ahead, lambda for what lies behind.
       const double ahead = -r.normalized().dot(heading);
       const double weight = config_.anisotropy + (1.0 - config_.anisotropy) * 0.5 * (1.0 + ahead);
-      force += weight * f;
+      return weight * f;
     };
     for (size_t j = 0; j < count; ++j) {
-      if (j != i) repel(people_[j].position, people_[j].spec.body_radius_m, people_[j].velocity);
+      if (j != i) force += repulsion(people_[j].position, people_[j].spec.body_radius_m, people_[j].velocity);
     }
-    if (config_.see_robot) repel(robot.center, robot.radius, robot_velocity);
+    if (p.behavior == PersonBehavior::kAttentive && p.noticed) {
+      // Gives way as to another person (the robot's motion shapes the ellipse), with its own strength.
+      force += p.yield_strength * repulsion(robot.center, robot.radius, robot_velocity);
+    } else if (p.behavior == PersonBehavior::kImpassive) {
+      // Around the robot as around a still obstacle, and only sideways: the repulsion's whole strength turned
+      // across its way, to the side it already is on, so that it steers round and never slows down for it.
+      const Vec2 f = repulsion(robot.center, robot.radius, Vec2::Zero());
+      const Vec2 along = desired.norm() > 1e-9 ? Vec2(desired.normalized()) : heading;
+      const Vec2 left(-along.y(), along.x());
+      force += f.norm() * (left.dot(p.position - robot.center) >= 0.0 ? left : Vec2(-left));
+    }
     for (const Segment& w : walls) {
       const Vec2 d = p.position - closestPointOnSegment(p.position, w);
       const double dist = d.norm();
@@ -287,10 +431,13 @@ Vec2 Crowd::orcaVelocity(size_t i, double dt, const std::vector<Segment>& walls,
     lines.push_back(orcaLineForDisc(p.position, p.velocity, r, q.position, q.velocity, q.spec.body_radius_m,
                                     config_.orca_time_horizon_s, dt, 0.5));
   }
-  if (config_.see_robot && (robot.center - p.position).norm() - r - robot.radius < reach) {
-    // The robot does not run ORCA with people: whoever sees it takes the whole avoidance.
-    lines.push_back(orcaLineForDisc(p.position, p.velocity, r, robot.center, robot_velocity, robot.radius,
-                                    config_.orca_time_horizon_s, dt, 1.0));
+  const bool yields = p.behavior == PersonBehavior::kAttentive && p.noticed;
+  if ((yields || p.behavior == PersonBehavior::kImpassive) &&
+      (robot.center - p.position).norm() - r - robot.radius < reach) {
+    // The robot does not run ORCA with people: whoever sees it takes the whole avoidance. An impassive person
+    // avoids it as a still disc (it does not time its way for the robot's motion).
+    lines.push_back(orcaLineForDisc(p.position, p.velocity, r, robot.center, yields ? robot_velocity : Vec2::Zero(),
+                                    robot.radius, config_.orca_time_horizon_s, dt, 1.0));
   }
   return solveOrcaLp(lines, hard, config_.max_speed_factor * p.spec.preferred_speed_mps, drive(p)).velocity;
 }

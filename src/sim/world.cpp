@@ -157,7 +157,7 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
     obstacles_.push_back(o);
   }
   try {
-    crowd_ = Crowd(scenario.people, config_.people);
+    crowd_ = Crowd(scenario.people, config_.people, seed);
   } catch (const SimConfigError& e) {
     throw ScenarioError("scenario '" + scenario.name + "': " + e.what());
   }

@@ -99,6 +99,29 @@ def test_odometry_drift_runs_and_is_recorded(tmp_path):
     assert len(list(csv.DictReader(open(out / "results.csv")))) == 3
 
 
+def test_a_people_mix_changes_the_people_and_is_recorded(tmp_path):
+    # The same generated corridor episodes with everybody oblivious and everybody attentive: the mix is in run.json,
+    # and people who give way change what happens on at least one of the episodes.
+    outcomes = {}
+    for mix in ("oblivious=1", "attentive=1"):
+        out = tmp_path / mix.split("=")[0]
+        cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "s_dovs", "--world", "corridor", "--generate", "10011",
+               "--obstacles", "8", "--episodes", "4", "--people-mix", mix, "--trajectories", "0", "--no-report",
+               "--out", str(out)]
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+        assert proc.returncode == 0, proc.stderr
+        assert json.load(open(out / "run.json"))["people_mix"] == mix
+        outcomes[mix] = [(r["outcome"], r["steps"], r["min_clearance_m"]) for r in csv.DictReader(open(out / "results.csv"))]
+    assert outcomes["oblivious=1"] != outcomes["attentive=1"]
+    bad = subprocess.run([str(built_tool("dqn_dovs_eval")), "--world", "corridor", "--generate", "1",
+                          "--people-mix", "curious=1"], capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert bad.returncode == 2 and "--people-mix: people mix 'curious=1': 'curious' is not one of" in bad.stderr
+    bound = subprocess.run([str(built_tool("dqn_dovs_eval")), "--methods", "bound", "--world", "corridor", "--generate",
+                            "1", "--obstacles", "4", "--episodes", "1", "--people-mix", "impassive=1", "--out",
+                            str(tmp_path / "bound")], capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert bound.returncode != 0 and "method bound needs people who ignore the robot" in bound.stderr
+
+
 def test_world_flags_are_checked(tmp_path):
     base = [str(built_tool("dqn_dovs_eval")), "--out", str(tmp_path / "x"), "--obstacles", "2", "--episodes", "1"]
     for extra, message in ((["--world", "maze", "--generate", "1"], "--world: 'maze' is not one of room, crowd"),

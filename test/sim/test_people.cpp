@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "dqn_dovs/sim/errors.h"
@@ -153,6 +154,138 @@ TEST(People, GroupsWalkTogetherAndAVisibleRobotIsGivenWay) {
   };
   EXPECT_LT(closest(false), 0.1);
   EXPECT_GT(closest(true), 0.25 + 0.2 - 0.02);
+}
+
+// One person walking at a robot that stands 3 m ahead on its line; the mix decides how it treats the robot.
+struct Approach {
+  double closest_m = std::numeric_limits<double>::infinity();    ///< centre to centre
+  double slowest_mps = std::numeric_limits<double>::infinity();  ///< its lowest speed on the way to the robot
+  double noticed_at_s = -1.0;                                    ///< when it started giving way (attentive), s
+  Person person;
+};
+Approach approach(const std::string& mix, double reaction_s = 0.45) {
+  PeopleConfig cfg;
+  cfg.mix = PeopleMix::parse(mix);
+  cfg.reaction_min_s = cfg.reaction_max_s = reaction_s;
+  const Circle robot{Vec2(3.0, 0.0), 0.2};
+  Crowd crowd({walker({0, 0.02}, {6, 0.02})}, cfg, 7);
+  Approach a;
+  for (int k = 0; k < 150; ++k) {
+    crowd.step(0.05, {}, robot, Vec2::Zero());
+    const Person& p = crowd.people()[0];
+    a.closest_m = std::min(a.closest_m, (p.position - robot.center).norm());
+    // Once up to speed (1.5 s: three relaxation times), until it is level with the robot.
+    if (k >= 30 && p.position.x() < robot.center.x()) a.slowest_mps = std::min(a.slowest_mps, p.velocity.norm());
+    if (p.noticed && a.noticed_at_s < 0.0) a.noticed_at_s = 0.05 * (k + 1);
+  }
+  a.person = crowd.people()[0];
+  return a;
+}
+
+TEST(PeopleBehaviors, TheMixDecidesHowTheRobotIsTreated) {
+  const Approach oblivious = approach("oblivious=1"), impassive = approach("impassive=1"),
+                 attentive = approach("attentive=1");
+  EXPECT_EQ(oblivious.person.behavior, PersonBehavior::kOblivious);
+  EXPECT_EQ(impassive.person.behavior, PersonBehavior::kImpassive);
+  EXPECT_EQ(attentive.person.behavior, PersonBehavior::kAttentive);
+  // Oblivious: walks through the robot's place.
+  EXPECT_LT(oblivious.closest_m, 0.1);
+  // Impassive: walks around it, but never slower for it (at its walking speed of 1 m/s throughout).
+  EXPECT_GT(impassive.closest_m, 0.25 + 0.2 - 0.05);
+  EXPECT_GT(impassive.slowest_mps, oblivious.slowest_mps - 0.05);
+  // An attentive one slows down for it.
+  EXPECT_LT(attentive.slowest_mps, oblivious.slowest_mps - 0.1);
+  // Attentive: gives way.
+  EXPECT_GT(attentive.closest_m, 0.25 + 0.2 - 0.02);
+}
+
+TEST(PeopleBehaviors, AnAttentivePersonGivesWayAfterItsDelayAndNotBefore) {
+  // The robot is in view from the start: it notices after its reaction delay, to the step.
+  for (double delay : {0.3, 0.6}) {
+    const Approach a = approach("attentive=1", delay);
+    EXPECT_NEAR(a.noticed_at_s, delay, 0.05 + 1e-9) << "delay " << delay;
+  }
+  // Before the delay it walks exactly as an oblivious person: the same positions.
+  PeopleConfig seeing, blind;
+  seeing.mix = PeopleMix::allAttentive();
+  seeing.reaction_min_s = seeing.reaction_max_s = 1.0;
+  const Circle robot{Vec2(1.8, 0.0), 0.2};
+  Crowd a({walker({0, 0.02}, {6, 0.02})}, seeing, 3), b({walker({0, 0.02}, {6, 0.02})}, blind, 3);
+  for (int k = 0; k < 19; ++k) {  // 0.95 s
+    a.step(0.05, {}, robot, Vec2::Zero());
+    b.step(0.05, {}, robot, Vec2::Zero());
+  }
+  EXPECT_FALSE(a.people()[0].noticed);
+  EXPECT_EQ(a.people()[0].position, b.people()[0].position);
+  a.step(0.1, {}, robot, Vec2::Zero());
+  EXPECT_TRUE(a.people()[0].noticed);
+  // A robot behind it (outside the 180 deg ahead) is not noticed, however long.
+  Crowd c({walker({0, 0.02}, {6, 0.02})}, seeing, 3);
+  const Circle behind{Vec2(-1.0, 0.0), 0.2};
+  for (int k = 0; k < 60; ++k) c.step(0.05, {}, behind, Vec2::Zero());
+  EXPECT_FALSE(c.people()[0].noticed);
+}
+
+TEST(PeopleBehaviors, DrawnFromTheMixBySeedAndReproducible) {
+  std::vector<PersonSpec> people;
+  for (int i = 0; i < 400; ++i) people.push_back(walker({0.0, 0.1 * i}, {5.0, 0.1 * i}));
+  PeopleConfig cfg;
+  cfg.mix = PeopleMix::parse("attentive=0.6,impassive=0.2,oblivious=0.2");
+  const Crowd a(people, cfg, 11), b(people, cfg, 11), c(people, cfg, 12);
+  int counts[3] = {0, 0, 0};
+  bool differs = false;
+  for (size_t i = 0; i < people.size(); ++i) {
+    const Person& p = a.people()[i];
+    EXPECT_EQ(p.behavior, b.people()[i].behavior);
+    EXPECT_EQ(p.reaction_s, b.people()[i].reaction_s);
+    differs |= p.behavior != c.people()[i].behavior;
+    ++counts[static_cast<int>(p.behavior)];
+    EXPECT_GE(p.reaction_s, cfg.reaction_min_s);
+    EXPECT_LE(p.reaction_s, cfg.reaction_max_s);
+    EXPECT_GE(p.yield_strength, cfg.yield_strength_min);
+    EXPECT_LE(p.yield_strength, cfg.yield_strength_max);
+  }
+  EXPECT_TRUE(differs);
+  // 400 draws: each share within 4 standard deviations.
+  EXPECT_NEAR(counts[static_cast<int>(PersonBehavior::kAttentive)], 240, 40);
+  EXPECT_NEAR(counts[static_cast<int>(PersonBehavior::kImpassive)], 80, 32);
+  EXPECT_NEAR(counts[static_cast<int>(PersonBehavior::kOblivious)], 80, 32);
+  // see_robot: everybody attentive, whatever the mix.
+  cfg.see_robot = true;
+  const Crowd seeing(people, cfg, 11);
+  for (const Person& p : seeing.people()) EXPECT_EQ(p.behavior, PersonBehavior::kAttentive);
+}
+
+TEST(PeopleBehaviors, TheMixTextIsReadOrRefusedWithItsReason) {
+  const PeopleMix m = PeopleMix::parse("attentive=3,oblivious=1");
+  EXPECT_DOUBLE_EQ(m.attentive, 0.75);
+  EXPECT_DOUBLE_EQ(m.impassive, 0.0);
+  EXPECT_DOUBLE_EQ(m.oblivious, 0.25);
+  EXPECT_EQ(m.str(), "attentive=0.75,oblivious=0.25");
+  EXPECT_TRUE(m.anyReacts());
+  EXPECT_FALSE(PeopleMix().anyReacts());
+  EXPECT_EQ(PeopleMix::parse(m.str()).str(), m.str());
+  auto refused = [](const std::string& text, const std::string& reason) {
+    try {
+      PeopleMix::parse(text);
+      ADD_FAILURE() << "'" << text << "' was accepted";
+    } catch (const SimConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << e.what();
+    }
+  };
+  refused("curious=1", "'curious' is not one of oblivious, impassive, attentive");
+  refused("attentive=0.5,attentive=0.5", "'attentive' is given twice");
+  refused("attentive=-1", "must be a number >= 0");
+  refused("attentive=nan", "must be a number >= 0");
+  refused("attentive", "is not BEHAVIOUR=SHARE");
+  refused("attentive=0,oblivious=0", "every share is 0");
+  refused("", "is empty");
+  PeopleConfig cfg;
+  cfg.reaction_max_s = 0.1;  // below reaction_min_s
+  EXPECT_NE(cfg.validate().find("reaction_min_s"), std::string::npos);
+  cfg = PeopleConfig();
+  cfg.notice_fov_rad = 0.0;
+  EXPECT_NE(cfg.validate().find("notice_fov_rad"), std::string::npos);
 }
 
 TEST(People, SameInputSameTrajectories) {

@@ -58,6 +58,9 @@ struct EvalConfig {
   /// How people move ("constant", "social_force") and whether they see the robot and give way.
   std::string people_model = "social_force";
   bool people_see_robot = false;
+  /// How people treat the robot (sim::PeopleMix text, e.g. "attentive=0.6,impassive=0.2,oblivious=0.2"); empty:
+  /// everybody oblivious, or attentive with people_see_robot (which wins).
+  std::string people_mix;
   /// Wheel-odometry drift (sim::OdometryConfig::level): "none", "low" or "high".
   std::string odom_noise = "none";
   /// "on": in worlds with walls (static segments; not the paper's room) the robot follows a route on the known

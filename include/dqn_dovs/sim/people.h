@@ -35,6 +35,39 @@ const char* peopleModelName(PeopleModel model);
 PeopleModel parsePeopleModel(const std::string& name);
 std::vector<std::string> peopleModelNames();
 
+/// How a person treats the robot (docs/simulator.md, "People who notice the robot"). Each person draws one at spawn
+/// from PeopleConfig::mix.
+///   oblivious: the robot is invisible to it (walks into it as if it were not there);
+///   impassive: walks around the robot as around a still obstacle, sideways only: never slows down or times its way
+///              for it;
+///   attentive: notices the robot inside its field of view (PeopleConfig::notice_fov_rad ahead, notice_range_m)
+///              after a reaction delay of its own, then gives way to it as to another person, with a strength of its
+///              own; it keeps giving way while the robot stays within notice_range_m.
+enum class PersonBehavior { kOblivious = 0, kImpassive = 1, kAttentive = 2 };
+/// "oblivious", "impassive", "attentive".
+const char* personBehaviorName(PersonBehavior behavior);
+
+/// Shares of the behaviours among the people of an episode, e.g. "attentive=0.6,impassive=0.2,oblivious=0.2" (the
+/// shares are normalised; a name left out has share 0).
+struct PeopleMix {
+  double attentive = 0.0;
+  double impassive = 0.0;
+  double oblivious = 1.0;
+  /// Parses the text form; throws SimConfigError naming the entry and the reason (unknown behaviour, a name given
+  /// twice, a share that is negative or not a number, all shares 0).
+  static PeopleMix parse(const std::string& text);
+  /// Every person attentive (what `people see the robot` means).
+  static PeopleMix allAttentive() { return {1.0, 0.0, 0.0}; }
+  /// The text form with normalised shares, e.g. "attentive=0.6,impassive=0.2,oblivious=0.2" (zero shares left out).
+  std::string str() const;
+  /// Whether anyone reacts to the robot (then the people's future depends on what the robot does).
+  bool anyReacts() const { return attentive > 0.0 || impassive > 0.0; }
+  /// Empty when consistent, otherwise a message naming the share and why.
+  std::string validate() const;
+  /// The behaviour a draw u in [0, 1) picks: attentive first, then impassive, then oblivious.
+  PersonBehavior pick(double u) const;
+};
+
 /// One person's initial state and plan.
 struct PersonSpec {
   Vec2 position = Vec2::Zero();
@@ -56,8 +89,22 @@ struct PersonSpec {
 /// Parameters of the people models and their legs.
 struct PeopleConfig {
   PeopleModel model = PeopleModel::kSocialForce;
-  /// Whether people see the robot and give way to it (false: the robot is invisible, the hardest case).
+  /// Whether people see the robot and give way to it (false: the robot is invisible, the hardest case). true makes
+  /// every person attentive, whatever `mix` says.
   bool see_robot = false;
+  /// How people treat the robot: each person draws a behaviour from these shares at spawn (Crowd's seed).
+  PeopleMix mix;
+  /// Attentive people: the field of view in which they notice the robot (centred on their heading; pi: 180 deg
+  /// ahead), how far (surface to surface), their reaction delay (uniform in [min, max] per person, s) and the
+  /// strength with which they give way (uniform in [min, max] per person, a factor on the repulsion between people).
+  double notice_fov_rad = 3.141592653589793;
+  double notice_range_m = 4.0;
+  double reaction_min_s = 0.3;
+  double reaction_max_s = 0.6;
+  double yield_strength_min = 0.6;
+  double yield_strength_max = 1.0;
+  /// The behaviours in force: all attentive with see_robot, else mix.
+  PeopleMix effectiveMix() const { return see_robot ? PeopleMix::allAttentive() : mix; }
   double relaxation_time_s = 0.5;      ///< tau: how fast a person returns to its preferred velocity
   double person_repulsion_mps2 = 7.0;  ///< A: repulsion between people when their bodies touch (V0 / sigma)
   double person_range_m = 0.3;         ///< B: its decay length (sigma)
@@ -102,6 +149,11 @@ struct Person {
   double gait_phase_rad = 0.0;                                 ///< advances with the distance walked
   double closest_m = std::numeric_limits<double>::infinity();  ///< nearest it has come to its destination
   double stalled_s = 0.0;  ///< time since it last came 0.1 m closer to it (PeopleConfig::stall_time_s)
+  PersonBehavior behavior = PersonBehavior::kOblivious;  ///< drawn at spawn from PeopleConfig::mix
+  double reaction_s = 0.0;                               ///< attentive: its reaction delay, s
+  double yield_strength = 1.0;                           ///< attentive: its strength of giving way
+  double seen_s = 0.0;                                   ///< attentive: how long the robot has been in view, s
+  bool noticed = false;                                  ///< attentive: it gives way to the robot now
 };
 
 /// The people of one episode.
@@ -109,11 +161,12 @@ class Crowd {
  public:
   Crowd() = default;
   /// Throws SimConfigError when config.validate() fails or a spec is not finite or has a non-positive radius or
-  /// speed.
-  Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config);
+  /// speed. Each person's behaviour (and an attentive one's reaction delay and strength) is drawn from config.mix
+  /// with `seed` (a stream of its own: the same seed, the same behaviours, whatever else the seed drives).
+  Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config, uint64_t seed = 0);
 
   /// Advances every person by dt_s (split into steps of at most config.physics_step_s). `walls` repel and
-  /// block people (social force); `robot` and `robot_velocity` are used only when config.see_robot.
+  /// block people (social force); `robot` and `robot_velocity` matter to impassive and attentive people only.
   void step(double dt_s, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity);
 
   const std::vector<Person>& people() const { return people_; }
@@ -133,6 +186,8 @@ class Crowd {
  private:
   void substep(double dt, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity);
   Vec2 drive(const Person& p) const;
+  /// Attentive people: whether each has noticed the robot, after this step of dt.
+  void notice(double dt, const Circle& robot);
   /// The orca model's velocity for person i over a step of dt.
   Vec2 orcaVelocity(size_t i, double dt, const std::vector<Segment>& walls, const Circle& robot,
                     const Vec2& robot_velocity) const;
