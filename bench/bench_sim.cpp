@@ -2,7 +2,8 @@
 // 1-15 scenarios), the 360 deg / 720-beam simulation LIDAR and a 0.05 s physics step. The robot follows a
 // simple go-to-goal law so that it moves through the crowd; episodes restart on collision, arrival or 500 steps.
 // Then the same per world family with 15 people (social force, legs in the scan; <family>_steps_per_s), and in the
-// crowd with every LIDAR profile (crowd_<profile>_steps_per_s).
+// crowd with every LIDAR profile (crowd_<profile>_steps_per_s), and the crowd whose people notice the robot
+// (attentive=0.6,impassive=0.2,oblivious=0.2: crowd_mix_steps_per_s).
 //
 // Usage: bench_sim [--scenarios DIR] [--out FILE] [--steps N]
 #include <sys/stat.h>
@@ -156,6 +157,13 @@ int main(int argc, char** argv) {
       const Run r = measure(worlds, c, family_steps, dt_s);
       const std::string key = family + (family == "crowd" && sensor != "sim" ? "_" + sensor : "");
       results[key + "_steps_per_s"] = static_cast<double>(family_steps) / r.elapsed_s;
+    }
+    if (family == "crowd") {
+      // The crowd again with people who notice the robot (each behaviour present): crowd_mix_steps_per_s.
+      sim::WorldConfig c;
+      c.people.mix = sim::PeopleMix::parse("attentive=0.6,impassive=0.2,oblivious=0.2");
+      const Run r = measure(worlds, c, family_steps, dt_s);
+      results["crowd_mix_steps_per_s"] = static_cast<double>(family_steps) / r.elapsed_s;
     }
   }
 
