@@ -49,6 +49,10 @@ RESULTS_COLUMNS = ("method", "obstacles", "episode", "scenario", "outcome", "tim
                    "last_decision")
 # Optional columns (runs written before them lack them): what the planners knew of the body that hit the robot.
 HIT_COLUMNS = ("hit_cause", "hit_seen_s", "hit_prediction_error_m", "hit_prediction_error_2s_m", "hit_bearing_deg")
+# Optional columns (runs written before them lack them): who hit whom, and whether the robot was at fault.
+FAULT_COLUMNS = ("contact", "at_fault")
+# contact values of a collision (dqn_dovs_eval's ContactClass); empty without one.
+CONTACT_CLASSES = ("static", "robot_on_person", "person_on_robot")
 # hit_cause values of a collision with a moving body (dqn_dovs_eval's HitCause); empty otherwise.
 HIT_CAUSES = ("unseen", "late", "mispredicted", "foreseen")
 OUTCOMES = ("success", "collision", "timeout")
@@ -89,6 +93,24 @@ class Record:
     hit_prediction_error_m: float = math.nan
     hit_prediction_error_2s_m: float = math.nan
     hit_bearing_deg: float = math.nan
+    contact: str | None = None  # one of CONTACT_CLASSES, "" without collision, None: not recorded
+    at_fault: bool | None = None  # with a collision: the robot at fault; None without one or not recorded
+
+
+def _contact(text: str | None) -> str | None:
+    """A contact cell: "" (no collision), one of CONTACT_CLASSES, or None when the column is absent."""
+    if text is not None and text not in ("",) + CONTACT_CLASSES:
+        raise ValueError(f"unknown contact '{text}' (expected one of {', '.join(CONTACT_CLASSES)})")
+    return text
+
+
+def _at_fault(text: str | None) -> bool | None:
+    """An at_fault cell: "1" or "0" with a collision, "" without one; None when empty or absent."""
+    if text in (None, ""):
+        return None
+    if text not in ("0", "1"):
+        raise ValueError(f"at_fault must be 0, 1 or empty, got '{text}'")
+    return text == "1"
 
 
 def _optional_float(text: str | None) -> float:
@@ -127,7 +149,8 @@ def _record(row: dict[str, str | None]) -> Record:
         hit_seen_s=_optional_float(row.get("hit_seen_s")),
         hit_prediction_error_m=_optional_float(row.get("hit_prediction_error_m")),
         hit_prediction_error_2s_m=_optional_float(row.get("hit_prediction_error_2s_m")),
-        hit_bearing_deg=_optional_float(row.get("hit_bearing_deg")))
+        hit_bearing_deg=_optional_float(row.get("hit_bearing_deg")), contact=_contact(row.get("contact")),
+        at_fault=_at_fault(row.get("at_fault")))
 
 
 def read_results(path: str, required: Iterable[str] = RESULTS_COLUMNS) -> list[Record]:
@@ -174,6 +197,11 @@ class Cell:
     p95_contact_speed_mps: float = math.nan
     # Collisions with a moving body per HitCause; None when a collision's cause was not recorded.
     hits_by_cause: dict[str, int] | None = field(default_factory=lambda: dict.fromkeys(HIT_CAUSES, 0))
+    # Collisions with the robot at fault, and hit at rest (the others); None when a collision's fault was not recorded.
+    at_fault: int | None = 0
+    hit_at_rest: int | None = 0
+    # 1 - the rate of collisions with the robot at fault (NaN: not recorded).
+    passive_safety_rate: float = math.nan
 
 
 @dataclass
@@ -184,6 +212,7 @@ class Summary:
     cells: dict[tuple[str, int], Cell] = field(default_factory=dict)
     overall: dict[str, Cell] = field(default_factory=dict)  # the mean row
     hits_recorded: bool = False  # the records carry hit_cause (runs written before it do not)
+    faults_recorded: bool = False  # the records carry contact and at_fault (runs written before them do not)
 
     def cell(self, method: str, n: int) -> Cell:
         return self.cells.get((method, n), Cell())
@@ -266,6 +295,13 @@ def cell_of(records: Sequence[Record], reference: Sequence[Record]) -> Cell:
     c.mean_min_clearance_m = sum(r.min_clearance_m for r in records) / len(records)
     c.collisions_by_kind = collisions_by_kind(records)
     c.hits_by_cause = hits_by_cause(records)
+    crashes = [r for r in records if r.outcome == "collision"]
+    if any(r.at_fault is None for r in crashes):
+        c.at_fault = c.hit_at_rest = None
+    else:
+        c.at_fault = sum(bool(r.at_fault) for r in crashes)
+        c.hit_at_rest = len(crashes) - c.at_fault
+        c.passive_safety_rate = 1.0 - c.at_fault / len(records)
     speeds = contact_speeds(records)
     c.mean_contact_speed_mps = sum(speeds) / len(speeds) if speeds else math.nan
     c.p95_contact_speed_mps = nearest_rank(speeds, CONTACT_SPEED_QUANTILE)
@@ -300,7 +336,8 @@ def summarize(records: Sequence[Record], reference: str, methods: Sequence[str] 
     order = _method_order(records, methods)
     _check_reference(records, reference, order)
     s = Summary(methods=order, counts=sorted({r.obstacles for r in records}), reference=reference,
-                hits_recorded=any(r.hit_cause is not None for r in records))
+                hits_recorded=any(r.hit_cause is not None for r in records),
+                faults_recorded=any(r.contact is not None for r in records))
     by: dict[tuple[str, int], list[Record]] = {}
     for r in records:
         by.setdefault((r.method, r.obstacles), []).append(r)
@@ -531,6 +568,12 @@ def summary_tables(s: Summary) -> str:
               "Counts: unseen (not among what the planner was shown at its last decision) / late (shown then, not 1 s "
               "before the contact) / mispredicted (shown 1 s before, its motion as shown put it more than 0.3 m from "
               "where it was at the contact) / foreseen (within 0.3 m).", _causes_text)
+    passive = ("Passive safety",
+               "1 - the rate of collisions with the robot at fault (any static contact, the robot moving at "
+               f"{REST_SPEED_MPS:.2f} m/s or more, or at rest for less than 0.5 s before it). In brackets: collisions "
+               "with the robot at fault / hit at rest (the others).",
+               lambda c, _: "-" if c.at_fault is None else
+               f"{fixed(c.passive_safety_rate)} ({c.at_fault} / {c.hit_at_rest})")
     sections: list[tuple[str, str, CellText]] = [
         ("Success rate", "Reached the goal and stopped on it. In brackets: total time of the method over total time "
          f"of `{s.reference}` on the episodes both solved.", _success_text(s.reference)),
@@ -548,6 +591,8 @@ def summary_tables(s: Summary) -> str:
     ]
     if s.hits_recorded:  # after the contact speeds
         sections.insert(4, causes)
+    if s.faults_recorded:  # after the collisions by kind
+        sections.insert(3, passive)
     return "".join(_table(s, *section) for section in sections) + (_oracle_table(s) if ORACLE in s.methods else "")
 
 

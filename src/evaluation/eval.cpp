@@ -449,6 +449,8 @@ EpisodeRecord runOnce(Planner& planner, Episode& ep, const std::string& method, 
   if (r.outcome == Outcome::kCollision && ep.world().collided()) {
     r.collision_kind = classifyCollision(ep.world().collision());
     r.contact_speed_mps = ep.world().collision().robot_speed_mps;
+    r.contact = classifyContact(ep.world().collision());
+    r.at_fault = robotAtFault(ep.world().collision());
     if (attribute_hits) recordHit(ep, views, r);
   }
   if (keep_paths) r.robot_path = ep.trajectory();
@@ -551,6 +553,35 @@ const char* collisionKindName(CollisionKind kind) {
   return "";
 }
 
+const char* contactClassName(ContactClass contact) {
+  switch (contact) {
+    case ContactClass::kNone:
+      return "";
+    case ContactClass::kStatic:
+      return "static";
+    case ContactClass::kRobotOnPerson:
+      return "robot_on_person";
+    case ContactClass::kPersonOnRobot:
+      return "person_on_robot";
+  }
+  return "?";
+}
+
+ContactClass classifyContact(const sim::CollisionInfo& collision) {
+  if (collision.kind == sim::CollisionInfo::Kind::kNone) return ContactClass::kNone;
+  if (collision.static_contact) return ContactClass::kStatic;
+  const double robot_closing = collision.robot_velocity.dot(collision.normal);
+  const double other_closing = -collision.other_velocity.dot(collision.normal);
+  return robot_closing >= kClosingSpeedMps && robot_closing > other_closing ? ContactClass::kRobotOnPerson
+                                                                            : ContactClass::kPersonOnRobot;
+}
+
+bool robotAtFault(const sim::CollisionInfo& collision) {
+  if (collision.kind == sim::CollisionInfo::Kind::kNone) return false;
+  if (collision.static_contact || collision.robot_speed_mps >= kRestSpeedMps) return true;
+  return collision.robot_rest_s < kAtFaultRest_s;
+}
+
 CollisionKind classifyCollision(const sim::CollisionInfo& collision) {
   if (collision.kind == sim::CollisionInfo::Kind::kNone) return CollisionKind::kNone;
   if (collision.static_contact) return CollisionKind::kStatic;
@@ -577,7 +608,7 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
   std::ofstream out = openOut(path);
   out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
          "planner_errors,collision_kind,contact_speed_mps,last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,"
-         "hit_prediction_error_2s_m,hit_bearing_deg\n";
+         "hit_prediction_error_2s_m,hit_bearing_deg,contact,at_fault\n";
   for (const EpisodeRecord& r : records) {
     out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
         << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
@@ -596,6 +627,8 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
       out << ',';
       if (std::isfinite(x)) out << x;
     }
+    out << ',' << contactClassName(r.contact) << ',';
+    if (r.outcome == Outcome::kCollision) out << (r.at_fault ? 1 : 0);
     out << '\n';
   }
   closeOut(out, path);

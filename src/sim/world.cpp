@@ -144,6 +144,7 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
   robot_twist_ = {};
   robot_stopped_ = false;
   collision_ = {};
+  last_moving_s_ = -std::numeric_limits<double>::infinity();
   obstacles_.clear();
   obstacles_.reserve(scenario.obstacles.size());
   for (const MovingObstacle& m : scenario.obstacles) {
@@ -309,39 +310,51 @@ void World::advanceObstacle(SimObstacle& o, double dt_s) const {
 bool World::checkCollision() {
   const Vec2 p = robot_pose_.position();
   const double r = config_.robot.radius;
+  // The first contact's record: what, when, and the motion of both sides (who hit whom, evaluation/eval.h).
+  auto record = [&](CollisionInfo::Kind kind, int index, bool still, const Vec2& toward, const Vec2& other_velocity) {
+    if (collided()) return;
+    CollisionInfo c;
+    c.kind = kind;
+    c.index = index;
+    c.time_s = time_s_;
+    c.robot_speed_mps = std::abs(robot_twist_.v);
+    c.static_contact = still;
+    c.robot_velocity = robot_twist_.v * Vec2(std::cos(robot_pose_.theta), std::sin(robot_pose_.theta));
+    c.other_velocity = other_velocity;
+    c.normal = toward.norm() > 1e-12 ? Vec2(toward.normalized()) : Vec2::Zero();
+    c.robot_rest_s = c.robot_speed_mps >= kRobotRestSpeedMps ? 0.0 : time_s_ - last_moving_s_;
+    collision_ = c;
+  };
   for (size_t i = 0; i < obstacles_.size(); ++i) {
     const MovingObstacle& b = obstacles_[i].body;
     if ((b.center - p).norm() < r + b.radius) {
-      if (!collided()) {
-        const bool still = b.is_static || (b.speed == 0.0 && b.turn_rate == 0.0);
-        collision_ = {CollisionInfo::Kind::kObstacle, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), still};
-      }
+      const bool still = b.is_static || (b.speed == 0.0 && b.turn_rate == 0.0);
+      record(CollisionInfo::Kind::kObstacle, static_cast<int>(i), still, b.center - p,
+             still ? Vec2(Vec2::Zero()) : Vec2(b.speed * Vec2(std::cos(b.heading), std::sin(b.heading))));
       return true;
     }
   }
   const std::vector<Person>& people = crowd_.people();
   for (size_t j = 0; j < people.size(); ++j) {
     if ((people[j].position - p).norm() < r + people[j].spec.body_radius_m) {
-      if (!collided()) {
-        // A person standing still (waiting) counts as static: driving into them was avoidable.
-        const bool still = people[j].velocity.norm() < 1e-3;
-        collision_ = {CollisionInfo::Kind::kObstacle, static_cast<int>(obstacles_.size() + j), time_s_,
-                      std::abs(robot_twist_.v), still};
-      }
+      // A person standing still (waiting) counts as static: driving into them was avoidable.
+      const bool still = people[j].velocity.norm() < 1e-3;
+      record(CollisionInfo::Kind::kObstacle, static_cast<int>(obstacles_.size() + j), still, people[j].position - p,
+             people[j].velocity);
       return true;
     }
   }
   for (size_t i = 0; i < walls_.size(); ++i) {
     if (pointSegmentDistance(p, walls_[i]) < r) {
-      if (!collided())
-        collision_ = {CollisionInfo::Kind::kWall, static_cast<int>(i), time_s_, std::abs(robot_twist_.v), true};
+      record(CollisionInfo::Kind::kWall, static_cast<int>(i), true, closestPointOnSegment(p, walls_[i]) - p,
+             Vec2::Zero());
       return true;
     }
   }
   // A robot centre outside the room (possible only after tunnelling through a wall) is also a collision.
   const double h = scenario_.room_half_size_m;
   if (!(std::abs(p.x()) < h && std::abs(p.y()) < h)) {
-    if (!collided()) collision_ = {CollisionInfo::Kind::kWall, 0, time_s_, std::abs(robot_twist_.v), true};
+    record(CollisionInfo::Kind::kWall, 0, true, -p, Vec2::Zero());
     return true;
   }
   return false;
@@ -378,6 +391,7 @@ void World::step(const Twist2& cmd, double dt_s) {
     for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
     stepPeople(sub_dt);
     time_s_ += sub_dt;
+    if (std::abs(robot_twist_.v) >= kRobotRestSpeedMps) last_moving_s_ = time_s_;
     if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
       robot_pose_ = previous;
       odom_pose_ = previous_odom;
@@ -422,6 +436,7 @@ void World::stepHolonomic(const Vec2& velocity, double dt_s) {
     for (SimObstacle& o : obstacles_) advanceObstacle(o, sub_dt);
     stepPeople(sub_dt);
     time_s_ += sub_dt;
+    if (std::abs(robot_twist_.v) >= kRobotRestSpeedMps) last_moving_s_ = time_s_;
     if (checkCollision() && config_.stop_on_collision && !robot_stopped_) {
       robot_pose_ = previous;
       odom_pose_ = previous;

@@ -5,11 +5,13 @@
 #include <cmath>
 #include <deque>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 
 #include "dqn_dovs/common/robot_model.h"
 #include "dqn_dovs/evaluation/eval.h"
+#include "dqn_dovs/sim/world.h"
 #include "sim_test_helpers.h"
 #include "source_paths.h"
 
@@ -185,6 +187,93 @@ TEST(Eval, TheCarriedDemoScenariosAreTheGeneratorsDrawWithTheirSeedAndAClearStar
   EXPECT_NE(c.validate().find("generated_start_clear_s"), std::string::npos);
 }
 
+// A contact between the robot, moving at `robot` (world frame), and a body east of it moving at `other`.
+sim::CollisionInfo contactWith(const Vec2& robot, const Vec2& other, double rest_s = 0.0, bool still = false) {
+  sim::CollisionInfo c;
+  c.kind = sim::CollisionInfo::Kind::kObstacle;
+  c.index = 0;
+  c.robot_velocity = robot;
+  c.robot_speed_mps = robot.norm();
+  c.other_velocity = other;
+  c.normal = Vec2(1.0, 0.0);
+  c.static_contact = still;
+  c.robot_rest_s = rest_s;
+  return c;
+}
+
+TEST(Eval, EveryContactSaysWhoHitWhomAndWhetherTheRobotWasAtFault) {
+  EXPECT_EQ(classifyContact(sim::CollisionInfo()), ContactClass::kNone);
+  EXPECT_FALSE(robotAtFault(sim::CollisionInfo()));
+  // The robot drives into a person walking away more slowly: the robot's doing.
+  auto c = contactWith({0.5, 0.0}, {0.2, 0.0});
+  EXPECT_EQ(classifyContact(c), ContactClass::kRobotOnPerson);
+  EXPECT_TRUE(robotAtFault(c));
+  // A person walks into a robot that creeps toward it more slowly than the person comes: the person's doing, but
+  // the robot was moving, so still at fault.
+  c = contactWith({0.1, 0.0}, {-1.0, 0.0});
+  EXPECT_EQ(classifyContact(c), ContactClass::kPersonOnRobot);
+  EXPECT_TRUE(robotAtFault(c));
+  // Sideways motion does not close the gap: a robot crossing at 0.6 m/s, hit from the side.
+  c = contactWith({0.0, 0.6}, {-0.8, 0.0});
+  EXPECT_EQ(classifyContact(c), ContactClass::kPersonOnRobot);
+  // Closing, but below kClosingSpeedMps: not the robot's closing.
+  c = contactWith({0.04, 0.0}, {0.0, 0.0});
+  EXPECT_EQ(classifyContact(c), ContactClass::kPersonOnRobot);
+  // At rest: at fault only when it stopped less than kAtFaultRest_s before.
+  c = contactWith({0.0, 0.0}, {-1.0, 0.0}, 2.0);
+  EXPECT_EQ(classifyContact(c), ContactClass::kPersonOnRobot);
+  EXPECT_FALSE(robotAtFault(c));
+  c.robot_rest_s = 0.3;
+  EXPECT_TRUE(robotAtFault(c));
+  c.robot_rest_s = std::numeric_limits<double>::infinity();  // never moved
+  EXPECT_FALSE(robotAtFault(c));
+  // Static geometry: always the robot's fault, at any speed.
+  c = contactWith({0.0, 0.0}, {0.0, 0.0}, 5.0, true);
+  EXPECT_EQ(classifyContact(c), ContactClass::kStatic);
+  EXPECT_TRUE(robotAtFault(c));
+  EXPECT_STREQ(contactClassName(ContactClass::kRobotOnPerson), "robot_on_person");
+  EXPECT_STREQ(contactClassName(ContactClass::kPersonOnRobot), "person_on_robot");
+}
+
+TEST(Eval, TheWorldRecordsTheMotionAndTheRestBeforeAContact) {
+  // A disc 1 m east of the robot drives west into it at 1 m/s.
+  sim::Scenario s;
+  s.name = "walked into";
+  s.robot_start = {0.0, 0.0, 0.0};
+  s.goal = Vec2(-3.0, 0.0);
+  MovingObstacle o;
+  o.center = Vec2(1.0, 0.0);
+  o.heading = kPi;
+  o.speed = 1.0;
+  o.radius = 0.2;
+  s.obstacles = {o};
+  {
+    sim::World w(s, sim::WorldConfig(), 1);  // the robot never moves
+    for (int k = 0; k < 10 && !w.collided(); ++k) w.step({0.0, 0.0}, 0.2);
+    ASSERT_TRUE(w.collided());
+    const sim::CollisionInfo& c = w.collision();
+    EXPECT_TRUE(std::isinf(c.robot_rest_s));
+    EXPECT_NEAR(c.other_velocity.x(), -1.0, 1e-9);
+    EXPECT_NEAR(c.normal.x(), 1.0, 1e-6);
+    EXPECT_EQ(classifyContact(c), ContactClass::kPersonOnRobot);
+    EXPECT_FALSE(robotAtFault(c));
+  }
+  {
+    // The robot drives at it, then brakes; the disc reaches it just after it has stopped.
+    s.obstacles[0].center = Vec2(1.4, 0.0);
+    sim::World w(s, sim::WorldConfig(), 1);
+    w.step({0.3, 0.0}, 0.2);
+    w.step({0.3, 0.0}, 0.2);
+    for (int k = 0; k < 20 && !w.collided(); ++k) w.step({0.0, 0.0}, 0.2);
+    ASSERT_TRUE(w.collided());
+    const sim::CollisionInfo& c = w.collision();
+    EXPECT_LT(c.robot_speed_mps, kRestSpeedMps);
+    EXPECT_GT(c.robot_rest_s, 0.0);
+    EXPECT_LT(c.robot_rest_s, kAtFaultRest_s);
+    EXPECT_TRUE(robotAtFault(c)) << "stopped " << c.robot_rest_s << " s before the contact";
+  }
+}
+
 TEST(Eval, LoadsTheCarriedScenariosWithTheDynamicFraction) {
   EvalConfig c;
   c.scenarios_dir = std::string(DQN_DOVS_SCENARIOS_DIR) + "/room";
@@ -297,7 +386,7 @@ TEST(Eval, ACollisionSaysWhatThePlannerKnewOfWhatHitIt) {
   writeResultsCsv(records, dir.file("results.csv"));
   const std::string csv = readAll(dir.file("results.csv"));
   EXPECT_NE(csv.find("last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,hit_prediction_error_2s_m,"
-                     "hit_bearing_deg\n"),
+                     "hit_bearing_deg,contact,at_fault\n"),
             std::string::npos);
   EXPECT_NE(csv.find(",stand still,foreseen,"), std::string::npos) << csv;
   for (const EpisodeRecord& e : records) {

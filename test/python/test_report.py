@@ -215,6 +215,39 @@ def test_collisions_with_moving_bodies_are_counted_by_what_the_planner_knew(tmp_
         rp.read_results(str(bad))
 
 
+def test_contacts_say_who_hit_whom_and_the_passive_safety_rate_follows(tmp_path):
+    columns = rp.RESULTS_COLUMNS + rp.FAULT_COLUMNS
+    path = write_results(tmp_path / "r.csv")
+    # dqn_dovs was hit at rest; dwa hit a wall, drove into a person, and was walked into right after stopping.
+    faults = {("dqn_dovs", "3", "2"): ("person_on_robot", "0"), ("dwa", "3", "1"): ("static", "1"),
+              ("dwa", "3", "2"): ("robot_on_person", "1"), ("dwa", "3", "3"): ("person_on_robot", "1")}
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for row in rows:
+            row.update(zip(rp.FAULT_COLUMNS, faults.get((row["method"], row["obstacles"], row["episode"]), ("", ""))))
+            w.writerow(row)
+    records = rp.read_results(str(path))
+    assert records[3].contact == "person_on_robot" and records[3].at_fault is False and records[0].at_fault is None
+    s = rp.summarize(records, "dqn_dovs", METHODS)
+    assert s.faults_recorded
+    assert (s.overall["dqn_dovs"].at_fault, s.overall["dqn_dovs"].hit_at_rest) == (0, 1)
+    assert s.overall["dqn_dovs"].passive_safety_rate == 1.0
+    assert s.cell("dwa", 3).at_fault == 3 and s.cell("dwa", 3).passive_safety_rate == 0.0
+    md = rp.summary_tables(s)
+    assert "## Passive safety" in md and "| 3 | 1.00 (0 / 1) | 1.00 (0 / 0) | 0.00 (3 / 0) |" in md
+    assert md.index("## Collisions by kind") < md.index("## Passive safety") < md.index("## Robot speed at contact")
+    # Without the columns the section is left out, and a value the reader does not know is named.
+    assert "## Passive safety" not in rp.summary_tables(rp.summarize(rp.read_results(write_results(
+        tmp_path / "old.csv")), "dqn_dovs", METHODS))
+    bad = tmp_path / "bad.csv"
+    bad.write_text(path.read_text().replace("robot_on_person", "robot_on_cat"))
+    with pytest.raises(ValueError, match=r"bad\.csv:\d+: unknown contact 'robot_on_cat'"):
+        rp.read_results(str(bad))
+
+
 def test_summary_json_of_one_method_has_no_prefix(tmp_path):
     records = rp.read_results(write_results(tmp_path / "r.csv", [r for r in ROWS if r[0] == "s_dovs"]))
     figures = json.loads(rp.summary_json(rp.summarize(records, "s_dovs")))

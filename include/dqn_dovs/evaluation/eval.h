@@ -107,9 +107,27 @@ enum class CollisionKind { kNone = 0, kStatic = 1, kRest = 2, kMoving = 3 };
 /// "", "static", "rest", "moving".
 const char* collisionKindName(CollisionKind kind);
 /// The robot counts as at rest at a contact below this linear speed, m/s.
-constexpr double kRestSpeedMps = 0.05;
+constexpr double kRestSpeedMps = sim::kRobotRestSpeedMps;
 /// The kind of a simulator collision.
 CollisionKind classifyCollision(const sim::CollisionInfo& collision);
+
+/// Who hit whom, by the motion of both at the contact (as social-navigation evaluators judge it): static geometry
+/// (walls, furniture, static discs, a person standing); the robot on a person (the robot closing the gap along the
+/// line between their centres at kClosingSpeedMps or more, and faster than the person); or the person on the robot
+/// (every other contact with a moving body). "Person" means any moving body: people, and the room's moving discs.
+enum class ContactClass { kNone = 0, kStatic = 1, kRobotOnPerson = 2, kPersonOnRobot = 3 };
+/// "", "static", "robot_on_person", "person_on_robot".
+const char* contactClassName(ContactClass contact);
+/// The robot closes a gap at this speed or more (m/s) to count as the one that closed it.
+constexpr double kClosingSpeedMps = 0.05;
+/// The class of a simulator collision (kNone without one).
+ContactClass classifyContact(const sim::CollisionInfo& collision);
+/// A robot at rest for less than this before a contact (s) stopped too late to count as at rest.
+constexpr double kAtFaultRest_s = 0.5;
+/// The robot is at fault for a collision (passive safety: it never drives into anything, and is at rest, for long
+/// enough, when anything reaches it): any static contact, a contact with the robot moving at kRestSpeedMps or
+/// faster, or one with the robot at rest for less than kAtFaultRest_s. False without a collision.
+bool robotAtFault(const sim::CollisionInfo& collision);
 
 /// What the planners knew of the body that walked or drove into the robot (collisions with a moving body only;
 /// docs/planners.md, "What the planners knew of what hit them"). At each decision the bodies the planners were
@@ -184,6 +202,9 @@ struct EpisodeRecord {
   /// linear speed at the contact (m/s; NaN without a collision).
   CollisionKind collision_kind = CollisionKind::kNone;
   double contact_speed_mps = std::numeric_limits<double>::quiet_NaN();
+  /// Collisions only: who hit whom (classifyContact) and whether the robot was at fault (robotAtFault).
+  ContactClass contact = ContactClass::kNone;
+  bool at_fault = false;
   /// Collisions with a moving body only (NaN / kNone otherwise): what the planners knew of it (HitCause); how long it
   /// had been shown without a break up to the contact (s, looking at most 3 s back; 0 when unseen); how far from its
   /// true centre at the contact its motion as shown kHitForesight_s, and kHitLongForesight_s, before put it (m; NaN
@@ -239,7 +260,8 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
 
 /// results.csv: a header, then one row per record (method, obstacles, episode, scenario, outcome, time_s,
 /// path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind, contact_speed_mps,
-/// last_decision, hit_cause, hit_seen_s, hit_prediction_error_m, hit_prediction_error_2s_m, hit_bearing_deg). Throws
+/// last_decision, hit_cause, hit_seen_s, hit_prediction_error_m, hit_prediction_error_2s_m, hit_bearing_deg,
+/// contact, at_fault: 1 or 0 with a collision, empty without). Throws
 /// EvalError naming the file.
 void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path);
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -100,6 +101,10 @@ struct SimObstacle {
   int border_turns = 0;
 };
 
+/// Below this linear speed the robot is at rest (m/s): a contact then is the other's doing, unless the robot stopped
+/// only just before it (CollisionInfo::robot_rest_s).
+constexpr double kRobotRestSpeedMps = 0.05;
+
 /// What the robot hit first.
 struct CollisionInfo {
   enum class Kind { kNone, kObstacle, kWall };
@@ -112,6 +117,14 @@ struct CollisionInfo {
   double robot_speed_mps = 0.0;
   /// True when the robot hit something that stands still: a wall, a scenario segment or a static obstacle.
   bool static_contact = false;
+  /// The robot's and the other body's velocities at the contact, in the world frame (m/s; a wall's is zero).
+  Vec2 robot_velocity = Vec2::Zero();
+  Vec2 other_velocity = Vec2::Zero();
+  /// Unit vector from the robot's centre toward what it touched (the other's centre, or the wall's nearest point).
+  Vec2 normal = Vec2::Zero();
+  /// How long the robot had been at rest (below kRobotRestSpeedMps) at the contact, s: 0 when it was moving,
+  /// +inf when it had not moved since the episode started.
+  double robot_rest_s = 0.0;
 };
 
 class World {
@@ -193,6 +206,8 @@ class World {
   Scenario scenario_;
   Lidar lidar_;
   double time_s_ = 0.0;
+  /// The last time the robot moved at kRobotRestSpeedMps or faster (-inf: not since the start), s.
+  double last_moving_s_ = -std::numeric_limits<double>::infinity();
   Pose2 robot_pose_;
   Twist2 robot_twist_;
   bool robot_stopped_ = false;
