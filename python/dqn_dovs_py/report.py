@@ -51,6 +51,9 @@ RESULTS_COLUMNS = ("method", "obstacles", "episode", "scenario", "outcome", "tim
 HIT_COLUMNS = ("hit_cause", "hit_seen_s", "hit_prediction_error_m", "hit_prediction_error_2s_m", "hit_bearing_deg")
 # Optional columns (runs written before them lack them): who hit whom, and whether the robot was at fault.
 FAULT_COLUMNS = ("contact", "at_fault")
+# Optional comfort columns: time with a person within Hall's intimate (0.45 m) and personal (1.2 m) distances, body to
+# body, while the robot moves (s).
+COMFORT_COLUMNS = ("intimate_s", "personal_s")
 # contact values of a collision (dqn_dovs_eval's ContactClass); empty without one.
 CONTACT_CLASSES = ("static", "robot_on_person", "person_on_robot")
 # hit_cause values of a collision with a moving body (dqn_dovs_eval's HitCause); empty otherwise.
@@ -95,6 +98,8 @@ class Record:
     hit_bearing_deg: float = math.nan
     contact: str | None = None  # one of CONTACT_CLASSES, "" without collision, None: not recorded
     at_fault: bool | None = None  # with a collision: the robot at fault; None without one or not recorded
+    intimate_s: float = math.nan  # NaN: not recorded
+    personal_s: float = math.nan
 
 
 def _contact(text: str | None) -> str | None:
@@ -150,7 +155,8 @@ def _record(row: dict[str, str | None]) -> Record:
         hit_prediction_error_m=_optional_float(row.get("hit_prediction_error_m")),
         hit_prediction_error_2s_m=_optional_float(row.get("hit_prediction_error_2s_m")),
         hit_bearing_deg=_optional_float(row.get("hit_bearing_deg")), contact=_contact(row.get("contact")),
-        at_fault=_at_fault(row.get("at_fault")))
+        at_fault=_at_fault(row.get("at_fault")), intimate_s=_optional_float(row.get("intimate_s")),
+        personal_s=_optional_float(row.get("personal_s")))
 
 
 def read_results(path: str, required: Iterable[str] = RESULTS_COLUMNS) -> list[Record]:
@@ -202,6 +208,9 @@ class Cell:
     hit_at_rest: int | None = 0
     # 1 - the rate of collisions with the robot at fault (NaN: not recorded).
     passive_safety_rate: float = math.nan
+    # Mean time per episode with a person within the intimate / personal distance while the robot moves, s.
+    mean_intimate_s: float = math.nan
+    mean_personal_s: float = math.nan
 
 
 @dataclass
@@ -302,6 +311,8 @@ def cell_of(records: Sequence[Record], reference: Sequence[Record]) -> Cell:
         c.at_fault = sum(bool(r.at_fault) for r in crashes)
         c.hit_at_rest = len(crashes) - c.at_fault
         c.passive_safety_rate = 1.0 - c.at_fault / len(records)
+    c.mean_intimate_s = nan_mean(r.intimate_s for r in records)
+    c.mean_personal_s = nan_mean(r.personal_s for r in records)
     speeds = contact_speeds(records)
     c.mean_contact_speed_mps = sum(speeds) / len(speeds) if speeds else math.nan
     c.p95_contact_speed_mps = nearest_rank(speeds, CONTACT_SPEED_QUANTILE)
@@ -591,8 +602,12 @@ def summary_tables(s: Summary) -> str:
     ]
     if s.hits_recorded:  # after the contact speeds
         sections.insert(4, causes)
-    if s.faults_recorded:  # after the collisions by kind
+    if s.faults_recorded:  # after the collisions by kind; the comfort figures after the danger frequency
         sections.insert(3, passive)
+        sections.append(("Time close to people while moving (s per episode)",
+                         "Mean time with a person's body within 0.45 m (intimate) / 1.2 m (personal) of the robot's "
+                         "while the robot moves.",
+                         lambda c, _: f"{fixed(c.mean_intimate_s, 2)} / {fixed(c.mean_personal_s, 2)}"))
     return "".join(_table(s, *section) for section in sections) + (_oracle_table(s) if ORACLE in s.methods else "")
 
 

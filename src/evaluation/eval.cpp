@@ -439,6 +439,16 @@ EpisodeRecord runOnce(Planner& planner, Episode& ep, const std::string& method, 
     r.actions.push_back(decision.action);
     ep.stepDecision(decision);  // holonomic baselines move the robot holonomically
     recordObstacles();
+    // Comfort: the time a person spends this close to the moving robot (body to body, per decision period).
+    if (std::abs(ep.world().robotTwist().v) >= kRestSpeedMps) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const sim::Person& p : ep.world().crowd().people()) {
+        nearest = std::min(nearest, (p.position - ep.world().robotPose().position()).norm() - p.spec.body_radius_m -
+                                        ep.config().world.robot.radius);
+      }
+      if (nearest < kIntimateDistance_m) r.intimate_s += limits.dt;
+      if (nearest < kPersonalDistance_m) r.personal_s += limits.dt;
+    }
   }
   r.outcome = ep.outcome();
   r.time_s = ep.time_s();
@@ -608,7 +618,7 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
   std::ofstream out = openOut(path);
   out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
          "planner_errors,collision_kind,contact_speed_mps,last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,"
-         "hit_prediction_error_2s_m,hit_bearing_deg,contact,at_fault\n";
+         "hit_prediction_error_2s_m,hit_bearing_deg,contact,at_fault,intimate_s,personal_s\n";
   for (const EpisodeRecord& r : records) {
     out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
         << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
@@ -629,7 +639,7 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
     }
     out << ',' << contactClassName(r.contact) << ',';
     if (r.outcome == Outcome::kCollision) out << (r.at_fault ? 1 : 0);
-    out << '\n';
+    out << ',' << r.intimate_s << ',' << r.personal_s << '\n';
   }
   closeOut(out, path);
 }

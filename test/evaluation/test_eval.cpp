@@ -386,7 +386,7 @@ TEST(Eval, ACollisionSaysWhatThePlannerKnewOfWhatHitIt) {
   writeResultsCsv(records, dir.file("results.csv"));
   const std::string csv = readAll(dir.file("results.csv"));
   EXPECT_NE(csv.find("last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,hit_prediction_error_2s_m,"
-                     "hit_bearing_deg,contact,at_fault\n"),
+                     "hit_bearing_deg,contact,at_fault,intimate_s,personal_s\n"),
             std::string::npos);
   EXPECT_NE(csv.find(",stand still,foreseen,"), std::string::npos) << csv;
   for (const EpisodeRecord& e : records) {
@@ -394,6 +394,56 @@ TEST(Eval, ACollisionSaysWhatThePlannerKnewOfWhatHitIt) {
       EXPECT_EQ(e.hit_cause, HitCause::kNone);
     }
   }
+}
+
+// A planner that drives straight ahead at 0.4 m/s.
+class Cruise : public Planner {
+ public:
+  std::string name() const override { return "cruise"; }
+  PlannerDecision decide(const PlannerInput&) override {
+    PlannerDecision d;
+    d.command = {0.4, 0.0};
+    d.note = "cruise";
+    return d;
+  }
+};
+
+// Comfort on constructed paths: a person (radius 0.25 m) walking beside the robot's (0.2 m) path, its centre 1.0 m to
+// the side (0.55 m body to body), counts as within the personal distance while the robot moves, never as intimate;
+// 0.8 m to the side (0.35 m), both; with the robot standing, neither.
+TEST(Eval, TheTimeAPersonSpendsCloseToTheMovingRobotIsCounted) {
+  auto run = [](double side_m, bool robot_moves) {
+    EvalScenario s;
+    s.obstacles = 0;
+    s.episode = 1;
+    s.seed = 3;
+    s.scenario.name = "beside";
+    s.scenario.room_half_size_m = 8.0;
+    s.scenario.robot_start = {-6.0, 0.0, 0.0};
+    s.scenario.goal = {6.0, 6.0};
+    sim::PersonSpec p;
+    p.position = {-5.9, side_m};
+    p.heading_rad = 0.0;
+    p.preferred_speed_mps = 0.4;  // keeps pace with the cruising robot
+    s.scenario.people = {p};
+    EpisodeConfig config;
+    config.reward.max_steps = 30;  // 6 s
+    config.world.people.model = sim::PeopleModel::kConstant;
+    Episode episode(config);
+    Cruise cruise;
+    StandStill still;
+    Planner& planner = robot_moves ? static_cast<Planner&>(cruise) : static_cast<Planner&>(still);
+    return runEpisode(planner, episode, planner.name(), s);
+  };
+  const EpisodeRecord beside = run(1.0, true), close = run(0.8, true), resting = run(0.8, false);
+  ASSERT_NE(close.outcome, Outcome::kCollision);
+  EXPECT_EQ(beside.intimate_s, 0.0);
+  EXPECT_GT(beside.personal_s, 4.0);  // all but the first second of acceleration
+  EXPECT_LE(beside.personal_s, 6.0 + 1e-9);
+  EXPECT_GT(close.intimate_s, 4.0);
+  EXPECT_DOUBLE_EQ(close.intimate_s, close.personal_s);
+  EXPECT_EQ(resting.intimate_s, 0.0);
+  EXPECT_EQ(resting.personal_s, 0.0);
 }
 
 // The attribution itself, on views made by hand: late, mispredicted and foreseen by the motion the planner was shown,

@@ -216,7 +216,7 @@ def test_collisions_with_moving_bodies_are_counted_by_what_the_planner_knew(tmp_
 
 
 def test_contacts_say_who_hit_whom_and_the_passive_safety_rate_follows(tmp_path):
-    columns = rp.RESULTS_COLUMNS + rp.FAULT_COLUMNS
+    columns = rp.RESULTS_COLUMNS + rp.FAULT_COLUMNS + rp.COMFORT_COLUMNS
     path = write_results(tmp_path / "r.csv")
     # dqn_dovs was hit at rest; dwa hit a wall, drove into a person, and was walked into right after stopping.
     faults = {("dqn_dovs", "3", "2"): ("person_on_robot", "0"), ("dwa", "3", "1"): ("static", "1"),
@@ -228,6 +228,7 @@ def test_contacts_say_who_hit_whom_and_the_passive_safety_rate_follows(tmp_path)
         w.writeheader()
         for row in rows:
             row.update(zip(rp.FAULT_COLUMNS, faults.get((row["method"], row["obstacles"], row["episode"]), ("", ""))))
+            row.update({"intimate_s": "0.4" if row["method"] == "dwa" else "0", "personal_s": "1.2"})
             w.writerow(row)
     records = rp.read_results(str(path))
     assert records[3].contact == "person_on_robot" and records[3].at_fault is False and records[0].at_fault is None
@@ -239,6 +240,7 @@ def test_contacts_say_who_hit_whom_and_the_passive_safety_rate_follows(tmp_path)
     md = rp.summary_tables(s)
     assert "## Passive safety" in md and "| 3 | 1.00 (0 / 1) | 1.00 (0 / 0) | 0.00 (3 / 0) |" in md
     assert md.index("## Collisions by kind") < md.index("## Passive safety") < md.index("## Robot speed at contact")
+    assert "| mean | 0.00 / 1.20 | 0.00 / 1.20 | 0.40 / 1.20 |" in md
     # Without the columns the section is left out, and a value the reader does not know is named.
     assert "## Passive safety" not in rp.summary_tables(rp.summarize(rp.read_results(write_results(
         tmp_path / "old.csv")), "dqn_dovs", METHODS))

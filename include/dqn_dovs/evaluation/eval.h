@@ -122,6 +122,9 @@ const char* contactClassName(ContactClass contact);
 constexpr double kClosingSpeedMps = 0.05;
 /// The class of a simulator collision (kNone without one).
 ContactClass classifyContact(const sim::CollisionInfo& collision);
+/// Hall's intimate and personal distances (m), body to body, of the comfort figures (EpisodeRecord::intimate_s).
+constexpr double kIntimateDistance_m = 0.45;
+constexpr double kPersonalDistance_m = 1.2;
 /// A robot at rest for less than this before a contact (s) stopped too late to count as at rest.
 constexpr double kAtFaultRest_s = 0.5;
 /// The robot is at fault for a collision (passive safety: it never drives into anything, and is at rest, for long
@@ -205,6 +208,10 @@ struct EpisodeRecord {
   /// Collisions only: who hit whom (classifyContact) and whether the robot was at fault (robotAtFault).
   ContactClass contact = ContactClass::kNone;
   bool at_fault = false;
+  /// Comfort: the time (s, counted per decision period) with a person's body within kIntimateDistance_m, and within
+  /// kPersonalDistance_m, of the robot's (surface to surface) while the robot moves (kRestSpeedMps or faster).
+  double intimate_s = 0.0;
+  double personal_s = 0.0;
   /// Collisions with a moving body only (NaN / kNone otherwise): what the planners knew of it (HitCause); how long it
   /// had been shown without a break up to the contact (s, looking at most 3 s back; 0 when unseen); how far from its
   /// true centre at the contact its motion as shown kHitForesight_s, and kHitLongForesight_s, before put it (m; NaN
@@ -261,7 +268,7 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
 /// results.csv: a header, then one row per record (method, obstacles, episode, scenario, outcome, time_s,
 /// path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind, contact_speed_mps,
 /// last_decision, hit_cause, hit_seen_s, hit_prediction_error_m, hit_prediction_error_2s_m, hit_bearing_deg,
-/// contact, at_fault: 1 or 0 with a collision, empty without). Throws
+/// contact, at_fault: 1 or 0 with a collision, empty without, intimate_s, personal_s). Throws
 /// EvalError naming the file.
 void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path);
 
