@@ -64,6 +64,20 @@ def write_results(path: Path, rows=ROWS, columns=rp.RESULTS_COLUMNS) -> Path:
     return path
 
 
+def add_columns(path: Path, extra: tuple[str, ...], cells) -> None:
+    """Rewrites the results.csv at `path` with the `extra` columns after the others, each row's values cells(row) (a
+    dict of them), as dqn_dovs_eval writes its optional columns."""
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        columns, rows = list(reader.fieldnames) + list(extra), list(reader)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for row in rows:
+            row.update(cells(row))
+            w.writerow(row)
+
+
 def make_run(tmp_path: Path, rows=ROWS, run=RUN, paths: str | None = PATHS_JSON) -> Path:
     out = tmp_path / "run"
     out.mkdir(parents=True)
@@ -173,21 +187,13 @@ def test_summary_json_keys(summary):
 
 
 def test_collisions_with_moving_bodies_are_counted_by_what_the_planner_knew(tmp_path):
-    columns = rp.RESULTS_COLUMNS + rp.HIT_COLUMNS
     path = write_results(tmp_path / "r.csv")
     # The hit columns of each row as dqn_dovs_eval writes them: empty but for collisions with a moving body.
     causes = {("dqn_dovs", "3", "2"): ("unseen", "0", "", "", "172.5"),
               ("dwa", "3", "2"): ("foreseen", "2", "0.12", "0.4", "3"),
               ("dwa", "3", "3"): ("mispredicted", "1.4", "0.61", "", "40")}
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns)
-        w.writeheader()
-        for row in rows:
-            row.update(zip(rp.HIT_COLUMNS, causes.get((row["method"], row["obstacles"], row["episode"]),
-                                                      ("",) * len(rp.HIT_COLUMNS))))
-            w.writerow(row)
+    add_columns(path, rp.HIT_COLUMNS, lambda row: dict(zip(rp.HIT_COLUMNS, causes.get(
+        (row["method"], row["obstacles"], row["episode"]), ("",) * len(rp.HIT_COLUMNS)))))
     records = rp.read_results(str(path))
     assert records[3].hit_cause == "unseen" and records[3].hit_bearing_deg == 172.5
     assert math.isnan(records[3].hit_prediction_error_m) and records[0].hit_cause == ""
@@ -216,20 +222,13 @@ def test_collisions_with_moving_bodies_are_counted_by_what_the_planner_knew(tmp_
 
 
 def test_contacts_say_who_hit_whom_and_the_passive_safety_rate_follows(tmp_path):
-    columns = rp.RESULTS_COLUMNS + rp.FAULT_COLUMNS + rp.COMFORT_COLUMNS
     path = write_results(tmp_path / "r.csv")
     # dqn_dovs was hit at rest; dwa hit a wall, drove into a person, and was walked into right after stopping.
     faults = {("dqn_dovs", "3", "2"): ("person_on_robot", "0"), ("dwa", "3", "1"): ("static", "1"),
               ("dwa", "3", "2"): ("robot_on_person", "1"), ("dwa", "3", "3"): ("person_on_robot", "1")}
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns)
-        w.writeheader()
-        for row in rows:
-            row.update(zip(rp.FAULT_COLUMNS, faults.get((row["method"], row["obstacles"], row["episode"]), ("", ""))))
-            row.update({"intimate_s": "0.4" if row["method"] == "dwa" else "0", "personal_s": "1.2"})
-            w.writerow(row)
+    add_columns(path, rp.FAULT_COLUMNS + rp.COMFORT_COLUMNS, lambda row: {
+        **dict(zip(rp.FAULT_COLUMNS, faults.get((row["method"], row["obstacles"], row["episode"]), ("", "")))),
+        "intimate_s": "0.4" if row["method"] == "dwa" else "0", "personal_s": "1.2"})
     records = rp.read_results(str(path))
     assert records[3].contact == "person_on_robot" and records[3].at_fault is False and records[0].at_fault is None
     s = rp.summarize(records, "dqn_dovs", METHODS)
