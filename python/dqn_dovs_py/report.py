@@ -54,6 +54,8 @@ FAULT_COLUMNS = ("contact", "at_fault")
 # Optional comfort columns: time with a person within Hall's intimate (0.45 m) and personal (1.2 m) distances, body to
 # body, while the robot moves (s).
 COMFORT_COLUMNS = ("intimate_s", "personal_s")
+# The outcome judged by who caused a collision (dqn_dovs_eval's verdictName), an optional column.
+VERDICTS = ("success", "collision_robot_at_fault", "hit_at_rest", "timeout")
 # contact values of a collision (dqn_dovs_eval's ContactClass); empty without one.
 CONTACT_CLASSES = ("static", "robot_on_person", "person_on_robot")
 # hit_cause values of a collision with a moving body (dqn_dovs_eval's HitCause); empty otherwise.
@@ -100,12 +102,22 @@ class Record:
     at_fault: bool | None = None  # with a collision: the robot at fault; None without one or not recorded
     intimate_s: float = math.nan  # NaN: not recorded
     personal_s: float = math.nan
+    verdict: str | None = None  # one of VERDICTS, None: not recorded
 
 
 def _contact(text: str | None) -> str | None:
     """A contact cell: "" (no collision), one of CONTACT_CLASSES, or None when the column is absent."""
     if text is not None and text not in ("",) + CONTACT_CLASSES:
         raise ValueError(f"unknown contact '{text}' (expected one of {', '.join(CONTACT_CLASSES)})")
+    return text
+
+
+def _verdict(text: str | None) -> str | None:
+    """A verdict cell: one of VERDICTS, or None when the column is absent or empty."""
+    if text in (None, ""):
+        return None
+    if text not in VERDICTS:
+        raise ValueError(f"unknown verdict '{text}' (expected one of {', '.join(VERDICTS)})")
     return text
 
 
@@ -156,7 +168,7 @@ def _record(row: dict[str, str | None]) -> Record:
         hit_prediction_error_2s_m=_optional_float(row.get("hit_prediction_error_2s_m")),
         hit_bearing_deg=_optional_float(row.get("hit_bearing_deg")), contact=_contact(row.get("contact")),
         at_fault=_at_fault(row.get("at_fault")), intimate_s=_optional_float(row.get("intimate_s")),
-        personal_s=_optional_float(row.get("personal_s")))
+        personal_s=_optional_float(row.get("personal_s")), verdict=_verdict(row.get("verdict")))
 
 
 def read_results(path: str, required: Iterable[str] = RESULTS_COLUMNS) -> list[Record]:

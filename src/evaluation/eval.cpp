@@ -586,6 +586,20 @@ ContactClass classifyContact(const sim::CollisionInfo& collision) {
                                                                             : ContactClass::kPersonOnRobot;
 }
 
+const char* verdictName(const EpisodeRecord& r) {
+  switch (r.outcome) {
+    case Outcome::kSuccess:
+      return "success";
+    case Outcome::kCollision:
+      return r.at_fault ? "collision_robot_at_fault" : "hit_at_rest";
+    case Outcome::kTimeout:
+      return "timeout";
+    case Outcome::kRunning:
+      break;
+  }
+  return "running";
+}
+
 bool robotAtFault(const sim::CollisionInfo& collision) {
   if (collision.kind == sim::CollisionInfo::Kind::kNone) return false;
   if (collision.static_contact || collision.robot_speed_mps >= kRestSpeedMps) return true;
@@ -618,7 +632,7 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
   std::ofstream out = openOut(path);
   out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
          "planner_errors,collision_kind,contact_speed_mps,last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,"
-         "hit_prediction_error_2s_m,hit_bearing_deg,contact,at_fault,intimate_s,personal_s\n";
+         "hit_prediction_error_2s_m,hit_bearing_deg,contact,at_fault,intimate_s,personal_s,verdict\n";
   for (const EpisodeRecord& r : records) {
     out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
         << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
@@ -639,7 +653,7 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
     }
     out << ',' << contactClassName(r.contact) << ',';
     if (r.outcome == Outcome::kCollision) out << (r.at_fault ? 1 : 0);
-    out << ',' << r.intimate_s << ',' << r.personal_s << '\n';
+    out << ',' << r.intimate_s << ',' << r.personal_s << ',' << verdictName(r) << '\n';
   }
   closeOut(out, path);
 }

@@ -386,9 +386,17 @@ TEST(Eval, ACollisionSaysWhatThePlannerKnewOfWhatHitIt) {
   writeResultsCsv(records, dir.file("results.csv"));
   const std::string csv = readAll(dir.file("results.csv"));
   EXPECT_NE(csv.find("last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,hit_prediction_error_2s_m,"
-                     "hit_bearing_deg,contact,at_fault,intimate_s,personal_s\n"),
+                     "hit_bearing_deg,contact,at_fault,intimate_s,personal_s,verdict\n"),
             std::string::npos);
   EXPECT_NE(csv.find(",stand still,foreseen,"), std::string::npos) << csv;
+  // The disc from ahead walked into a robot at rest since the start: hit at rest, not the robot's fault.
+  EXPECT_NE(csv.find(",person_on_robot,0,0,0,hit_at_rest\n"), std::string::npos) << csv;
+  EpisodeRecord verdict;
+  verdict.outcome = Outcome::kCollision;
+  verdict.at_fault = true;
+  EXPECT_STREQ(verdictName(verdict), "collision_robot_at_fault");
+  verdict.outcome = Outcome::kTimeout;
+  EXPECT_STREQ(verdictName(verdict), "timeout");
   for (const EpisodeRecord& e : records) {
     if (e.collision_kind != CollisionKind::kRest && e.collision_kind != CollisionKind::kMoving) {
       EXPECT_EQ(e.hit_cause, HitCause::kNone);

@@ -226,11 +226,16 @@ def test_contacts_say_who_hit_whom_and_the_passive_safety_rate_follows(tmp_path)
     # dqn_dovs was hit at rest; dwa hit a wall, drove into a person, and was walked into right after stopping.
     faults = {("dqn_dovs", "3", "2"): ("person_on_robot", "0"), ("dwa", "3", "1"): ("static", "1"),
               ("dwa", "3", "2"): ("robot_on_person", "1"), ("dwa", "3", "3"): ("person_on_robot", "1")}
-    add_columns(path, rp.FAULT_COLUMNS + rp.COMFORT_COLUMNS, lambda row: {
-        **dict(zip(rp.FAULT_COLUMNS, faults.get((row["method"], row["obstacles"], row["episode"]), ("", "")))),
-        "intimate_s": "0.4" if row["method"] == "dwa" else "0", "personal_s": "1.2"})
+    def cells(row):
+        contact, fault = faults.get((row["method"], row["obstacles"], row["episode"]), ("", ""))
+        verdict = row["outcome"] if not fault else "collision_robot_at_fault" if fault == "1" else "hit_at_rest"
+        return {"contact": contact, "at_fault": fault, "intimate_s": "0.4" if row["method"] == "dwa" else "0",
+                "personal_s": "1.2", "verdict": verdict}
+    add_columns(path, rp.FAULT_COLUMNS + rp.COMFORT_COLUMNS + ("verdict",), cells)
     records = rp.read_results(str(path))
     assert records[3].contact == "person_on_robot" and records[3].at_fault is False and records[0].at_fault is None
+    assert [records[i].verdict for i in (0, 3, 5, 8)] == ["success", "hit_at_rest", "timeout",
+                                                         "collision_robot_at_fault"]
     s = rp.summarize(records, "dqn_dovs", METHODS)
     assert s.faults_recorded
     assert (s.overall["dqn_dovs"].at_fault, s.overall["dqn_dovs"].hit_at_rest) == (0, 1)
@@ -246,6 +251,9 @@ def test_contacts_say_who_hit_whom_and_the_passive_safety_rate_follows(tmp_path)
     bad = tmp_path / "bad.csv"
     bad.write_text(path.read_text().replace("robot_on_person", "robot_on_cat"))
     with pytest.raises(ValueError, match=r"bad\.csv:\d+: unknown contact 'robot_on_cat'"):
+        rp.read_results(str(bad))
+    bad.write_text(path.read_text().replace("hit_at_rest", "bad luck"))
+    with pytest.raises(ValueError, match=r"bad\.csv:\d+: unknown verdict 'bad luck'"):
         rp.read_results(str(bad))
 
 

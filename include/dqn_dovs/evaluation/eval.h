@@ -268,9 +268,13 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
 /// results.csv: a header, then one row per record (method, obstacles, episode, scenario, outcome, time_s,
 /// path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind, contact_speed_mps,
 /// last_decision, hit_cause, hit_seen_s, hit_prediction_error_m, hit_prediction_error_2s_m, hit_bearing_deg,
-/// contact, at_fault: 1 or 0 with a collision, empty without, intimate_s, personal_s). Throws
+/// contact, at_fault: 1 or 0 with a collision, empty without, intimate_s, personal_s, verdict: verdictName). Throws
 /// EvalError naming the file.
 void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::string& path);
+
+/// An episode's outcome judged by who caused a collision: "success", "collision_robot_at_fault", "hit_at_rest" (a
+/// collision the robot was not at fault for: robotAtFault) or "timeout".
+const char* verdictName(const EpisodeRecord& record);
 
 /// How the run went, for run.json.
 struct EvalRunInfo {
