@@ -22,20 +22,21 @@ namespace dqn_dovs {
 
 namespace {
 
-/// Why a people mix text cannot be read ("" when it can).
-std::string peopleMixError(const std::string& text) {
+/// The behaviours in force in an evaluation: everybody attentive with people_see_robot, else EvalConfig::people_mix
+/// (empty: everybody oblivious). Throws sim::SimError naming a mix text it cannot read.
+sim::PeopleMix peopleMixOf(const EvalConfig& c) {
+  if (c.people_see_robot) return sim::PeopleMix::allAttentive();
+  return c.people_mix.empty() ? sim::PeopleMix() : sim::PeopleMix::parse(c.people_mix);
+}
+
+/// Why an evaluation's people mix cannot be read ("" when it can).
+std::string peopleMixError(const EvalConfig& c) {
   try {
-    sim::PeopleMix::parse(text);
+    peopleMixOf(c);
   } catch (const sim::SimError& e) {
     return e.what();
   }
   return {};
-}
-
-/// The behaviours of an evaluation's people as run.json states them.
-std::string peopleMixText(const EvalConfig& c) {
-  if (c.people_see_robot) return sim::PeopleMix::allAttentive().str();
-  return c.people_mix.empty() ? sim::PeopleMix().str() : sim::PeopleMix::parse(c.people_mix).str();
 }
 
 std::string oracleRetriesError(const OracleConfig& base, const std::vector<std::string>& specs) {
@@ -82,10 +83,9 @@ std::string EvalConfig::validate() const {
     os << e;
   } else if (const std::string e = bound.validate(); !e.empty()) {
     os << e;
-  } else if (!people_mix.empty() && !peopleMixError(people_mix).empty()) {
-    os << peopleMixError(people_mix);
-  } else if ((people_see_robot || (!people_mix.empty() && sim::PeopleMix::parse(people_mix).anyReacts())) &&
-             std::find(methods.begin(), methods.end(), "bound") != methods.end()) {
+  } else if (const std::string e = peopleMixError(*this); !e.empty()) {
+    os << e;
+  } else if (peopleMixOf(*this).anyReacts() && std::find(methods.begin(), methods.end(), "bound") != methods.end()) {
     os << "method bound needs people who ignore the robot (their future is then fixed by the seed): "
           "drop people_see_robot, or a people mix where anyone reacts";
   }
@@ -113,12 +113,10 @@ void applyWorldOptions(EvalConfig& config) {
   }
   config.episode.route.enabled = config.route == "on";
   config.episode.world.people.see_robot = config.people_see_robot;
-  if (!config.people_mix.empty()) {
-    try {
-      config.episode.world.people.mix = sim::PeopleMix::parse(config.people_mix);
-    } catch (const sim::SimError& e) {
-      throw EvalError(e.what());
-    }
+  try {
+    config.episode.world.people.mix = peopleMixOf(config);
+  } catch (const sim::SimError& e) {
+    throw EvalError(e.what());
   }
   // People are seen by their legs: the tracker pairs them (the paper's room has none).
   config.episode.tracker.pair_legs = config.world != "room";
@@ -699,7 +697,7 @@ void writeRunJson(const EvalConfig& config, const EvalRunInfo& info, const std::
       << ",\n  \"world\": " << jsonString(config.world) << ",\n  \"sensor\": " << jsonString(config.sensor)
       << ",\n  \"people_model\": " << jsonString(config.people_model)
       << ",\n  \"people_see_robot\": " << (config.people_see_robot ? "true" : "false")
-      << ",\n  \"people_mix\": " << jsonString(peopleMixText(config))
+      << ",\n  \"people_mix\": " << jsonString(peopleMixOf(config).str())
       << ",\n  \"odom_noise\": " << jsonString(config.odom_noise) << ",\n  \"route\": " << jsonString(config.route)
       << ",\n  \"perfect_info\": " << (config.episode.perfect_info ? "true" : "false")
       << ",\n  \"track_truth\": " << jsonString(trackTruthName(config.episode.track_truth))

@@ -23,13 +23,7 @@ bool reachesStart(const MovingObstacle& o, const Vec2& robot, double clearance, 
   constexpr double kStep = 0.05;
   const double inside = room_half - o.radius;
   for (double t = 0.0; t <= horizon_s + 1e-9; t += kStep) {
-    Vec2 p = o.center;
-    if (std::abs(o.turn_rate) < 1e-9) {
-      p += o.speed * t * Vec2(std::cos(o.heading), std::sin(o.heading));
-    } else {
-      const double r = o.speed / o.turn_rate, h = o.heading + o.turn_rate * t;
-      p += Vec2(r * (std::sin(h) - std::sin(o.heading)), -r * (std::cos(h) - std::cos(o.heading)));
-    }
+    const Vec2 p = integrateUnicycle({o.center.x(), o.center.y(), o.heading}, o.speed, o.turn_rate, t).position();
     if (std::abs(p.x()) > inside || std::abs(p.y()) > inside) return false;
     if ((p - robot).norm() < clearance) return true;
   }

@@ -268,6 +268,7 @@ TEST(Eval, TheWorldRecordsTheMotionAndTheRestBeforeAContact) {
     ASSERT_TRUE(w.collided());
     const sim::CollisionInfo& c = w.collision();
     EXPECT_LT(c.robot_speed_mps, kRestSpeedMps);
+    // robot_rest_s is simulated time, from the world's clock: how long the robot had stood before the contact.
     EXPECT_GT(c.robot_rest_s, 0.0);
     EXPECT_LT(c.robot_rest_s, kAtFaultRest_s);
     EXPECT_TRUE(robotAtFault(c)) << "stopped " << c.robot_rest_s << " s before the contact";

@@ -293,13 +293,6 @@ TEST(GenerateScenario, RespectsEveryConstraint) {
   EXPECT_NEAR(static_cast<double>(dynamic) / total, 0.85, 0.03);
 }
 
-// Where obstacle `o` is after t s on its own (v, w) arc (no walls).
-Vec2 onArc(const MovingObstacle& o, double t) {
-  if (std::abs(o.turn_rate) < 1e-12) return o.center + o.speed * t * Vec2(std::cos(o.heading), std::sin(o.heading));
-  const double r = o.speed / o.turn_rate, h = o.heading + o.turn_rate * t;
-  return o.center + r * Vec2(std::sin(h) - std::sin(o.heading), std::cos(o.heading) - std::cos(h));
-}
-
 TEST(GenerateScenario, AClearStartKeepsEveryArcOffTheRobotForItsTime) {
   GeneratorConfig g;
   g.obstacle_count_min = g.obstacle_count_max = 12;
@@ -316,7 +309,8 @@ TEST(GenerateScenario, AClearStartKeepsEveryArcOffTheRobotForItsTime) {
     auto reaches = [&](const Scenario& s) {
       for (const MovingObstacle& o : s.obstacles) {
         for (double t = 0.0; t <= 3.0; t += 0.01) {
-          const Vec2 p = onArc(o, t);
+          // Where the obstacle is after t s on its own (v, w) arc (no walls).
+          const Vec2 p = integrateUnicycle({o.center.x(), o.center.y(), o.heading}, o.speed, o.turn_rate, t).position();
           if (std::abs(p.x()) > 4.0 - o.radius || std::abs(p.y()) > 4.0 - o.radius) break;
           if ((p - robot).norm() < g.robot_radius_m + o.radius + g.start_clear_margin_m - 0.01) return true;
         }
