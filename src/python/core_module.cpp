@@ -573,7 +573,8 @@ PYBIND11_MODULE(_core, m) {
            py::arg("dovs_parameters") = std::map<std::string, std::string>{},
            "world_options: the evaluation's world flags by name (world: room, crowd, corridor, doorway, clutter, "
            "junction, with the stage's obstacle counts as people; sensor; people_model; people_see_robot: true or "
-           "false; people_mix: attentive=A,impassive=I,oblivious=O shares; odom_noise; route: on (default: routes in "
+           "false; people_mix: attentive=A,impassive=I,oblivious=O shares or headline; odom_noise; route: on (default: "
+           "routes in "
            "worlds with walls, as the robot follows them) or off; "
            "people_predictor: a people predictor file whose predicted arcs the DOVS takes, as --predict-people). "
            "dovs_parameters: the DOVS model's parameters by name (config/dovs.yaml dovs/*, e.g. grid_contact_horizon), "

@@ -47,6 +47,7 @@ const char* personBehaviorName(PersonBehavior behavior) {
 }
 
 PeopleMix PeopleMix::parse(const std::string& text) {
+  if (text == "headline") return headline();
   PeopleMix m{0.0, 0.0, 0.0};
   bool seen[3] = {false, false, false};
   std::stringstream ss(text);
@@ -55,7 +56,8 @@ PeopleMix PeopleMix::parse(const std::string& text) {
   while (std::getline(ss, item, ',')) {
     const size_t eq = item.find('=');
     if (eq == std::string::npos) {
-      throw SimConfigError("people mix '" + text + "': '" + item + "' is not BEHAVIOUR=SHARE");
+      throw SimConfigError("people mix '" + text + "': '" + item +
+                           "' is not BEHAVIOUR=SHARE (or the preset 'headline')");
     }
     const std::string name = item.substr(0, eq), value = item.substr(eq + 1);
     double share = 0.0;

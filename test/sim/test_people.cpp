@@ -265,6 +265,8 @@ TEST(PeopleBehaviors, TheMixTextIsReadOrRefusedWithItsReason) {
   EXPECT_TRUE(m.anyReacts());
   EXPECT_FALSE(PeopleMix().anyReacts());
   EXPECT_EQ(PeopleMix::parse(m.str()).str(), m.str());
+  // The preset names the benchmark's headline mix.
+  EXPECT_EQ(PeopleMix::parse("headline").str(), "attentive=0.7,impassive=0.2,oblivious=0.1");
   auto refused = [](const std::string& text, const std::string& reason) {
     try {
       PeopleMix::parse(text);

@@ -48,7 +48,7 @@ enum class PersonBehavior { kOblivious = 0, kImpassive = 1, kAttentive = 2 };
 const char* personBehaviorName(PersonBehavior behavior);
 
 /// Shares of the behaviours among the people of an episode, e.g. "attentive=0.6,impassive=0.2,oblivious=0.2" (the
-/// shares are normalised; a name left out has share 0).
+/// shares are normalised; a name left out has share 0), or the name of a preset: "headline" (headline()).
 struct PeopleMix {
   double attentive = 0.0;
   double impassive = 0.0;
@@ -58,6 +58,10 @@ struct PeopleMix {
   static PeopleMix parse(const std::string& text);
   /// Every person attentive (what `people see the robot` means).
   static PeopleMix allAttentive() { return {1.0, 0.0, 0.0}; }
+  /// The benchmark's headline mix, attentive=0.7,impassive=0.2,oblivious=0.1: about three in ten people in a public
+  /// place are busy with something else (a phone, music), most of whom still walk around what is in their way, and
+  /// a few never see the robot at all (docs/simulator.md, "The headline mix", gives the sources).
+  static PeopleMix headline() { return {0.7, 0.2, 0.1}; }
   /// The text form with normalised shares, e.g. "attentive=0.6,impassive=0.2,oblivious=0.2" (zero shares left out).
   std::string str() const;
   /// Whether anyone reacts to the robot (then the people's future depends on what the robot does).
