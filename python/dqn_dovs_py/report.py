@@ -54,6 +54,10 @@ FAULT_COLUMNS = ("contact", "at_fault")
 # Optional comfort columns: time with a person within Hall's intimate (0.45 m) and personal (1.2 m) distances, body to
 # body, while the robot moves (s).
 COMFORT_COLUMNS = ("intimate_s", "personal_s")
+# Optional columns of cost to others and efficiency: time blocking a passage while someone waits or detours (s); the
+# delay caused to the attentive people who noticed the robot, against the same people without it (s, empty when none
+# did); time to the goal over the route length at v_max (successes only); path irregularity (rad of turning per m).
+COST_COLUMNS = ("blocking_s", "delay_s", "time_ratio", "path_irregularity")
 # The outcome judged by who caused a collision (dqn_dovs_eval's verdictName), an optional column.
 VERDICTS = ("success", "collision_robot_at_fault", "hit_at_rest", "timeout")
 # contact values of a collision (dqn_dovs_eval's ContactClass); empty without one.
@@ -103,6 +107,10 @@ class Record:
     intimate_s: float = math.nan  # NaN: not recorded
     personal_s: float = math.nan
     verdict: str | None = None  # one of VERDICTS, None: not recorded
+    blocking_s: float = math.nan  # NaN: not recorded (COST_COLUMNS)
+    delay_s: float = math.nan  # NaN: not recorded, or no attentive person noticed the robot
+    time_ratio: float = math.nan  # NaN: not recorded, or not a success
+    path_irregularity: float = math.nan
 
 
 def _contact(text: str | None) -> str | None:
@@ -168,7 +176,10 @@ def _record(row: dict[str, str | None]) -> Record:
         hit_prediction_error_2s_m=_optional_float(row.get("hit_prediction_error_2s_m")),
         hit_bearing_deg=_optional_float(row.get("hit_bearing_deg")), contact=_contact(row.get("contact")),
         at_fault=_at_fault(row.get("at_fault")), intimate_s=_optional_float(row.get("intimate_s")),
-        personal_s=_optional_float(row.get("personal_s")), verdict=_verdict(row.get("verdict")))
+        personal_s=_optional_float(row.get("personal_s")), verdict=_verdict(row.get("verdict")),
+        blocking_s=_optional_float(row.get("blocking_s")), delay_s=_optional_float(row.get("delay_s")),
+        time_ratio=_optional_float(row.get("time_ratio")),
+        path_irregularity=_optional_float(row.get("path_irregularity")))
 
 
 def read_results(path: str, required: Iterable[str] = RESULTS_COLUMNS) -> list[Record]:
@@ -223,6 +234,11 @@ class Cell:
     # Mean time per episode with a person within the intimate / personal distance while the robot moves, s.
     mean_intimate_s: float = math.nan
     mean_personal_s: float = math.nan
+    # Means per episode of COST_COLUMNS (NaN: not recorded; delay_s and time_ratio over the episodes that have one).
+    mean_blocking_s: float = math.nan
+    mean_delay_s: float = math.nan
+    mean_time_ratio: float = math.nan
+    mean_path_irregularity: float = math.nan
 
 
 @dataclass
@@ -234,6 +250,7 @@ class Summary:
     overall: dict[str, Cell] = field(default_factory=dict)  # the mean row
     hits_recorded: bool = False  # the records carry hit_cause (runs written before it do not)
     faults_recorded: bool = False  # the records carry contact and at_fault (runs written before them do not)
+    costs_recorded: bool = False  # the records carry COST_COLUMNS (runs written before them do not)
 
     def cell(self, method: str, n: int) -> Cell:
         return self.cells.get((method, n), Cell())
@@ -325,6 +342,10 @@ def cell_of(records: Sequence[Record], reference: Sequence[Record]) -> Cell:
         c.passive_safety_rate = 1.0 - c.at_fault / len(records)
     c.mean_intimate_s = nan_mean(r.intimate_s for r in records)
     c.mean_personal_s = nan_mean(r.personal_s for r in records)
+    c.mean_blocking_s = nan_mean(r.blocking_s for r in records)
+    c.mean_delay_s = nan_mean(r.delay_s for r in records)
+    c.mean_time_ratio = nan_mean(r.time_ratio for r in records)
+    c.mean_path_irregularity = nan_mean(r.path_irregularity for r in records)
     speeds = contact_speeds(records)
     c.mean_contact_speed_mps = sum(speeds) / len(speeds) if speeds else math.nan
     c.p95_contact_speed_mps = nearest_rank(speeds, CONTACT_SPEED_QUANTILE)
@@ -360,7 +381,8 @@ def summarize(records: Sequence[Record], reference: str, methods: Sequence[str] 
     _check_reference(records, reference, order)
     s = Summary(methods=order, counts=sorted({r.obstacles for r in records}), reference=reference,
                 hits_recorded=any(r.hit_cause is not None for r in records),
-                faults_recorded=any(r.contact is not None for r in records))
+                faults_recorded=any(r.contact is not None for r in records),
+                costs_recorded=any(not math.isnan(r.path_irregularity) for r in records))
     by: dict[tuple[str, int], list[Record]] = {}
     for r in records:
         by.setdefault((r.method, r.obstacles), []).append(r)
@@ -620,6 +642,16 @@ def summary_tables(s: Summary) -> str:
                          "Mean time with a person's body within 0.45 m (intimate) / 1.2 m (personal) of the robot's "
                          "while the robot moves.",
                          lambda c, _: f"{fixed(c.mean_intimate_s, 2)} / {fixed(c.mean_personal_s, 2)}"))
+    if s.costs_recorded:
+        sections.append(("Cost to others (s per episode)",
+                         "Mean time the robot stood in a door or a corridor's middle third while someone who reacts to "
+                         "it waited or detoured / mean delay it caused the attentive people who noticed it, against the "
+                         "same people without the robot (over the episodes where someone noticed it; noisy per "
+                         "episode, a crowd amplifies small differences).",
+                         lambda c, _: f"{fixed(c.mean_blocking_s, 2)} / {fixed(c.mean_delay_s, 1)}"))
+        sections.append(("Efficiency", "Time to the goal over the route length at v_max (successes) / path "
+                         "irregularity (rad of turning per metre driven).",
+                         lambda c, _: f"{fixed(c.mean_time_ratio, 2)} / {fixed(c.mean_path_irregularity, 2)}"))
     return "".join(_table(s, *section) for section in sections) + (_oracle_table(s) if ORACLE in s.methods else "")
 
 

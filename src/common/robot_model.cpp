@@ -130,4 +130,15 @@ Twist2 decelerationCommand(const Twist2& current, const RobotLimits& limits) {
   return limits.clipToFeasible(out);
 }
 
+Twist2 clipToWindow(const Twist2& current, Twist2 command, const RobotLimits& limits) {
+  if (!std::isfinite(command.v) || !std::isfinite(command.w)) return current;
+  const double dv = limits.dv(), dw = limits.dw();
+  const double norm = std::abs(command.v - current.v) / dv + std::abs(command.w - current.w) / dw;
+  if (norm > 1.0) {
+    command.v = current.v + (command.v - current.v) / norm;
+    command.w = current.w + (command.w - current.w) / norm;
+  }
+  return limits.clipToFeasible(command);
+}
+
 }  // namespace dqn_dovs

@@ -104,18 +104,6 @@ const EpisodeConfig& checked(const EpisodeConfig& c) {
   return c;
 }
 
-/// Clips a command into the dynamic window around `current`, then into the feasible triangle.
-Twist2 clipToWindow(const Twist2& current, Twist2 command, const RobotLimits& limits) {
-  if (!std::isfinite(command.v) || !std::isfinite(command.w)) return current;
-  const double dv = limits.dv(), dw = limits.dw();
-  const double norm = std::abs(command.v - current.v) / dv + std::abs(command.w - current.w) / dw;
-  if (norm > 1.0) {
-    command.v = current.v + (command.v - current.v) / norm;
-    command.w = current.w + (command.w - current.w) / norm;
-  }
-  return limits.clipToFeasible(command);
-}
-
 }  // namespace
 
 Episode::Episode(const EpisodeConfig& config)

@@ -414,6 +414,14 @@ EpisodeRecord runOnce(Planner& planner, Episode& ep, const std::string& method, 
   };
   recordObstacles();
   const RobotLimits& limits = ep.config().world.robot;
+  // Cost to others and efficiency: the passages' walls (the room's own and the scenario's), the people's progress
+  // along their plans with the robot and without it, the route length at the start.
+  const std::vector<Segment>& walls = ep.world().walls();
+  PlanProgress progress, shadow_progress;
+  std::vector<bool> noticed(ep.world().crowd().people().size(), false);  // attentive people who noticed the robot
+  progress.reset(ep.world().crowd());
+  if (const sim::Crowd* shadow = ep.world().shadowCrowd()) shadow_progress.reset(*shadow);
+  const double route_length_m = ep.routeGuide().distanceToGo(ep.world().robotPose().position(), ep.world().goal());
   // The oracle reads the world, not what the observation shows: nothing to attribute, no views to keep.
   const bool attribute_hits = dynamic_cast<OraclePlanner*>(&planner) == nullptr;
   std::deque<DecisionView> views;
@@ -446,7 +454,17 @@ EpisodeRecord runOnce(Planner& planner, Episode& ep, const std::string& method, 
       }
       if (nearest < kIntimateDistance_m) r.intimate_s += limits.dt;
       if (nearest < kPersonalDistance_m) r.personal_s += limits.dt;
+    } else if (!ep.world().crowd().people().empty() && inPassageMiddle(ep.world().robotPose().position(), walls)) {
+      // Cost to others: standing in a passage while someone waits for it or detours around it.
+      const Circle robot{ep.world().robotPose().position(), limits.radius};
+      const auto& people = ep.world().crowd().people();
+      if (std::any_of(people.begin(), people.end(), [&](const sim::Person& p) { return heldUpByRobot(p, robot); })) {
+        r.blocking_s += limits.dt;
+      }
     }
+    progress.update(ep.world().crowd());
+    for (size_t i = 0; i < noticed.size(); ++i) noticed[i] = noticed[i] || ep.world().crowd().people()[i].noticed;
+    if (const sim::Crowd* shadow = ep.world().shadowCrowd()) shadow_progress.update(*shadow);
   }
   r.outcome = ep.outcome();
   r.time_s = ep.time_s();
@@ -454,6 +472,19 @@ EpisodeRecord runOnce(Planner& planner, Episode& ep, const std::string& method, 
   r.min_clearance_m = ep.minClearance_m();
   r.danger_steps = ep.dangerSteps();
   r.steps = ep.steps();
+  if (r.outcome == Outcome::kSuccess && route_length_m > 0.0) r.time_ratio = r.time_s / (route_length_m / limits.v_max);
+  r.path_irregularity = pathIrregularity(ep.trajectory());
+  if (ep.world().shadowCrowd() != nullptr) {
+    const auto& people = ep.world().crowd().people();
+    bool any = false;
+    double delay = 0.0;
+    for (size_t i = 0; i < people.size(); ++i) {
+      if (people[i].behavior != sim::PersonBehavior::kAttentive || !noticed[i]) continue;
+      any = true;
+      delay += (shadow_progress.metres()[i] - progress.metres()[i]) / people[i].spec.preferred_speed_mps;
+    }
+    if (any) r.delay_s = delay;
+  }
   if (r.outcome == Outcome::kCollision && ep.world().collided()) {
     r.collision_kind = classifyCollision(ep.world().collision());
     r.contact_speed_mps = ep.world().collision().robot_speed_mps;
@@ -472,8 +503,9 @@ EpisodeRecord runEpisode(Planner& planner, Episode& ep, const std::string& metho
   EpisodeRecord r = runOnce(planner, ep, method, s, keep_paths);
   const auto* oracle = dynamic_cast<const OraclePlanner*>(&planner);
   if (oracle == nullptr || r.outcome == Outcome::kSuccess || oracle->retries().empty()) return r;
-  // The world's future does not depend on the robot: a later search that reaches the goal shows the episode
-  // solvable, and its record stands; when none does, the first search's failure does.
+  // Every search runs in the true simulator (people who react to the robot react to it there too): a later search
+  // that reaches the goal shows the episode solvable, and its record stands; when none does, the first search's
+  // failure does.
   const size_t searches = oracle->retries().size() + 1;
   for (size_t k = 0; k < oracle->retries().size(); ++k) {
     OraclePlanner retry(oracle->retries()[k]);
@@ -505,7 +537,10 @@ std::vector<EpisodeRecord> runEvaluation(const EvalConfig& config, const std::ve
     Worker w;
     try {
       for (const std::string& m : config.methods) w.planners.push_back(makeEvalPlanner(m, config));
-      w.episode = std::make_unique<Episode>(config.episode);
+      // The delay the robot causes attentive people is measured against their shadow (EpisodeRecord::delay_s).
+      EpisodeConfig episode = config.episode;
+      episode.world.shadow_people = episode.world.people.effectiveMix().attentive > 0.0;
+      w.episode = std::make_unique<Episode>(episode);
     } catch (const std::exception& e) {
       std::lock_guard<std::mutex> lock(mutex);
       if (first_error.empty()) first_error = std::string("cannot set up a worker: ") + e.what();
@@ -604,6 +639,87 @@ bool robotAtFault(const sim::CollisionInfo& collision) {
   return collision.robot_rest_s < kAtFaultRest_s;
 }
 
+PassageChord narrowestChord(const Vec2& p, const std::vector<Segment>& walls) {
+  // The nearest wall point, then the nearest one on the other side (more than 135 deg away as seen from p).
+  constexpr double kOpposite = -0.70710678118654752;
+  double first = std::numeric_limits<double>::infinity();
+  Vec2 toward = Vec2::Zero();
+  for (const Segment& w : walls) {
+    const Vec2 d = closestPointOnSegment(p, w) - p;
+    if (d.norm() < first) {
+      first = d.norm();
+      toward = d;
+    }
+  }
+  if (!std::isfinite(first) || first < 1e-9) return {first < 1e-9 ? 0.0 : first, 0.0};
+  toward /= first;
+  double second = std::numeric_limits<double>::infinity();
+  for (const Segment& w : walls) {
+    const Vec2 d = closestPointOnSegment(p, w) - p;
+    if (d.norm() > 1e-9 && d.dot(toward) / d.norm() <= kOpposite) second = std::min(second, d.norm());
+  }
+  if (!std::isfinite(second)) return {second, 0.0};
+  return {first + second, first / (first + second)};
+}
+
+bool inPassageMiddle(const Vec2& p, const std::vector<Segment>& walls) {
+  const PassageChord c = narrowestChord(p, walls);
+  return c.width_m < kPassageWidth_m && c.position >= 1.0 / 3.0;
+}
+
+bool heldUpByRobot(const sim::Person& p, const Circle& robot) {
+  const bool reacts =
+      (p.behavior == sim::PersonBehavior::kAttentive && p.noticed) || p.behavior == sim::PersonBehavior::kImpassive;
+  if (!reacts || (p.position - robot.center).norm() - p.spec.body_radius_m - robot.radius > kBlockingReach_m)
+    return false;
+  if (p.waiting_s > 0.0 || p.spec.destinations.empty()) return false;  // pausing at a stop, or walking nowhere
+  const Vec2 way = p.spec.destinations[p.destination] - p.position;
+  if (way.norm() < 0.3) return false;  // arriving
+  const double speed = p.velocity.norm();
+  if (speed < 0.5 * p.spec.preferred_speed_mps) return true;
+  return std::acos(std::clamp(p.velocity.dot(way) / (speed * way.norm()), -1.0, 1.0)) > kDetourAngle_rad;
+}
+
+double pathIrregularity(const std::vector<Pose2>& path) {
+  double turned = 0.0, length = 0.0;
+  for (size_t i = 1; i < path.size(); ++i) {
+    turned += std::abs(angleDiff(path[i].theta, path[i - 1].theta));
+    length += (path[i].position() - path[i - 1].position()).norm();
+  }
+  return length < 0.01 ? 0.0 : turned / length;
+}
+
+void PlanProgress::reset(const sim::Crowd& crowd) {
+  const size_t n = crowd.people().size();
+  done_.assign(n, 0.0);
+  metres_.assign(n, 0.0);
+  destination_.clear();
+  leg_start_.clear();
+  for (const sim::Person& p : crowd.people()) {
+    destination_.push_back(p.destination);
+    leg_start_.push_back(p.position);
+  }
+}
+
+void PlanProgress::update(const sim::Crowd& crowd) {
+  for (size_t i = 0; i < crowd.people().size() && i < metres_.size(); ++i) {
+    const sim::Person& p = crowd.people()[i];
+    if (p.spec.destinations.empty()) {  // walking straight on: the distance along its heading
+      const Vec2 along(std::cos(p.spec.heading_rad), std::sin(p.spec.heading_rad));
+      metres_[i] = (p.position - leg_start_[i]).dot(along);
+      continue;
+    }
+    if (p.destination != destination_[i]) {  // a leg completed (or more, when several waypoints passed at once)
+      const Vec2& reached = p.spec.destinations[destination_[i]];
+      done_[i] += (reached - leg_start_[i]).norm();
+      leg_start_[i] = reached;
+      destination_[i] = p.destination;
+    }
+    const Vec2& to = p.spec.destinations[p.destination];
+    metres_[i] = done_[i] + (to - leg_start_[i]).norm() - (to - p.position).norm();
+  }
+}
+
 CollisionKind classifyCollision(const sim::CollisionInfo& collision) {
   if (collision.kind == sim::CollisionInfo::Kind::kNone) return CollisionKind::kNone;
   if (collision.static_contact) return CollisionKind::kStatic;
@@ -630,7 +746,8 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
   std::ofstream out = openOut(path);
   out << "method,obstacles,episode,scenario,outcome,time_s,path_length_m,min_clearance_m,danger_steps,steps,"
          "planner_errors,collision_kind,contact_speed_mps,last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,"
-         "hit_prediction_error_2s_m,hit_bearing_deg,contact,at_fault,intimate_s,personal_s,verdict\n";
+         "hit_prediction_error_2s_m,hit_bearing_deg,contact,at_fault,intimate_s,personal_s,verdict,blocking_s,delay_s,"
+         "time_ratio,path_irregularity\n";
   for (const EpisodeRecord& r : records) {
     out << r.method << ',' << r.obstacles << ',' << r.episode << ',' << r.scenario << ',' << outcomeName(r.outcome)
         << ',' << r.time_s << ',' << r.path_length_m << ',' << r.min_clearance_m << ',' << r.danger_steps << ','
@@ -651,7 +768,11 @@ void writeResultsCsv(const std::vector<EpisodeRecord>& records, const std::strin
     }
     out << ',' << contactClassName(r.contact) << ',';
     if (r.outcome == Outcome::kCollision) out << (r.at_fault ? 1 : 0);
-    out << ',' << r.intimate_s << ',' << r.personal_s << ',' << verdictName(r) << '\n';
+    out << ',' << r.intimate_s << ',' << r.personal_s << ',' << verdictName(r) << ',' << r.blocking_s << ',';
+    if (std::isfinite(r.delay_s)) out << r.delay_s;
+    out << ',';
+    if (std::isfinite(r.time_ratio)) out << r.time_ratio;
+    out << ',' << r.path_irregularity << '\n';
   }
   closeOut(out, path);
 }

@@ -15,6 +15,9 @@ namespace dqn_dovs {
 namespace {
 
 constexpr int kSubsteps = 4;  // collision checks per control period
+// Among people who react to the robot: searches per decision, each against the people's motion around the best
+// candidate of the one before (OraclePlanner::decide).
+constexpr int kReactionSearches = 3;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 // Added to the cost of a sequence whose end has no way on (terminal_periods): more than any horizon's time and path
 // to go, so every end with a way on ranks first.
@@ -367,18 +370,15 @@ bool OraclePlanner::terminalSafe(const Pose2& pose, const Twist2& twist, const R
   return false;
 }
 
-PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle reads the world itself*/) {
-  if (world_ == nullptr) throw PlannerError("oracle: no world to read (setWorld)");
-  const sim::World& world = *world_;
-  if (!statics_ready_) prepareStatics(world);
+PlannerDecision OraclePlanner::search(const sim::World& world, std::vector<Candidate>* candidates) {
   const RobotLimits& limits = world.config().robot;
   const double dt = limits.dt, sub_dt = dt / kSubsteps;
   const int periods = config_.horizon_periods;
-  futureBodies(world);
   const double radius = limits.radius + config_.clearance_margin_m;
   const bool ramp = world.config().ramp_velocity;
   const int chunks = std::max(1, static_cast<int>(std::lround(dt / config_.scan_period_s)));
   const int substeps_per_chunk = std::max(1, kSubsteps / chunks);
+  if (candidates != nullptr) candidates->clear();
 
   // Two sequences reaching the same state (5 cm, 7.5 deg, 0.05 m/s, 0.2 rad/s) at a depth are one node.
   auto keyOf = [](const Node& n) {
@@ -390,8 +390,22 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
   std::vector<Twist2> first_commands = makeDynamicWindow(now_twist, limits).samples(config_.window_samples, limits);
   if (first_commands.empty()) first_commands.push_back(decelerationCommand(now_twist, limits));
 
-  std::vector<Node> beam{Node{world.robotPose(), now_twist, 0.0, -1}};
-  int best_dead_first = -1, deepest = -1;
+  // The pruned beam of every depth, so that a node's command sequence can be read back through its parents.
+  std::vector<std::vector<Node>>& history = history_;
+  history.assign(1, {Node{world.robotPose(), now_twist, 0.0, -1, -1, Twist2{}}});
+  // The command sequence that leads to a node of depth `depth` (its parent in history[depth]) with `last`.
+  auto sequence = [&](int depth, int parent, const Twist2& last) {
+    std::vector<Twist2> commands(static_cast<size_t>(depth + 1));
+    commands[static_cast<size_t>(depth)] = last;
+    for (int d = depth; d > 0; --d) {
+      const Node& n = history[static_cast<size_t>(d)][static_cast<size_t>(parent)];
+      commands[static_cast<size_t>(d - 1)] = n.command;
+      parent = n.parent;
+    }
+    return commands;
+  };
+  int best_dead_first = -1, deepest = -1, best_dead_parent = -1;
+  Twist2 best_dead_command;
   bool all_dead = false;
   double best_dead_cost = std::numeric_limits<double>::infinity();
   std::vector<Node> next;
@@ -400,12 +414,16 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
     next.clear();
     seen.clear();
     const double t_end = (depth + 1) * dt;
-    for (const Node& node : beam) {
+    const std::vector<Node>& beam = history.back();
+    for (size_t b = 0; b < beam.size(); ++b) {
+      const Node& node = beam[b];
       const std::vector<Twist2> commands =
           depth == 0 ? first_commands : makeDynamicWindow(node.twist, limits).samples(config_.window_samples, limits);
       for (size_t c = 0; c < commands.size(); ++c) {
         Node child;
         child.first = depth == 0 ? static_cast<int>(c) : node.first;
+        child.parent = static_cast<int>(b);
+        child.command = commands[c];
         child.twist = node.twist;
         child.pose = node.pose;
         bool hit = false;
@@ -427,12 +445,19 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
             deepest = depth;
             best_dead_cost = cost;
             best_dead_first = child.first;
+            best_dead_parent = child.parent;
+            best_dead_command = child.command;
           }
           continue;
         }
         const double to_go = pathToGoal(child.pose.position());
         if (to_go < config_.goal_tolerance_m && child.twist.v < config_.goal_speed_mps &&
             (child.pose.position() - goal_).norm() < config_.goal_tolerance_m) {
+          if (candidates != nullptr) {
+            // Reaching the goal ranks before every other sequence.
+            candidates->push_back({sequence(depth, child.parent, child.command), t_end - 1.0e6, true});
+            continue;
+          }
           PlannerDecision d;
           d.command = first_commands[static_cast<size_t>(child.first)];
           d.note = "oracle: goal in " + std::to_string(depth + 1) + " periods";
@@ -456,6 +481,7 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
       all_dead = true;
       break;
     }
+    std::vector<Node> kept;
     if (static_cast<int>(next.size()) > config_.beam_width) {
       // Half the beam goes to the best few of every first command, the rest to the best overall: a beam of the
       // fastest progress alone loses the waiting and detouring sequences that a crossing later requires.
@@ -464,42 +490,164 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
       const int quota = std::max(1, config_.beam_width / (2 * static_cast<int>(groups)));
       std::vector<int> taken(groups, 0);
       std::vector<bool> keep(next.size(), false);
-      int kept = 0;
-      for (size_t i = 0; i < next.size() && kept < config_.beam_width; ++i) {
+      int count = 0;
+      for (size_t i = 0; i < next.size() && count < config_.beam_width; ++i) {
         int& t = taken[static_cast<size_t>(next[i].first)];
         if (t < quota) {
           ++t;
           keep[i] = true;
-          ++kept;
+          ++count;
         }
       }
-      for (size_t i = 0; i < next.size() && kept < config_.beam_width; ++i) {
+      for (size_t i = 0; i < next.size() && count < config_.beam_width; ++i) {
         if (!keep[i]) {
           keep[i] = true;
-          ++kept;
+          ++count;
         }
       }
-      beam.clear();
       for (size_t i = 0; i < next.size(); ++i) {
-        if (keep[i]) beam.push_back(next[i]);
+        if (keep[i]) kept.push_back(next[i]);
       }
     } else {
-      beam.swap(next);
+      kept = next;
     }
+    history.push_back(std::move(kept));
   }
   PlannerDecision d;
   if (!all_dead) {
+    const std::vector<Node>& beam = history.back();
     const auto best =
         std::min_element(beam.begin(), beam.end(), [](const Node& a, const Node& b) { return a.cost < b.cost; });
     d.command = first_commands[static_cast<size_t>(best->first)];
     d.note = "oracle: best progress over the horizon";
-    return d;
+    if (candidates != nullptr) {
+      // The best sequence of every first command.
+      std::vector<int> best_of(first_commands.size(), -1);
+      for (size_t i = 0; i < beam.size(); ++i) {
+        int& k = best_of[static_cast<size_t>(beam[i].first)];
+        if (k < 0 || beam[i].cost < beam[static_cast<size_t>(k)].cost) k = static_cast<int>(i);
+      }
+      const int depth = static_cast<int>(history.size()) - 1;
+      for (const int k : best_of) {
+        if (k < 0) continue;
+        const Node& n = beam[static_cast<size_t>(k)];
+        candidates->push_back({sequence(depth - 1, n.parent, n.command), n.cost, false});
+      }
+    }
+  } else {
+    // Every searched trajectory collides: the one that stays free longest.
+    d.command = best_dead_first >= 0 ? first_commands[static_cast<size_t>(best_dead_first)]
+                                     : decelerationCommand(now_twist, limits);
+    d.note = "oracle: every searched trajectory collides";
   }
-  // Every searched trajectory collides: the one that stays free longest.
-  d.command = best_dead_first >= 0 ? first_commands[static_cast<size_t>(best_dead_first)]
-                                   : decelerationCommand(now_twist, limits);
-  d.note = "oracle: every searched trajectory collides";
+  if (candidates != nullptr) {
+    if (best_dead_first >= 0) {
+      candidates->push_back({sequence(deepest, best_dead_parent, best_dead_command), 1.0e9, false});
+    }
+    std::stable_sort(candidates->begin(), candidates->end(),
+                     [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
+  }
   return d;
+}
+
+OraclePlanner::Rollout OraclePlanner::rollTrue(const sim::World& world, const std::vector<Twist2>& commands,
+                                               int substeps, std::vector<std::vector<Circle>>* bodies) const {
+  const RobotLimits& limits = world.config().robot;
+  const int chunks = std::max(1, static_cast<int>(std::lround(limits.dt / config_.scan_period_s)));
+  const int per_chunk = std::max(1, kSubsteps / chunks);
+  sim::World w = world;
+  Rollout r;
+  std::vector<Circle> before, after;
+  auto snapshot = [&](std::vector<Circle>& out) {
+    out.clear();
+    for (const MovingObstacle& o : w.groundTruthObstacles()) out.push_back({o.center, o.radius});
+  };
+  if (bodies != nullptr) {
+    bodies->assign(static_cast<size_t>(substeps), {});
+    snapshot(before);
+  }
+  const int periods = (substeps + kSubsteps - 1) / kSubsteps;
+  for (int k = 0; k < periods; ++k) {
+    // As the episode steps it: the command clipped to the window, one World::step per scan period. After the
+    // sequence (it reached the goal or ends at the horizon) the robot brakes.
+    const bool planned = k < static_cast<int>(commands.size());
+    const Twist2 target =
+        clipToWindow(w.robotTwist(),
+                     planned ? commands[static_cast<size_t>(k)] : decelerationCommand(w.robotTwist(), limits), limits);
+    for (int c = 0; c < chunks; ++c) {
+      w.step(target, limits.dt / chunks);
+      if (bodies == nullptr) continue;
+      snapshot(after);
+      // The bodies at the chunk's end, and linearly between for the checks inside it.
+      for (int s = 1; s <= per_chunk; ++s) {
+        const int index = k * kSubsteps + c * per_chunk + s - 1;
+        if (index >= substeps) break;
+        std::vector<Circle>& at = (*bodies)[static_cast<size_t>(index)];
+        const double u = static_cast<double>(s) / per_chunk;
+        for (size_t i = 0; i < after.size(); ++i) {
+          at.push_back({before[i].center + u * (after[i].center - before[i].center), after[i].radius});
+        }
+      }
+      before.swap(after);
+    }
+    if (!planned) continue;
+    if (w.collided() && !r.collided) {
+      r.collided = true;
+      r.free_periods = k;
+      if (bodies == nullptr) return r;
+    }
+    if (!r.collided && (w.robotPose().position() - w.goal()).norm() < config_.goal_tolerance_m &&
+        w.robotTwist().v < config_.goal_speed_mps) {
+      r.goal = true;
+      r.free_periods = k + 1;
+      if (bodies == nullptr) return r;
+    }
+  }
+  if (!r.collided && !r.goal) r.free_periods = static_cast<int>(commands.size());
+  return r;
+}
+
+PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle reads the world itself*/) {
+  if (world_ == nullptr) throw PlannerError("oracle: no world to read (setWorld)");
+  const sim::World& world = *world_;
+  if (!statics_ready_) prepareStatics(world);
+  futureBodies(world);
+  const bool reacting = config_.true_future_periods < 0 && !world.crowd().people().empty() &&
+                        world.crowd().config().effectiveMix().anyReacts();
+  if (!reacting) return search(world, nullptr);
+  // People who react to the robot: the future above has the robot braking where it is. Each candidate (the best
+  // sequence of every first command, best first) is stepped in a copy of the true simulator, the people reacting
+  // to the robot as it follows it; the first that reaches the goal or stays free over the horizon is taken.
+  // When none does, the people's motion around the sequence that stayed free longest becomes the future searched
+  // next, up to kReactionSearches searches.
+  const int substeps = (config_.horizon_periods + config_.terminal_periods) * kSubsteps;
+  std::vector<Candidate> candidates;
+  PlannerDecision fallback;
+  int longest = -1;
+  std::vector<std::vector<Circle>> longest_bodies;
+  for (int round = 0; round < kReactionSearches; ++round) {
+    const PlannerDecision plain = search(world, &candidates);
+    if (round == 0) fallback = plain;
+    for (const Candidate& c : candidates) {
+      const Rollout r = rollTrue(world, c.commands, substeps, nullptr);
+      if (r.goal || !r.collided) {
+        PlannerDecision d;
+        d.command = c.commands.front();
+        d.note = std::string("oracle: ") + (r.goal ? "goal" : "free over the horizon") +
+                 " in the true simulator (search " + std::to_string(round + 1) + ")";
+        return d;
+      }
+      if (r.free_periods > longest) {
+        longest = r.free_periods;
+        fallback.command = c.commands.front();
+        fallback.note = "oracle: every candidate collides in the true simulator; the one free longest";
+        rollTrue(world, c.commands, substeps, &longest_bodies);
+      }
+    }
+    if (longest_bodies.empty()) break;
+    future_ = longest_bodies;
+  }
+  return fallback;
 }
 
 }  // namespace dqn_dovs

@@ -162,6 +162,7 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
   } catch (const SimConfigError& e) {
     throw ScenarioError("scenario '" + scenario.name + "': " + e.what());
   }
+  shadow_crowd_ = config_.shadow_people ? crowd_ : Crowd();
   const double h = scenario.room_half_size_m;
   walls_ = {
       {Vec2(-h, -h), Vec2(h, -h)}, {Vec2(h, -h), Vec2(h, h)}, {Vec2(h, h), Vec2(-h, h)}, {Vec2(-h, h), Vec2(-h, -h)}};
@@ -471,6 +472,8 @@ void World::stepPeople(double dt_s) {
   if (crowd_.people().empty()) return;
   const Vec2 robot_velocity = robot_twist_.v * Vec2(std::cos(robot_pose_.theta), std::sin(robot_pose_.theta));
   crowd_.step(dt_s, walls_, Circle{robot_pose_.position(), config_.robot.radius}, robot_velocity);
+  // The shadow's robot is a point far outside every world: out of anyone's notice range.
+  if (config_.shadow_people) shadow_crowd_.step(dt_s, walls_, Circle{Vec2(1.0e6, 1.0e6), 0.0}, Vec2::Zero());
 }
 
 std::vector<MovingObstacle> World::groundTruthObstacles() const {

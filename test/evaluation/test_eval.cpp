@@ -387,11 +387,13 @@ TEST(Eval, ACollisionSaysWhatThePlannerKnewOfWhatHitIt) {
   writeResultsCsv(records, dir.file("results.csv"));
   const std::string csv = readAll(dir.file("results.csv"));
   EXPECT_NE(csv.find("last_decision,hit_cause,hit_seen_s,hit_prediction_error_m,hit_prediction_error_2s_m,"
-                     "hit_bearing_deg,contact,at_fault,intimate_s,personal_s,verdict\n"),
+                     "hit_bearing_deg,contact,at_fault,intimate_s,personal_s,verdict,blocking_s,delay_s,time_ratio,"
+                     "path_irregularity\n"),
             std::string::npos);
   EXPECT_NE(csv.find(",stand still,foreseen,"), std::string::npos) << csv;
   // The disc from ahead walked into a robot at rest since the start: hit at rest, not the robot's fault.
-  EXPECT_NE(csv.find(",person_on_robot,0,0,0,hit_at_rest\n"), std::string::npos) << csv;
+  // It never moved: no blocking, no people to delay, no time ratio without success, no turning.
+  EXPECT_NE(csv.find(",person_on_robot,0,0,0,hit_at_rest,0,,,0\n"), std::string::npos) << csv;
   EpisodeRecord verdict;
   verdict.outcome = Outcome::kCollision;
   verdict.at_fault = true;
@@ -453,6 +455,120 @@ TEST(Eval, TheTimeAPersonSpendsCloseToTheMovingRobotIsCounted) {
   EXPECT_DOUBLE_EQ(close.intimate_s, close.personal_s);
   EXPECT_EQ(resting.intimate_s, 0.0);
   EXPECT_EQ(resting.personal_s, 0.0);
+}
+
+TEST(Eval, PathIrregularityIsTheTurningPerMetre) {
+  EXPECT_EQ(pathIrregularity({}), 0.0);
+  EXPECT_EQ(pathIrregularity({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}), 0.0);  // straight
+  // 2 m with a quarter turn on the way, then a turn back: pi / 2 twice over 2 m.
+  EXPECT_NEAR(pathIrregularity({{0, 0, 0}, {1, 0, kPi / 2}, {1, 1, 0}}), kPi / 2, 1e-9);
+  // Wrapped: -170 deg to 170 deg is a 20 deg turn, not 340 deg.
+  const double a = 170.0 * kPi / 180.0;
+  EXPECT_NEAR(pathIrregularity({{0, 0, -a}, {1, 0, a}}), 20.0 * kPi / 180.0, 1e-9);
+  EXPECT_EQ(pathIrregularity({{0, 0, 0}, {0.001, 0, 1.0}}), 0.0);  // turning on the spot: no metre to divide by
+}
+
+TEST(Eval, ThePassagesMiddleThirdIsWhereARobotBlocksIt) {
+  // A corridor 2 m wide along x, closed 10 m away at each end.
+  const std::vector<Segment> corridor = {{Vec2(-10, -1), Vec2(10, -1)},
+                                         {Vec2(-10, 1), Vec2(10, 1)},
+                                         {Vec2(-10, -1), Vec2(-10, 1)},
+                                         {Vec2(10, -1), Vec2(10, 1)}};
+  const PassageChord middle = narrowestChord({0.0, 0.0}, corridor);
+  EXPECT_NEAR(middle.width_m, 2.0, 1e-9);
+  EXPECT_NEAR(middle.position, 0.5, 1e-9);
+  EXPECT_TRUE(inPassageMiddle({0.0, 0.2}, corridor));
+  EXPECT_FALSE(inPassageMiddle({0.0, 0.8}, corridor)) << "beside the wall: people pass";
+  // A door of 1 m in a wall along x = 0 between two 8 m rooms: in it, a passage; 2 m into a room, not.
+  const std::vector<Segment> door = {{Vec2(0, -4), Vec2(0, -0.5)}, {Vec2(0, 0.5), Vec2(0, 4)},
+                                     {Vec2(-4, -4), Vec2(4, -4)},  {Vec2(-4, 4), Vec2(4, 4)},
+                                     {Vec2(-4, -4), Vec2(-4, 4)},  {Vec2(4, -4), Vec2(4, 4)}};
+  EXPECT_TRUE(inPassageMiddle({0.0, 0.0}, door));
+  EXPECT_FALSE(inPassageMiddle({-2.0, 0.0}, door));
+  EXPECT_FALSE(inPassageMiddle({0.0, 0.0}, {})) << "no walls, no passage";
+}
+
+TEST(Eval, SomeoneWhoReactsAndWaitsOrDetoursNearTheRobotIsHeldUp) {
+  sim::Person p;
+  p.spec.preferred_speed_mps = 1.0;
+  p.spec.destinations = {Vec2(5.0, 0.0)};
+  p.position = {0.0, 0.0};
+  p.behavior = sim::PersonBehavior::kAttentive;
+  p.noticed = true;
+  p.velocity = {0.2, 0.0};  // slowed down
+  const Circle robot{Vec2(1.0, 0.0), 0.2};
+  EXPECT_TRUE(heldUpByRobot(p, robot));
+  sim::Person q = p;
+  q.velocity = {1.0, 0.0};  // on its way at its speed
+  EXPECT_FALSE(heldUpByRobot(q, robot));
+  q.velocity = {0.7, 0.7};  // 45 deg off its way
+  EXPECT_TRUE(heldUpByRobot(q, robot));
+  q = p;
+  q.noticed = false;  // has not seen it
+  EXPECT_FALSE(heldUpByRobot(q, robot));
+  q.behavior = sim::PersonBehavior::kImpassive;  // walks around it without noticing
+  EXPECT_TRUE(heldUpByRobot(q, robot));
+  q.behavior = sim::PersonBehavior::kOblivious;
+  EXPECT_FALSE(heldUpByRobot(q, robot));
+  EXPECT_FALSE(heldUpByRobot(p, Circle{Vec2(4.0, 0.0), 0.2})) << "out of reach";
+  q = p;
+  q.waiting_s = 1.0;  // pausing at a stop is not waiting for the robot
+  EXPECT_FALSE(heldUpByRobot(q, robot));
+}
+
+TEST(Eval, PlanProgressCountsCompletedLegsAndThePartOfTheCurrentOne) {
+  sim::PersonSpec spec;
+  spec.position = {0.0, 0.0};
+  spec.destinations = {Vec2(2.0, 0.0), Vec2(2.0, 3.0)};
+  spec.preferred_speed_mps = 1.0;
+  sim::PeopleConfig config;
+  config.model = sim::PeopleModel::kSocialForce;
+  sim::Crowd crowd({spec}, config, 1);
+  PlanProgress progress;
+  progress.reset(crowd);
+  EXPECT_EQ(progress.metres()[0], 0.0);
+  const Circle far{Vec2(100.0, 100.0), 0.2};
+  double last = 0.0;
+  for (int k = 0; k < 60; ++k) {  // 3 s at 1 m/s: round the first corner, about 1 m up the second leg
+    crowd.step(0.05, {}, far, Vec2::Zero());
+    progress.update(crowd);
+    EXPECT_GE(progress.metres()[0], last - 0.05) << "progress does not fall back at a corner";
+    last = progress.metres()[0];
+  }
+  ASSERT_EQ(crowd.people()[0].destination, 1u);
+  const double expected = 2.0 + (crowd.people()[0].position - Vec2(2.0, 0.0)).norm();
+  EXPECT_NEAR(progress.metres()[0], expected, 0.35);
+  EXPECT_GT(progress.metres()[0], 2.3);
+}
+
+TEST(Eval, TheShadowCrowdIsTheSamePeopleWithoutTheRobot) {
+  // An attentive person walking toward a robot standing in its way gives way to it; its shadow walks on as if
+  // nobody stood there. Without anyone reacting, the two stay the same, step for step.
+  auto world = [](const std::string& mix) {
+    sim::WorldConfig config;
+    config.shadow_people = true;
+    config.people.mix = sim::PeopleMix::parse(mix);
+    sim::Scenario s;
+    s.name = "shadow";
+    s.robot_start = {0.0, 0.0, 0.0};
+    s.goal = {3.0, 3.0};
+    sim::PersonSpec p;
+    p.position = {-3.0, 0.1};
+    p.heading_rad = 0.0;
+    p.destinations = {Vec2(3.0, 0.1)};
+    s.people = {p};
+    sim::World w(s, config, 5);
+    for (int k = 0; k < 80; ++k) w.step(Twist2{}, 0.05);
+    return w;
+  };
+  const sim::World attentive = world("attentive=1"), oblivious = world("oblivious=1");
+  ASSERT_NE(attentive.shadowCrowd(), nullptr);
+  const Vec2 real = attentive.crowd().people()[0].position, shadow = attentive.shadowCrowd()->people()[0].position;
+  EXPECT_GT((real - shadow).norm(), 0.2) << "the attentive person gave way; its shadow did not";
+  EXPECT_EQ(oblivious.crowd().people()[0].position, oblivious.shadowCrowd()->people()[0].position);
+  sim::Scenario empty;
+  empty.name = "empty";
+  EXPECT_EQ(sim::World(empty, sim::WorldConfig(), 1).shadowCrowd(), nullptr);
 }
 
 // The attribution itself, on views made by hand: late, mispredicted and foreseen by the motion the planner was shown,

@@ -169,6 +169,24 @@ sim::Scenario fastDiscHeadOn() {
   return s;
 }
 
+TEST(Oracle, AmongPeopleWhoReactItChecksItsCandidatesInTheTrueSimulator) {
+  // Half the people give way to the robot once they notice it, half walk around it: their future depends on what
+  // the robot does, so the oracle steps each candidate in a copy of the true simulator before taking it.
+  sim::WorldFamilyConfig w;
+  w.family = sim::WorldFamily::kCrowd;
+  w.people = 10;
+  EpisodeConfig config = perfectInformation();
+  config.world.people.mix = sim::PeopleMix::parse("attentive=0.5,impassive=0.5");
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    const EpisodeRecord r = run("oracle", sim::generateWorld(w, seed), config);
+    EXPECT_EQ(r.outcome, Outcome::kSuccess) << "seed " << seed << ": " << r.last_decision;
+    EXPECT_NE(r.last_decision.find("in the true simulator"), std::string::npos) << r.last_decision;
+  }
+  // Among people who never notice the robot the search alone decides, as before.
+  const EpisodeRecord oblivious = run("oracle", sim::generateWorld(w, 1));
+  EXPECT_EQ(oblivious.last_decision.find("true simulator"), std::string::npos) << oblivious.last_decision;
+}
+
 TEST(Oracle, SaysWhenEveryTrajectoryCollides) {
   // No command avoids the fast disc.
   const EpisodeRecord r = run("oracle", fastDiscHeadOn());

@@ -73,4 +73,8 @@ Twist2 applyAccelerationLimits(const Twist2& current, const Twist2& command, con
 /// fastest (v - dv, w shrinking toward 0), clipped to the feasible set.
 Twist2 decelerationCommand(const Twist2& current, const RobotLimits& limits);
 
+/// Clips a command into the dynamic window around `current`, then into the feasible triangle (what an episode does
+/// with every command before the simulator takes it); a non-finite command keeps the current velocity.
+Twist2 clipToWindow(const Twist2& current, Twist2 command, const RobotLimits& limits);
+
 }  // namespace dqn_dovs

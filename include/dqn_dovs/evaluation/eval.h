@@ -125,6 +125,46 @@ ContactClass classifyContact(const sim::CollisionInfo& collision);
 /// Hall's intimate and personal distances (m), body to body, of the comfort figures (EpisodeRecord::intimate_s).
 constexpr double kIntimateDistance_m = 0.45;
 constexpr double kPersonalDistance_m = 1.2;
+/// Cost to others (EpisodeRecord::blocking_s): a passage is a place where the narrowest chord through it, wall to
+/// wall, is shorter than kPassageWidth_m (a door, a corridor); the robot blocks it when it stands (below
+/// kRestSpeedMps) in the chord's middle third while someone within kBlockingReach_m (surface to surface) who reacts to
+/// it (an attentive person who has noticed it, or an impassive one) waits or detours: slower than half its preferred
+/// speed while not pausing at a stop, or walking more than kDetourAngle_rad off the way to its destination.
+constexpr double kPassageWidth_m = 3.2;
+constexpr double kBlockingReach_m = 2.0;
+constexpr double kDetourAngle_rad = 0.5235987755982988;  // 30 deg
+/// The narrowest chord through p between walls: the distance to the nearest wall point plus the distance to the
+/// nearest one on the other side (more than 135 deg away as seen from p; infinity when there is none), and where p
+/// lies on it (0: at a wall, 0.5: in the middle). In a door it runs jamb to jamb, in a corridor wall to wall.
+struct PassageChord {
+  double width_m = 0.0;
+  double position = 0.0;
+};
+PassageChord narrowestChord(const Vec2& p, const std::vector<Segment>& walls);
+/// Whether a robot standing at p is in the middle third of a passage (narrowestChord shorter than kPassageWidth_m).
+bool inPassageMiddle(const Vec2& p, const std::vector<Segment>& walls);
+/// Whether person p waits for, or detours around, a robot at `robot` (the blocking rule above).
+bool heldUpByRobot(const sim::Person& p, const Circle& robot);
+/// Path irregularity (rad/m): the robot's total turning (the sum of its heading changes, each wrapped to
+/// [-pi, pi]) per metre driven; 0 for a path shorter than 1 cm.
+double pathIrregularity(const std::vector<Pose2>& path);
+/// How far each person has come along its plan (m): the lengths of the legs it has completed plus the part of its
+/// current leg done (the leg's length less the distance left), updated once per decision. Two runs of the same
+/// people compare by it (EpisodeRecord::delay_s).
+class PlanProgress {
+ public:
+  void reset(const sim::Crowd& crowd);
+  void update(const sim::Crowd& crowd);
+  /// Metres along its plan, per person.
+  const std::vector<double>& metres() const { return metres_; }
+
+ private:
+  std::vector<double> done_;         ///< completed legs, m
+  std::vector<size_t> destination_;  ///< the destination it walks to
+  std::vector<Vec2> leg_start_;      ///< where its current leg began
+  std::vector<double> metres_;
+};
+
 /// A robot at rest for less than this before a contact (s) stopped too late to count as at rest.
 constexpr double kAtFaultRest_s = 0.5;
 /// The robot is at fault for a collision (passive safety: it never drives into anything, and is at rest, for long
@@ -212,6 +252,18 @@ struct EpisodeRecord {
   /// kPersonalDistance_m, of the robot's (surface to surface) while the robot moves (kRestSpeedMps or faster).
   double intimate_s = 0.0;
   double personal_s = 0.0;
+  /// Cost to others: the time (s, per decision period) the robot blocked a passage (kPassageWidth_m), and the
+  /// delay it caused the attentive people who noticed it: the sum over them of how far behind their plans they are
+  /// at the end against the same people with the robot absent (WorldConfig::shadow_people), each divided by its
+  /// preferred speed (s; negative when they came out ahead; NaN when no attentive person noticed the robot). A crowd
+  /// amplifies small differences, so one episode's figure is noisy: compare means over many episodes.
+  double blocking_s = 0.0;
+  double delay_s = std::numeric_limits<double>::quiet_NaN();
+  /// Efficiency: successes only (NaN otherwise), the time to the goal over the time the start's route length
+  /// (along the route in worlds with walls, else the straight line) takes at v_max.
+  double time_ratio = std::numeric_limits<double>::quiet_NaN();
+  /// pathIrregularity of the robot's path (rad/m).
+  double path_irregularity = 0.0;
   /// Collisions with a moving body only (NaN / kNone otherwise): what the planners knew of it (HitCause); how long it
   /// had been shown without a break up to the contact (s, looking at most 3 s back; 0 when unseen); how far from its
   /// true centre at the contact its motion as shown kHitForesight_s, and kHitLongForesight_s, before put it (m; NaN

@@ -1,13 +1,19 @@
 // The physical limit of a benchmark episode: a planner that knows the future exactly.
 //
-// In the simulator the obstacles and the people ignore the robot (unless people are told to see it), so their
-// future is fixed by the scenario and the seed. At every control period the oracle copies the world, rolls the
-// obstacles and people forward over its horizon with the robot standing aside, and searches the robot's dynamic
+// Where the obstacles and the people ignore the robot, their future is fixed by the scenario and the seed. At every
+// control period the oracle copies the world, rolls the obstacles and people forward over its horizon with the
+// robot braking where it is, and searches the robot's dynamic
 // window period by period (a time-expanded kinodynamic search under the same limits, the same integration and the
 // same success rule as the episode) for the command sequence that reaches the goal soonest without touching
 // anything; it executes the first command and searches again at the next period. Static geometry is kept in a
 // clearance field and the cost to go is the shortest path around the walls (not the straight line), so rooms,
 // corridors and doorways do not trap it.
+//
+// Among people who react to the robot (PeopleConfig::mix with attentive or impassive people) that future depends on
+// what the robot does: the oracle then steps a copy of the true simulator along each candidate sequence (the best
+// of every first command), the people reacting as they would, takes the first that reaches the goal or stays free
+// over the horizon, and otherwise searches again against the people's motion around the candidate that stayed free
+// longest (three searches at most).
 //
 // It is not deployable (it reads the simulator's future); it bounds what any planner could do on the same
 // episodes. The search is a beam search: an episode it solves is solvable; one it fails may not be, so the
@@ -107,7 +113,30 @@ class OraclePlanner : public Planner {
     Twist2 twist;
     double cost = 0.0;  ///< time so far + cost to go
     int first = -1;     ///< index of the first command of its sequence
+    int parent = -1;    ///< index of its parent in the beam of the depth before
+    Twist2 command;     ///< the command that led to it from its parent
   };
+  /// A command sequence the search found, with its cost (sequences that reach the goal rank first).
+  struct Candidate {
+    std::vector<Twist2> commands;
+    double cost = 0.0;
+    bool reaches_goal = false;
+  };
+  /// What a sequence does in a copy of the true simulator.
+  struct Rollout {
+    bool collided = false;
+    bool goal = false;
+    int free_periods = 0;  ///< control periods before the first contact (all when none)
+  };
+  /// One beam search against future_. With `candidates`, fills them (every sequence that reaches the goal, the
+  /// best sequence of every first command, the one that stays free longest when all collide; cheapest first)
+  /// and searches the whole horizon; without, returns as soon as a sequence reaches the goal.
+  PlannerDecision search(const sim::World& world, std::vector<Candidate>* candidates);
+  /// Steps a copy of `world` along `commands` as the episode does (then braking, up to `substeps` / 4 control
+  /// periods), the people reacting to the robot; with `bodies`, the obstacles' and people's bodies at every
+  /// collision check of those periods.
+  Rollout rollTrue(const sim::World& world, const std::vector<Twist2>& commands, int substeps,
+                   std::vector<std::vector<Circle>>* bodies) const;
   /// Static geometry of the episode: clearance to the walls and path length to the goal on a grid.
   void prepareStatics(const sim::World& world);
   double wallClearance(const Vec2& p) const;
@@ -130,6 +159,7 @@ class OraclePlanner : public Planner {
   std::vector<float> clearance_;             ///< m to the nearest wall, per cell centre
   std::vector<float> to_goal_;               ///< m of free path to the goal, per cell centre (inf: unreachable)
   std::vector<std::vector<Circle>> future_;  ///< bodies per sub-step (index 0 = now + sub_dt)
+  std::vector<std::vector<Node>> history_;   ///< the search's beam per depth (index 0: the robot now)
   // The people's velocities at the previous decision and its time (acceleration_prediction_s).
   std::vector<Vec2> previous_velocities_;
   double previous_time_s_ = 0.0;

@@ -68,6 +68,9 @@ struct WorldConfig {
   OdometryConfig odometry;
   /// How the scenario's people move, and their legs.
   PeopleConfig people;
+  /// true: the world also steps a shadow of its people (World::shadowCrowd), the same people from the same start
+  /// and seed with the robot absent, so that what the robot costs them can be measured (EpisodeRecord::delay_s).
+  bool shadow_people = false;
   /// true: the LIDAR sees people's two legs (a scanner at leg height); false: their body discs.
   bool scan_legs = true;
   /// A wall's thickness as the LIDAR sees it at each free end (joined to no other wall: a door's jamb, the end of a
@@ -162,6 +165,8 @@ class World {
   const std::vector<SimObstacle>& obstacles() const { return obstacles_; }
   /// The people (bodies, legs, plans).
   const Crowd& crowd() const { return crowd_; }
+  /// WorldConfig::shadow_people: the same people stepped as crowd() is, with the robot absent (else null).
+  const Crowd* shadowCrowd() const { return config_.shadow_people ? &shadow_crowd_ : nullptr; }
   /// The obstacles with their instantaneous motion: while turning at the border, speed 0 and turn rate
   /// +-border_turn_rate_rps; otherwise the nominal (speed, turn_rate); then the people's bodies (index
   /// obstacles().size() + person).
@@ -213,6 +218,7 @@ class World {
   bool robot_stopped_ = false;
   std::vector<SimObstacle> obstacles_;
   Crowd crowd_;
+  Crowd shadow_crowd_;  ///< WorldConfig::shadow_people
   Pose2 odom_pose_;
   Rng odom_rng_;
   double odom_speed_scale_ = 1.0, odom_turn_scale_ = 1.0, odom_turn_bias_rps_ = 0.0;
