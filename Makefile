@@ -21,7 +21,7 @@ help:
 	@echo "make test-asan  core gtests under AddressSanitizer + UBSan in build_asan/"
 	@echo "make bench   every benchmark (make bench-NAME for one: $(BENCHES)), then docs/performance.md"
 	@echo "make benchmark-table  docs/benchmark.md: every method on the package's room scenarios (SCENARIOS=DIR: another set, e.g. the external RUMOR set, docs/external_benchmark.md; PAPER=CSV: the paper's table beside), tracker and perfect information, with the oracle and the bound (EPISODES=100, ORACLE=0 / BOUND=0 without them)"
-	@echo "make benchmark-worlds  docs/benchmark_worlds.md: dqn_dovs vs s_dovs (and the oracle) on every world family, LIDAR profile and people model (EPISODES=50, ORACLE=0 without the oracle)"
+	@echo "make benchmark-worlds  docs/benchmark_worlds.md: every planner and the oracle on every building family at 4 / 8 / 12 people, under three protocols (headline mix, oblivious stress test, all attentive) (EPISODES=30, ORACLE=0 without the oracle, PROTOCOLS='headline' for one)"
 	@echo "make select-model RUN=runs/NAME  rank a training run's snapshots on held-out generated scenarios"
 	@echo "make demo    the ROS pipeline in simulation on the package's demo scenarios (WORLD=clutter: a building world with people)"
 	@echo "make clean-clone-demo  clone the committed HEAD into an empty temporary folder and run make demo there (the repository stands alone)"
