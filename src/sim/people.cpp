@@ -32,7 +32,65 @@ bool straightWalkIsClear(const Vec2& a, const Vec2& b, double radius, const std:
 /// Whether destination k of a person is a waypoint (PersonSpec::pass_through).
 bool isWaypoint(const PersonSpec& spec, size_t k) { return !spec.pass_through.empty() && spec.pass_through[k]; }
 
+/// Distance along the ray from `from` in the unit direction `dir` to the first wall, or `reach` when none is nearer.
+double rayToWalls(const Vec2& from, const Vec2& dir, double reach, const std::vector<Segment>& walls) {
+  double best = reach;
+  for (const Segment& w : walls) {
+    const Vec2 e = w.b - w.a, d = w.a - from;
+    const double den = dir.x() * e.y() - dir.y() * e.x();
+    if (std::abs(den) < 1e-12) continue;
+    const double t = (d.x() * e.y() - d.y() * e.x()) / den, u = (d.x() * dir.y() - d.y() * dir.x()) / den;
+    if (t >= 0.0 && t < best && u >= 0.0 && u <= 1.0) best = t;
+  }
+  return best;
+}
+
+/// A person counts as in a door when its centre is within its radius plus this of the door's wall (and beside the
+/// opening): it holds the door until it is out of this band on the other side.
+constexpr double kDoorBand_m = 0.3;
+
 }  // namespace
+
+const char* trafficSideName(TrafficSide side) {
+  switch (side) {
+    case TrafficSide::kNone:
+      return "none";
+    case TrafficSide::kRight:
+      return "right";
+    case TrafficSide::kLeft:
+      return "left";
+  }
+  return "?";
+}
+
+TrafficSide parseTrafficSide(const std::string& name) {
+  for (TrafficSide s : {TrafficSide::kNone, TrafficSide::kRight, TrafficSide::kLeft}) {
+    if (name == trafficSideName(s)) return s;
+  }
+  throw SimConfigError("traffic side '" + name + "' is not one of none, right, left");
+}
+
+std::string TrafficRule::validate() const {
+  if (side != TrafficSide::kNone && side != TrafficSide::kRight && side != TrafficSide::kLeft) {
+    return "traffic rule: unknown side";
+  }
+  if (!(std::isfinite(strength) && strength >= 0.0 && strength <= 1.0)) {
+    std::ostringstream os;
+    os << "traffic rule strength " << strength << ": must be in [0, 1]";
+    return os.str();
+  }
+  return "";
+}
+
+std::string Door::validate() const {
+  std::ostringstream os;
+  if (!(center.allFinite() && across.allFinite() && std::abs(across.norm() - 1.0) < 1e-6 && std::isfinite(width_m) &&
+        width_m > 0.0)) {
+    os << "door at (" << center.x() << ", " << center.y() << "): needs a finite centre, a unit direction across ("
+       << across.x() << ", " << across.y() << ") and a width > 0 (" << width_m << ")";
+  }
+  return os.str();
+}
 
 const char* personBehaviorName(PersonBehavior behavior) {
   switch (behavior) {
@@ -197,8 +255,14 @@ std::string PeopleConfig::validate() const {
   return os.str();
 }
 
-Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config, uint64_t seed) : config_(config) {
+Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config, uint64_t seed, const TrafficRule& rule,
+             const std::vector<Door>& doors)
+    : config_(config), rule_(rule), doors_(doors), door_state_(doors.size()) {
   if (const std::string e = config_.validate(); !e.empty()) throw SimConfigError(e);
+  if (const std::string e = rule_.validate(); !e.empty()) throw SimConfigError(e);
+  for (const Door& d : doors_) {
+    if (const std::string e = d.validate(); !e.empty()) throw SimConfigError(e);
+  }
   // The behaviours' own stream: three draws per person, whatever it draws, so that person i's draws depend only on
   // the seed and i.
   constexpr uint64_t kBehaviorStreamTag = 0xBE4A71C0DE5ULL;
@@ -233,16 +297,146 @@ Crowd::Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config, 
   }
 }
 
-Vec2 Crowd::drive(const Person& p) const {
+Vec2 Crowd::drive(const Person& p, const std::vector<Segment>& walls) const {
   if (p.waiting_s > 0.0) return Vec2::Zero();
   if (p.spec.destinations.empty()) {
     return p.spec.preferred_speed_mps * Vec2(std::cos(p.spec.heading_rad), std::sin(p.spec.heading_rad));
   }
-  const Vec2 to = p.spec.destinations[p.destination] - p.position;
+  const Vec2 to = (p.door_waiting ? p.door_spot : p.spec.destinations[p.destination]) - p.position;
   const double dist = to.norm();
   if (dist < 1e-9) return Vec2::Zero();
   // Slow down over the last half metre so a person stops on the destination instead of overshooting it.
-  return std::min(p.spec.preferred_speed_mps, 2.0 * dist) * to / dist;
+  const Vec2 v = std::min(p.spec.preferred_speed_mps, 2.0 * dist) * to / dist;
+  return rule_.active() && !p.door_waiting ? keepToSide(p, v, dist, walls) : v;
+}
+
+Vec2 Crowd::keepToSide(const Person& p, const Vec2& v, double dist, const std::vector<Segment>& walls) const {
+  const double speed = v.norm();
+  if (speed < 1e-9) return v;
+  const Vec2 e = v / speed;
+  const Vec2 side = rule_.side == TrafficSide::kRight ? Vec2(e.y(), -e.x()) : Vec2(-e.y(), e.x());
+  constexpr double reach = TrafficRule::kLaneReach_m;
+  const double to_side = rayToWalls(p.position, side, reach, walls);
+  if (to_side >= reach) return v;  // no wall on that side: not in a way
+  const double to_other = rayToWalls(p.position, -side, reach, walls);
+  if (to_other >= reach) return v;
+  const double width = to_side + to_other;
+  const double lane = std::min(0.5 * width, std::max(p.spec.body_radius_m + 0.15, TrafficRule::kLaneFraction * width));
+  // Toward the lane (1 rad of heading per metre off it, at most about 27 deg), fading over the last 1.5 m to the
+  // destination. The lane keeps clear of the wall, so the rule never pushes anyone into it.
+  const double fade = std::min(1.0, dist / 1.5);
+  const double lateral = rule_.strength * fade * std::clamp(to_side - lane, -0.5, 0.5);
+  return speed * (e + lateral * side).normalized();
+}
+
+void Crowd::updateDoors(double dt, const std::vector<Segment>& walls) {
+  for (Person& p : people_) p.door_waiting = false;
+  if (doors_.empty() || config_.model == PeopleModel::kConstant) return;
+  const size_t count = people_.size();
+  std::vector<bool> bound(count, false);
+  for (size_t k = 0; k < doors_.size(); ++k) {
+    const Door& door = doors_[k];
+    DoorState& state = door_state_[k];
+    const double half = 0.5 * door.width_m;
+    const Vec2 along_door(-door.across.y(), door.across.x());
+    auto across = [&](const Vec2& q) { return (q - door.center).dot(door.across); };
+    auto sideOf = [](double a) { return a < 0.0 ? -1 : 1; };
+    auto inDoor = [&](const Person& p) {
+      return std::abs(across(p.position)) < p.spec.body_radius_m + kDoorBand_m &&
+             std::abs((p.position - door.center).dot(along_door)) < half + p.spec.body_radius_m;
+    };
+    // The side (+-1) a person crosses this door from now, 0 when it is not walking through it: its next
+    // destination is a waypoint at the door's centre, or its last one was and it is still on the near side.
+    auto crossing = [&](const Person& p) -> int {
+      const PersonSpec& s = p.spec;
+      if (s.destinations.empty() || p.waiting_s > 0.0) return 0;
+      if ((p.position - door.center).norm() > Door::kApproach_m) return 0;
+      const size_t n = s.destinations.size(), now = p.destination, before = (now + n - 1) % n;
+      auto atDoor = [&](size_t j) { return isWaypoint(s, j) && (s.destinations[j] - door.center).norm() < half; };
+      Vec2 beyond;
+      if (atDoor(now)) {
+        beyond = s.destinations[(now + 1) % n];
+      } else if (atDoor(before)) {
+        beyond = s.destinations[now];
+      } else {
+        return 0;
+      }
+      const int from = sideOf(across(p.position)), to = sideOf(across(beyond));
+      return from == to ? 0 : from;
+    };
+    std::vector<int> from(count, 0);
+    for (size_t i = 0; i < count; ++i) {
+      from[i] = crossing(people_[i]);
+      if (from[i] != 0) bound[i] = true;
+    }
+    // Nearest first, the time waited counting as nearness.
+    auto key = [&](size_t i) {
+      return (people_[i].position - door.center).norm() - Door::kPatience_mps * people_[i].door_waited_s;
+    };
+    if (state.holder >= 0) {
+      const Person& h = people_[static_cast<size_t>(state.holder)];
+      state.held_s += dt;
+      if ((from[static_cast<size_t>(state.holder)] == 0 && !inDoor(h)) || state.held_s > Door::kHold_s) {
+        state.holder = -1;
+      }
+    }
+    if (state.holder < 0) {
+      int best = -1;
+      bool best_inside = false;
+      for (size_t i = 0; i < count; ++i) {
+        if (from[i] == 0) continue;
+        const bool inside = inDoor(people_[i]);
+        if (best < 0 || (inside && !best_inside) ||
+            (inside == best_inside && key(i) < key(static_cast<size_t>(best)))) {
+          best = static_cast<int>(i);
+          best_inside = inside;
+        }
+      }
+      if (best >= 0) {
+        state.holder = best;
+        state.from_side = from[static_cast<size_t>(best)];
+        state.held_s = 0.0;
+        people_[static_cast<size_t>(best)].door_waited_s = 0.0;
+      }
+    }
+    if (state.holder < 0) continue;
+    const int group = people_[static_cast<size_t>(state.holder)].spec.group;
+    // The others wait, each side in a queue by the same order, beside the door.
+    std::vector<size_t> waiting;
+    for (size_t i = 0; i < count; ++i) {
+      if (from[i] == 0 || static_cast<int>(i) == state.holder) continue;
+      if (group >= 0 && people_[i].spec.group == group && from[i] == state.from_side) continue;  // goes with it
+      waiting.push_back(i);
+    }
+    std::stable_sort(waiting.begin(), waiting.end(), [&](size_t a, size_t b) { return key(a) < key(b); });
+    int rank[2] = {0, 0};
+    for (size_t i : waiting) {
+      Person& p = people_[i];
+      const int s = from[i];
+      const double r = p.spec.body_radius_m;
+      const Vec2 facing = -static_cast<double>(s) * door.across;
+      const Vec2 right(facing.y(), -facing.x());
+      const Vec2 beside = rule_.side == TrafficSide::kLeft ? Vec2(-right) : right;
+      const Vec2 back = static_cast<double>(s) * (r + 0.6 + 0.6 * rank[s > 0]) * door.across;
+      ++rank[s > 0];
+      Vec2 spot = door.center + back + (r + 1.0) * static_cast<double>(s) * door.across;  // on the line, farther
+      const Vec2 sides[2] = {beside, -beside};
+      for (const Vec2& dir : sides) {
+        const Vec2 q = door.center + back + (half + r + 0.25) * dir;
+        if (std::all_of(walls.begin(), walls.end(),
+                        [&](const Segment& w) { return pointSegmentDistance(q, w) >= r + 0.1; })) {
+          spot = q;
+          break;
+        }
+      }
+      p.door_waiting = true;
+      p.door_spot = spot;
+      p.door_waited_s += dt;
+    }
+  }
+  for (size_t i = 0; i < count; ++i) {
+    if (!bound[i]) people_[i].door_waited_s = 0.0;
+  }
 }
 
 void Crowd::step(double dt_s, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity) {
@@ -273,6 +467,7 @@ void Crowd::notice(double dt, const Circle& robot) {
 void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity) {
   const size_t count = people_.size();
   notice(dt, robot);
+  updateDoors(dt, walls);
   std::vector<Vec2> velocity(count);
   // Group centroids from the states at the start of the step (every person is updated from the same snapshot).
   std::map<int, std::pair<Vec2, int>> groups;
@@ -293,7 +488,7 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
       velocity[i] = orcaVelocity(i, dt, walls, robot, robot_velocity);
       continue;
     }
-    const Vec2 desired = drive(p);
+    const Vec2 desired = drive(p, walls);
     Vec2 force = (desired - p.velocity) / config_.relaxation_time_s;
     const Vec2 heading(std::cos(p.heading_rad), std::sin(p.heading_rad));
     // Repulsion from another body (position, radius, velocity): the elliptical potential of Helbing and Molnar,
@@ -376,6 +571,10 @@ void Crowd::substep(double dt, const std::vector<Segment>& walls, const Circle& 
       const size_t n = p.spec.destinations.size(), following = (p.destination + 1) % n;
       const double distance = (p.spec.destinations[p.destination] - p.position).norm();
       const bool via = isWaypoint(p.spec, p.destination);
+      if (p.door_waiting) {  // waiting for a door is not being stalled
+        p.closest_m = std::numeric_limits<double>::infinity();
+        p.stalled_s = 0.0;
+      }
       if (distance < p.closest_m - kProgressStep_m) {
         p.closest_m = distance;
         p.stalled_s = 0.0;
@@ -441,7 +640,7 @@ Vec2 Crowd::orcaVelocity(size_t i, double dt, const std::vector<Segment>& walls,
     lines.push_back(orcaLineForDisc(p.position, p.velocity, r, robot.center, yields ? robot_velocity : Vec2::Zero(),
                                     robot.radius, config_.orca_time_horizon_s, dt, 1.0));
   }
-  return solveOrcaLp(lines, hard, config_.max_speed_factor * p.spec.preferred_speed_mps, drive(p)).velocity;
+  return solveOrcaLp(lines, hard, config_.max_speed_factor * p.spec.preferred_speed_mps, drive(p, walls)).velocity;
 }
 
 void Crowd::legsOf(const Person& p, const PeopleConfig& config, Circle& left, Circle& right) {

@@ -96,6 +96,20 @@ Scenario parseScenarioText(const std::string& text, const std::string& path) {
       }
       continue;
     }
+    if (item == "traffic") {
+      std::string side;
+      in >> side;
+      try {
+        s.traffic.side = parseTrafficSide(side);
+      } catch (const SimConfigError& e) {
+        throw ScenarioError(where + ": " + e.what());
+      }
+      const std::vector<double> v = numbers(in, where, nullptr);
+      need(v, 1, item, where);
+      s.traffic.strength = v[0];
+      if (const std::string e = s.traffic.validate(); !e.empty()) throw ScenarioError(where + ": " + e);
+      continue;
+    }
     const std::vector<double> v = numbers(in, where,
                                           item == "obstacle" ? "static"
                                           : item == "person" ? "via"
@@ -133,6 +147,15 @@ Scenario parseScenarioText(const std::string& text, const std::string& path) {
     } else if (item == "wall") {
       need(v, 4, item, where);
       s.static_segments.push_back({Vec2(v[0], v[1]), Vec2(v[2], v[3])});
+    } else if (item == "door") {
+      need(v, 5, item, where);
+      Door d;
+      d.center = Vec2(v[0], v[1]);
+      d.across = Vec2(v[2], v[3]);
+      if (d.across.norm() > 1e-9 && std::abs(d.across.norm() - 1.0) > 1e-12) d.across.normalize();
+      d.width_m = v[4];
+      if (const std::string e = d.validate(); !e.empty()) throw ScenarioError(where + ": " + e);
+      s.doors.push_back(d);
     } else if (item == "polygon") {
       if (v.size() < 6 || v.size() % 2 != 0) throw ScenarioError(where + ": 'polygon' takes 3 or more x y pairs");
       for (size_t i = 0; i < v.size(); i += 2) {
@@ -203,6 +226,15 @@ void saveScenarioText(const Scenario& s, const std::string& path) {
     }
     out << "\n";
     finite = finite && p.position.allFinite() && std::isfinite(p.heading_rad + p.body_radius_m + p.preferred_speed_mps);
+  }
+  if (s.traffic.side != TrafficSide::kNone || s.traffic.strength != 0.0) {
+    out << "traffic " << trafficSideName(s.traffic.side) << " " << s.traffic.strength << "\n";
+    finite = finite && std::isfinite(s.traffic.strength);
+  }
+  for (const Door& d : s.doors) {
+    out << "door " << d.center.x() << " " << d.center.y() << " " << d.across.x() << " " << d.across.y() << " "
+        << d.width_m << "\n";
+    finite = finite && d.center.allFinite() && d.across.allFinite() && std::isfinite(d.width_m);
   }
   if (!finite) throw ScenarioError("cannot save scenario '" + path + "': a value is not finite");
   std::ofstream file(path);

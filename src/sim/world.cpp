@@ -158,7 +158,7 @@ void World::reset(const Scenario& scenario, uint64_t seed) {
     obstacles_.push_back(o);
   }
   try {
-    crowd_ = Crowd(scenario.people, config_.people, seed);
+    crowd_ = Crowd(scenario.people, config_.people, seed, scenario.traffic, scenario.doors);
   } catch (const SimConfigError& e) {
     throw ScenarioError("scenario '" + scenario.name + "': " + e.what());
   }

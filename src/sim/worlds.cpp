@@ -29,7 +29,16 @@ struct Layout {
   std::vector<std::vector<Vec2>> furniture;  // closed polygons
   Vec2 hub = Vec2::Zero();
   double bound_half = 4.0;  // the square room holding everything
+  double arm_m = 0.0;       // corridor: half its length; junction: an arm's length from the centre
+  bool tee = false;         // junction: a T (three arms) rather than an L
 };
+
+/// Stops lie within this of a corridor's or an arm's end (at most a quarter of the corridor's length).
+constexpr double kEndZone_m = 2.0;
+/// Doorway stops keep this far from the wall with the door.
+constexpr double kDoorwayStopOff_m = 1.0;
+/// stopPlace: a room where a stop may be anywhere.
+constexpr int kAnywhere = -2;
 
 void addPolyline(std::vector<Segment>& walls, const std::vector<Vec2>& points, bool closed) {
   for (size_t i = 0; i + 1 < points.size(); ++i) walls.push_back({points[i], points[i + 1]});
@@ -226,9 +235,37 @@ class Builder {
     }
   }
 
-  /// Up to four stops for a person of radius r at `from`: far enough, and reachable in a straight line (through the
-  /// hub between regions); the last stop also leads back to the first. Where furniture leaves no such place, half
-  /// the distance will do; empty when none is reachable (the person is boxed in).
+  /// Where the family puts its stops (natural destinations): the corridor's end (0 west, 1 east) or the junction's
+  /// arm end (0 west, 1 east, 2 north) a point lies in, within kEndZone_m of it; the doorway's room (0 west, 1 east),
+  /// kDoorwayStopOff_m off the wall with the door; -1 where no stop goes; kAnywhere in the crowd and clutter rooms.
+  /// Consecutive stops lie in different places, so people walk a corridor's length, from arm to arm and through the
+  /// door.
+  int stopPlace(const Vec2& q) const {
+    const double zone = std::min(kEndZone_m, 0.5 * layout_.arm_m);
+    switch (c_.family) {
+      case WorldFamily::kCorridor:
+        return q.x() <= -layout_.arm_m + zone ? 0 : q.x() >= layout_.arm_m - zone ? 1 : -1;
+      case WorldFamily::kJunction:
+        if (q.x() <= -layout_.arm_m + zone) return 0;
+        if (layout_.tee && q.x() >= layout_.arm_m - zone) return 1;
+        return q.y() >= layout_.arm_m - zone ? 2 : -1;
+      case WorldFamily::kDoorway:
+        return std::abs(q.x()) < kDoorwayStopOff_m ? -1 : q.x() < 0.0 ? 0 : 1;
+      default:
+        return kAnywhere;
+    }
+  }
+
+  /// Whether q may follow `last` as a stop (stopPlace).
+  bool stopMayFollow(const Vec2& last, const Vec2& q) const {
+    const int place = stopPlace(q);
+    return place == kAnywhere || (place >= 0 && place != stopPlace(last));
+  }
+
+  /// Up to four stops for a person of radius r at `from`: far enough, where the family puts them (stopPlace), and
+  /// reachable in a straight line (through the hub between regions); the last stop also leads back to the first.
+  /// Where furniture leaves no such place, half the distance will do; empty when none is reachable (the person is
+  /// boxed in).
   std::vector<Vec2> reachableStops(const Vec2& from, double r) {
     std::vector<Vec2> stops;
     Vec2 last = from;
@@ -237,7 +274,8 @@ class Builder {
         return trySample(
             r + 0.15,
             [&](const Vec2& q) {
-              return (q - last).norm() >= min_distance && reachable(last, q) && (k < 3 || reachable(q, stops.front()));
+              return (q - last).norm() >= min_distance && stopMayFollow(last, q) && reachable(last, q) &&
+                     (k < 3 || (reachable(q, stops.front()) && stopMayFollow(q, stops.front())));
             },
             c_.max_attempts);
       };
@@ -247,7 +285,10 @@ class Builder {
       last = *q;
       stops.push_back(last);
     }
-    while (stops.size() > 1 && !reachable(stops.back(), stops.front())) stops.pop_back();
+    while (stops.size() > 1 &&
+           (!reachable(stops.back(), stops.front()) || !stopMayFollow(stops.back(), stops.front()))) {
+      stops.pop_back();
+    }
     return stops;
   }
 
@@ -302,6 +343,7 @@ class Builder {
       }
       case WorldFamily::kCorridor: {
         layout_.bound_half = L / 2 + 0.5;
+        layout_.arm_m = L / 2;
         layout_.free = {{-L / 2, -W / 2, L / 2, W / 2, 0}};
         addPolyline(layout_.walls, {{-L / 2, -W / 2}, {L / 2, -W / 2}, {L / 2, W / 2}, {-L / 2, W / 2}}, true);
         startAndGoal(s, {-L / 2 + 0.5, -W / 2 + 0.5, -L / 2 + 0.9, W / 2 - 0.5, 0},
@@ -317,6 +359,7 @@ class Builder {
         layout_.walls.push_back({Vec2(0, -3), Vec2(0, door_y - door / 2)});
         layout_.walls.push_back({Vec2(0, door_y + door / 2), Vec2(0, 3)});
         layout_.hub = Vec2(0.0, door_y);
+        s.doors.push_back(Door{Vec2(0.0, door_y), Vec2(1.0, 0.0), door});
         startAndGoal(s, {-5.4, -2.4, -3.0, 2.4, 0}, {3.0, -2.4, 5.4, 2.4, 1});
         break;
       }
@@ -325,6 +368,8 @@ class Builder {
         const bool tee = rng_.uniform01() < 0.5;
         const double right = tee ? a : W / 2;
         layout_.bound_half = a + 0.5;
+        layout_.arm_m = a;
+        layout_.tee = tee;
         layout_.free = {{-a, -W / 2, right, W / 2, 0}, {-W / 2, W / 2, W / 2, a, 1}};
         // Outline counter-clockwise: bottom wall, right end, the top wall up the branch and back, left end.
         addPolyline(layout_.walls,
@@ -342,6 +387,12 @@ class Builder {
                      {-W / 2 + 0.5, a - 0.9, W / 2 - 0.5, a - 0.5, 1});
         break;
       }
+    }
+    // Keep to a side where there are ways between walls and doors (corridors, junction arms, the doorway's door);
+    // the open rooms have no lanes to keep.
+    if (c_.family == WorldFamily::kCorridor || c_.family == WorldFamily::kDoorway ||
+        c_.family == WorldFamily::kJunction) {
+      s.traffic = {c_.traffic_side, c_.traffic_strength};
     }
     addPeople(s);
     s.room_half_size_m = layout_.bound_half;
@@ -415,6 +466,10 @@ std::string WorldFamilyConfig::validate() const {
     os << "world parameter 'group_probability' = " << group_probability << ": must be in [0, 1]";
   }
   if (os.str().empty() && max_attempts < 1) os << "world parameter 'max_attempts' must be >= 1";
+  if (os.str().empty()) {
+    const std::string e = TrafficRule{traffic_side, traffic_strength}.validate();
+    if (!e.empty()) os << "world parameter 'traffic': " << e;
+  }
   if (os.str().empty()) {
     const std::string e = room.validate();
     if (!e.empty()) os << "world parameter 'room': " << e;

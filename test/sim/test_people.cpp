@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/common/random.h"
 #include "dqn_dovs/sim/errors.h"
 #include "dqn_dovs/sim/people.h"
 
@@ -310,6 +312,8 @@ TEST(People, SameInputSameTrajectories) {
 
 /// Two rooms split by a wall along x = 0 with a 1 m door at |y| < 0.5.
 const std::vector<Segment> kDoorWalls = {{Vec2(0, -4), Vec2(0, -0.5)}, {Vec2(0, 0.5), Vec2(0, 4)}};
+/// That door, for people who pass it one at a time.
+const Door kDoor{Vec2::Zero(), Vec2(1.0, 0.0), 1.0};
 
 /// A person who walks from `from` through the door (a waypoint) to a stop `to` in the other room and back.
 PersonSpec throughTheDoor(Vec2 from, Vec2 to, bool door_is_waypoint) {
@@ -338,24 +342,244 @@ int stopsReached(Crowd& crowd, const std::vector<Segment>& walls, double seconds
 }
 
 TEST(People, PeopleGoThroughADoorFromBothSidesInsteadOfQueuingForItsCentre) {
-  // Three people on each side, every one bound for the other room and back.
-  auto crowd = [](bool waypoints) {
+  // Three people on each side, every one bound for the other room and back; they pass the door one at a time.
+  auto crowd = [](bool waypoints, bool door) {
     std::vector<PersonSpec> people;
     for (int i = 0; i < 3; ++i) {
       people.push_back(throughTheDoor({-2.5, -1.5 + 1.5 * i}, {2.5, 1.5 - 1.5 * i}, waypoints));
       people.push_back(throughTheDoor({2.5, -1.2 + 1.5 * i}, {-2.5, 1.2 - 1.5 * i}, waypoints));
     }
-    return Crowd(people, PeopleConfig{});
+    return Crowd(people, PeopleConfig{}, 0, TrafficRule{TrafficSide::kRight, 1.0},
+                 door ? std::vector<Door>{kDoor} : std::vector<Door>{});
   };
-  Crowd passing = crowd(true), queuing = crowd(false);
+  Crowd passing = crowd(true, true), queuing = crowd(false, true), free_for_all = crowd(true, false);
   const int passed = stopsReached(passing, kDoorWalls, 60.0), queued = stopsReached(queuing, kDoorWalls, 60.0);
+  std::printf("[ six people, two ways ] stops in 60 s: %d one at a time, %d without the door's rule\n", passed,
+              stopsReached(free_for_all, kDoorWalls, 60.0));
   // 2 x 5 m at ~1 m/s and two 1 s waits: about 12 s per round trip; through a door shared both ways, at least
-  // one round trip each in a minute. With the door's centre a stop to reach (the crowd jams around it) far fewer.
+  // one round trip each in a minute (the ones waiting stand beside the door, off its line, and do not jam it). With
+  // the door's centre a stop to reach (the crowd jams around it) far fewer.
   EXPECT_GE(passed, 12) << "queued: " << queued;
   EXPECT_LT(queued, passed / 2) << "passed: " << passed;
   for (const Person& p : passing.people()) {
     for (const Segment& w : kDoorWalls) EXPECT_GT(pointSegmentDistance(p.position, w), 0.5 * p.spec.body_radius_m);
   }
+}
+
+/// Two people meeting in the 1 m door of kDoorWalls, one from each side (docs/experiments/2026-12-07-door-yield.md):
+/// start x in [1, 3] m from the wall, y in [-2, 2], a stop 1.5-3 m into the other room, the door a waypoint, speed
+/// 0.8-1.3 m/s, radius 0.2-0.3 m, 30 s of 0.05 s steps; each then walks back through the door to where it started
+/// (throughTheDoor), so that they may meet again.
+struct DoorMeeting {
+  bool overlap = false;       ///< the two bodies overlapped at some step
+  bool both_through = false;  ///< each reached its stop in the other room
+  bool wall_crossed = false;
+  double closest_gap_m = std::numeric_limits<double>::infinity();  ///< surface to surface
+};
+DoorMeeting meetInTheDoor(uint64_t seed, const std::vector<Door>& doors, PeopleModel model) {
+  Rng rng(seed);
+  std::vector<PersonSpec> people;
+  for (double side : {-1.0, 1.0}) {
+    const Vec2 from(side * rng.uniform(1.0, 3.0), rng.uniform(-2.0, 2.0));
+    const Vec2 stop(-side * rng.uniform(1.5, 3.0), rng.uniform(-2.0, 2.0));
+    PersonSpec s = throughTheDoor(from, stop, true);
+    s.preferred_speed_mps = rng.uniform(0.8, 1.3);
+    s.body_radius_m = rng.uniform(0.2, 0.3);
+    s.wait_s = 1.0;
+    people.push_back(s);
+  }
+  PeopleConfig config;
+  config.model = model;
+  Crowd crowd(people, config, seed, TrafficRule{TrafficSide::kRight, 1.0}, doors);
+  DoorMeeting m;
+  bool through[2] = {false, false};
+  for (int k = 0; k < 600; ++k) {
+    const Vec2 before[2] = {crowd.people()[0].position, crowd.people()[1].position};
+    crowd.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+    const Person &a = crowd.people()[0], &b = crowd.people()[1];
+    const double gap = (a.position - b.position).norm() - a.spec.body_radius_m - b.spec.body_radius_m;
+    m.closest_gap_m = std::min(m.closest_gap_m, gap);
+    m.overlap |= gap < 0.0;
+    for (int i = 0; i < 2; ++i) {
+      const Person& p = crowd.people()[static_cast<size_t>(i)];
+      through[i] |= (p.position - p.spec.destinations[1]).norm() < config.arrival_radius_m + 0.05;
+      for (const Segment& w : kDoorWalls) m.wall_crossed |= segmentsCross(before[i], p.position, w);
+    }
+  }
+  m.both_through = through[0] && through[1];
+  return m;
+}
+
+TEST(Traffic, TwoPeopleMeetingInADoorPassOneAtATimeWithoutTouching) {
+  for (PeopleModel model : {PeopleModel::kSocialForce, PeopleModel::kOrca}) {
+    int overlaps = 0, stuck = 0, crossed = 0, overlaps_without = 0, stuck_without = 0;
+    double closest = std::numeric_limits<double>::infinity();
+    for (uint64_t seed = 1; seed <= 100; ++seed) {
+      const DoorMeeting m = meetInTheDoor(seed, {kDoor}, model);
+      overlaps += m.overlap;
+      stuck += !m.both_through;
+      crossed += m.wall_crossed;
+      closest = std::min(closest, m.closest_gap_m);
+      const DoorMeeting without = meetInTheDoor(seed, {}, model);
+      overlaps_without += without.overlap;
+      stuck_without += !without.both_through;
+      EXPECT_FALSE(m.overlap) << peopleModelName(model) << " seed " << seed << " gap " << m.closest_gap_m;
+      EXPECT_TRUE(m.both_through) << peopleModelName(model) << " seed " << seed;
+    }
+    EXPECT_EQ(crossed, 0) << peopleModelName(model);
+    std::printf(
+        "[ door meetings, %s ] of 100 pairs, with the door / without: overlapping %d / %d (closest gap with "
+        "it %.3f m), not both through in 30 s %d / %d\n",
+        peopleModelName(model), overlaps, overlaps_without, closest, stuck, stuck_without);
+    if (model == PeopleModel::kSocialForce) {
+      EXPECT_GT(stuck_without, 5);  // without the door's rule they push at each other in the door and give way
+    }
+  }
+}
+
+TEST(Traffic, TheOneWaitingStandsBesideTheDoorOffItsLineAndGoesWhenItIsFree) {
+  // One walks at the door from 0.6 m away (nearer: it holds the door), one from 2.2 m on the other side (waits).
+  PersonSpec near = throughTheDoor({-0.6, 0.0}, {2.5, 0.0}, true), far = throughTheDoor({2.2, 0.3}, {-2.5, 0.3}, true);
+  Crowd crowd({near, far}, PeopleConfig{}, 0, TrafficRule{TrafficSide::kRight, 1.0}, {kDoor});
+  crowd.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+  EXPECT_EQ(crowd.doorHolder(0), 0);
+  ASSERT_TRUE(crowd.people()[1].door_waiting);
+  const Vec2 spot = crowd.people()[1].door_spot;
+  // On its own side (x > 0), off the door's line (|y| beyond the opening by its radius), to its right: facing the
+  // door (-x), its right is +y.
+  EXPECT_GT(spot.x(), 0.0);
+  EXPECT_GT(spot.y(), 0.5 + far.body_radius_m);
+  double far_through = -1.0;
+  for (int k = 1; k <= 400 && far_through < 0.0; ++k) {
+    crowd.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+    const Person& p = crowd.people()[1];
+    if (crowd.doorHolder(0) == 0) {
+      // While the other holds the door it keeps out of the door's line.
+      EXPECT_TRUE(std::abs(p.position.y()) > 0.5 + 0.5 * p.spec.body_radius_m || p.position.x() > 1.2)
+          << "step " << k << " at " << p.position.transpose();
+    }
+    if (p.position.x() < -0.5) far_through = 0.05 * k;
+  }
+  EXPECT_GT(far_through, 0.0) << "it never went";
+  // A left-hand rule puts the waiting place on the other side.
+  Crowd left({near, far}, PeopleConfig{}, 0, TrafficRule{TrafficSide::kLeft, 1.0}, {kDoor});
+  left.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+  EXPECT_LT(left.people()[1].door_spot.y(), -0.5 - far.body_radius_m);
+}
+
+TEST(Traffic, AHolderThatCannotGetThroughLetsTheOthersGo) {
+  // The nearer one is bound for the door but its plan never takes it through (a stop on the far side it is pushed
+  // back from by a wall across the way, 0.6 m beyond the door): after Door::kHold_s the other gets the door.
+  std::vector<Segment> walls = kDoorWalls;
+  walls.push_back({Vec2(0.6, -1.0), Vec2(0.6, 1.0)});  // blocks the east side just beyond the door
+  PersonSpec blocked = throughTheDoor({-0.8, 0.0}, {2.5, 0.0}, true);
+  PersonSpec other = throughTheDoor({-2.0, 1.5}, {-3.0, -1.5}, true);  // a west-room plan: never at the door
+  other.destinations = {Vec2(-2.0, -1.5), Vec2(-2.0, 1.5)};
+  other.pass_through.clear();
+  PersonSpec waiting = throughTheDoor({2.0, -2.0}, {-2.5, 0.0}, true);
+  Crowd crowd({blocked, other, waiting}, PeopleConfig{}, 0, TrafficRule{}, {kDoor});
+  bool held_by_waiting = false;
+  for (int k = 0; k < 600 && !held_by_waiting; ++k) {
+    crowd.step(0.05, walls, kFarRobot, Vec2::Zero());
+    held_by_waiting = crowd.doorHolder(0) == 2;
+  }
+  EXPECT_TRUE(held_by_waiting);
+}
+
+/// A 2.5 m corridor along x (walls at y = +-1.25, 16 m long).
+const std::vector<Segment> kCorridor = {{Vec2(-8, -1.25), Vec2(8, -1.25)}, {Vec2(-8, 1.25), Vec2(8, 1.25)}};
+
+/// Two people walking the corridor opposite ways from random lateral places: how many of `cases` pass each on its
+/// right (the one walking +x below the other when they are level), and whether any overlapped or left it.
+struct Passing {
+  int right = 0, left = 0, overlaps = 0, out = 0;
+};
+Passing passInTheCorridor(const TrafficRule& rule, PeopleModel model, int cases) {
+  Passing r;
+  PeopleConfig config;
+  config.model = model;
+  for (int c = 1; c <= cases; ++c) {
+    Rng rng(static_cast<uint64_t>(c));
+    const double ya = rng.uniform(-0.8, 0.8), yb = rng.uniform(-0.8, 0.8);
+    PersonSpec a = walker({-7.0, ya}, {7.0, ya}, rng.uniform(0.8, 1.3)),
+               b = walker({7.0, yb}, {-7.0, yb}, rng.uniform(0.8, 1.3));
+    a.body_radius_m = rng.uniform(0.2, 0.3);
+    b.body_radius_m = rng.uniform(0.2, 0.3);
+    Crowd crowd({a, b}, config, static_cast<uint64_t>(c), rule, {});
+    bool overlapped = false, outside = false;
+    for (int k = 0; k < 400; ++k) {
+      crowd.step(0.05, kCorridor, kFarRobot, Vec2::Zero());
+      const Person &p = crowd.people()[0], &q = crowd.people()[1];
+      overlapped |= (p.position - q.position).norm() < p.spec.body_radius_m + q.spec.body_radius_m;
+      for (const Person& x : crowd.people()) outside |= std::abs(x.position.y()) > 1.25 - 0.5 * x.spec.body_radius_m;
+      if (p.position.x() >= q.position.x()) {
+        (p.position.y() < q.position.y() ? r.right : r.left) += 1;
+        break;
+      }
+    }
+    r.overlaps += overlapped;
+    r.out += outside;
+  }
+  return r;
+}
+
+TEST(Traffic, TwoPeopleWalkingOppositeWaysInACorridorPassEachOnItsRight) {
+  for (PeopleModel model : {PeopleModel::kSocialForce, PeopleModel::kOrca}) {
+    const Passing right = passInTheCorridor({TrafficSide::kRight, 1.0}, model, 50),
+                  left = passInTheCorridor({TrafficSide::kLeft, 1.0}, model, 50),
+                  off = passInTheCorridor({}, model, 50),
+                  weak = passInTheCorridor({TrafficSide::kRight, 0.0}, model, 50);
+    const char* name = peopleModelName(model);
+    std::printf("[ corridor passing, %s ] on the right of 50: rule right %d, rule left %d, no rule %d\n", name,
+                right.right, left.right, off.right);
+    EXPECT_EQ(right.right, 50) << name;
+    EXPECT_EQ(left.left, 50) << name;  // the side matters
+    // Without the rule (or with strength 0) they pass whichever way they happen to start.
+    EXPECT_GT(off.right, 5) << name;
+    EXPECT_GT(off.left, 5) << name;
+    EXPECT_EQ(weak.right, off.right) << name;
+    for (const Passing& p : {right, left, off}) {
+      EXPECT_EQ(p.right + p.left, 50) << name;  // they always met and passed
+      EXPECT_EQ(p.overlaps, 0) << name;
+      EXPECT_EQ(p.out, 0) << name;  // nobody pushed into a wall
+    }
+  }
+}
+
+TEST(Traffic, AloneInACorridorAPersonKeepsToItsLaneClearOfTheWall) {
+  // Walking the corridor's middle with the rule, it settles on the lane on its right: 0.3 of the width from the
+  // wall, clear of it, and it keeps walking at its speed (never stalls against the wall).
+  Crowd crowd({walker({-7.0, 0.0}, {7.0, 0.0}, 1.0)}, PeopleConfig{}, 0, TrafficRule{TrafficSide::kRight, 1.0}, {});
+  for (int k = 0; k < 160; ++k) crowd.step(0.05, kCorridor, kFarRobot, Vec2::Zero());
+  const Person& p = crowd.people()[0];
+  EXPECT_NEAR(p.position.y(), -1.25 + 0.3 * 2.5, 0.15);
+  EXPECT_GT(p.velocity.x(), 0.9);
+  // Near its stop the rule fades, so the stop (on the corridor's centre line) is reached.
+  for (int k = 0; k < 200; ++k) crowd.step(0.05, kCorridor, kFarRobot, Vec2::Zero());
+  EXPECT_LT((crowd.people()[0].position - Vec2(7.0, 0.0)).norm(), PeopleConfig{}.arrival_radius_m + 0.1);
+}
+
+TEST(Traffic, SameInputSameTrajectoriesWithDoorsAndTheRule) {
+  std::vector<PersonSpec> people;
+  for (int i = 0; i < 3; ++i) {
+    people.push_back(throughTheDoor({-2.5, -1.5 + 1.5 * i}, {2.5, 1.5 - 1.5 * i}, true));
+    people.push_back(throughTheDoor({2.5, -1.2 + 1.5 * i}, {-2.5, 1.2 - 1.5 * i}, true));
+  }
+  const TrafficRule rule{TrafficSide::kRight, 1.0};
+  Crowd a(people, PeopleConfig{}, 4, rule, {kDoor}), b(people, PeopleConfig{}, 4, rule, {kDoor}),
+      c(people, PeopleConfig{}, 4, TrafficRule{}, {});
+  bool differs = false;
+  for (int k = 0; k < 300; ++k) {
+    a.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+    b.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+    c.step(0.05, kDoorWalls, kFarRobot, Vec2::Zero());
+    ASSERT_EQ(a.doorHolder(0), b.doorHolder(0));
+  }
+  for (size_t i = 0; i < people.size(); ++i) {
+    EXPECT_EQ(a.people()[i].position, b.people()[i].position);
+    differs |= a.people()[i].position != c.people()[i].position;
+  }
+  EXPECT_TRUE(differs);  // the door and the rule change what people do
 }
 
 TEST(People, SomeonePushedOffTheWayThroughADoorGoesBackToIt) {
@@ -422,6 +646,11 @@ TEST(People, BadInputIsNamed) {
   c = PeopleConfig();
   c.stall_time_s = 0.0;
   EXPECT_NE(c.validate().find("stall_time_s"), std::string::npos);
+  EXPECT_THROW(Crowd({}, PeopleConfig{}, 0, TrafficRule{TrafficSide::kRight, 1.5}), SimConfigError);
+  EXPECT_THROW(Crowd({}, PeopleConfig{}, 0, TrafficRule{}, {Door{Vec2::Zero(), Vec2(2.0, 0.0), 1.0}}), SimConfigError);
+  EXPECT_THROW(Crowd({}, PeopleConfig{}, 0, TrafficRule{}, {Door{Vec2::Zero(), Vec2(1.0, 0.0), 0.0}}), SimConfigError);
+  EXPECT_EQ(parseTrafficSide("left"), TrafficSide::kLeft);
+  EXPECT_THROW(parseTrafficSide("middle"), SimConfigError);
 }
 
 }  // namespace

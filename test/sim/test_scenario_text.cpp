@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "dqn_dovs/sim/scenario.h"
@@ -50,6 +51,8 @@ TEST(ScenarioText, EveryFamilyRoundTripsExactly) {
     }
     ASSERT_EQ(b.static_segments.size(), a.static_segments.size()) << family;
     for (size_t i = 0; i < a.static_segments.size(); ++i) EXPECT_EQ(b.static_segments[i].b, a.static_segments[i].b);
+    EXPECT_EQ(b.traffic, a.traffic) << family;
+    EXPECT_EQ(b.doors, a.doors) << family;
     ASSERT_EQ(b.people.size(), a.people.size()) << family;
     for (size_t i = 0; i < a.people.size(); ++i) {
       EXPECT_EQ(b.people[i].position, a.people[i].position);
@@ -81,6 +84,20 @@ TEST(ScenarioText, PolygonsMapsAndVersionOneFiles) {
   EXPECT_EQ(s.static_segments[3].a, Vec2(1.0, 1.0));
   ASSERT_EQ(s.people.size(), 1u);
   EXPECT_EQ(s.people[0].destinations.size(), 2u);
+  // A file without traffic or doors has none, and is written again without them.
+  EXPECT_FALSE(s.traffic.active());
+  EXPECT_TRUE(s.doors.empty());
+  saveScenarioText(s, dir.file("again.scenario"));
+  std::ifstream again(dir.file("again.scenario"));
+  const std::string written((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(written.find("traffic"), std::string::npos);
+  EXPECT_EQ(written.find("door"), std::string::npos);
+  // Traffic and doors are read.
+  const Scenario t = parseScenarioText(
+      "dqn_dovs scenario 2\nrobot 0 0 0\ngoal 1 1\ntraffic left 0.5\ndoor 0 0.5 0 2 1.1\n", "t.scenario");
+  EXPECT_EQ(t.traffic, (TrafficRule{TrafficSide::kLeft, 0.5}));
+  ASSERT_EQ(t.doors.size(), 1u);
+  EXPECT_EQ(t.doors[0], (Door{Vec2(0.0, 0.5), Vec2(0.0, 1.0), 1.1}));  // across made a unit vector
   // A .dovs file goes through the same entry point.
   Scenario v1;
   v1.robot_start = {0.5, 0.5, 0.0};
@@ -105,6 +122,10 @@ TEST(ScenarioText, MalformedFilesAreNamedWithTheLine) {
   EXPECT_NE(errorOf(head + "person 1 0 0 0.25 via 1 0 -1 2 2\n").find("each may follow 'via'"), std::string::npos);
   EXPECT_NE(errorOf(head + "map nowhere.yaml\n").find("line 4: map 'nowhere.yaml': cannot open"), std::string::npos);
   EXPECT_NE(errorOf("dqn_dovs scenario 2\nrobot 0 0 0\n").find("needs a 'robot' and a 'goal'"), std::string::npos);
+  EXPECT_NE(errorOf(head + "traffic middle 1\n").find("line 4: traffic side 'middle'"), std::string::npos);
+  EXPECT_NE(errorOf(head + "traffic right 2\n").find("strength 2: must be in [0, 1]"), std::string::npos);
+  EXPECT_NE(errorOf(head + "door 0 0 1 0\n").find("'door' takes 5 numbers"), std::string::npos);
+  EXPECT_NE(errorOf(head + "door 0 0 0 0 1\n").find("a unit direction across"), std::string::npos);
   EXPECT_THROW(loadScenarioFile("/nonexistent.scenario"), ScenarioError);
 }
 

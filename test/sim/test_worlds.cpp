@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -120,7 +121,7 @@ TEST(Worlds, DoorsAndJunctionCentresAreWaypointsAndPeopleKeepWalking) {
 TEST(Worlds, NobodyWalksThroughAWallInTheSimulator) {
   WorldConfig config;
   for (WorldFamily f : kBuildings) {
-    for (uint64_t seed = 1; seed <= 3; ++seed) {
+    for (uint64_t seed = 1; seed <= 12; ++seed) {
       Scenario s = generateWorld(family(f, 12), seed);
       World world(s, config, seed);
       std::vector<Vec2> before;
@@ -138,6 +139,111 @@ TEST(Worlds, NobodyWalksThroughAWallInTheSimulator) {
       }
     }
   }
+}
+
+TEST(Worlds, NaturalDestinationsAndTheTrafficOfEachFamily) {
+  // Stops (not waypoints) of every person, over many seeds.
+  auto stopsOf = [](const Scenario& s) {
+    std::vector<std::vector<Vec2>> out;
+    for (const PersonSpec& p : s.people) {
+      out.emplace_back();
+      for (size_t k = 0; k < p.destinations.size(); ++k) {
+        if (p.pass_through.empty() || !p.pass_through[k]) out.back().push_back(p.destinations[k]);
+      }
+    }
+    return out;
+  };
+  const double half = WorldFamilyConfig{}.corridor_length_m / 2, zone = 2.0;
+  for (uint64_t seed = 1; seed <= 30; ++seed) {
+    // Corridor: near its two ends, in turn (people walk its length: two-way traffic); keep right.
+    const Scenario corridor = generateWorld(family(WorldFamily::kCorridor, 10), seed);
+    EXPECT_EQ(corridor.traffic.side, TrafficSide::kRight);
+    EXPECT_EQ(corridor.traffic.strength, 1.0);
+    EXPECT_TRUE(corridor.doors.empty());
+    int west = 0, east = 0;
+    for (const auto& stops : stopsOf(corridor)) {
+      for (size_t k = 0; k < stops.size(); ++k) {
+        ASSERT_GE(std::abs(stops[k].x()), half - zone) << corridor.name << " " << stops[k].transpose();
+        (stops[k].x() < 0 ? west : east) += 1;
+        const Vec2& next = stops[(k + 1) % stops.size()];
+        if (stops.size() > 1) {
+          EXPECT_LT(stops[k].x() * next.x(), 0.0) << corridor.name;  // the other end next
+        }
+      }
+    }
+    EXPECT_GT(west, 0);
+    EXPECT_GT(east, 0);
+    // Junction: at the arm ends (west, east on a T, north), a different arm each time.
+    const Scenario junction = generateWorld(family(WorldFamily::kJunction, 10), seed);
+    EXPECT_EQ(junction.traffic.side, TrafficSide::kRight);
+    EXPECT_TRUE(junction.doors.empty());  // its centre is a waypoint, not a door
+    auto arm = [&](const Vec2& q) {
+      return q.x() <= -half + zone ? 0 : q.x() >= half - zone ? 1 : q.y() >= half - zone ? 2 : -1;
+    };
+    for (const auto& stops : stopsOf(junction)) {
+      for (size_t k = 0; k < stops.size(); ++k) {
+        ASSERT_GE(arm(stops[k]), 0) << junction.name << " " << stops[k].transpose();
+        if (stops.size() > 1) {
+          EXPECT_NE(arm(stops[k]), arm(stops[(k + 1) % stops.size()])) << junction.name;
+        }
+      }
+    }
+    // Doorway: in the two rooms in turn (through the door), 1 m off the wall with the door; the door is a Door.
+    const Scenario doorway = generateWorld(family(WorldFamily::kDoorway, 10), seed);
+    ASSERT_EQ(doorway.doors.size(), 1u);
+    EXPECT_EQ(doorway.doors[0].across, Vec2(1.0, 0.0));
+    EXPECT_EQ(doorway.doors[0].center.x(), 0.0);
+    EXPECT_GE(doorway.doors[0].width_m, 0.9);
+    EXPECT_LE(doorway.doors[0].width_m, 1.2);
+    for (const auto& stops : stopsOf(doorway)) {
+      for (size_t k = 0; k < stops.size(); ++k) {
+        EXPECT_GE(std::abs(stops[k].x()), 1.0) << doorway.name;
+        if (stops.size() > 1) {
+          EXPECT_LT(stops[k].x() * stops[(k + 1) % stops.size()].x(), 0.0) << doorway.name;
+        }
+      }
+    }
+    // The open rooms: no rule, no doors, stops anywhere (some in the middle).
+    for (WorldFamily f : {WorldFamily::kCrowd, WorldFamily::kClutter}) {
+      const Scenario room = generateWorld(family(f, 10), seed);
+      EXPECT_FALSE(room.traffic.active()) << room.name;
+      EXPECT_TRUE(room.doors.empty());
+    }
+  }
+  // The rule's knobs reach the scenario.
+  WorldFamilyConfig left = family(WorldFamily::kCorridor);
+  left.traffic_side = TrafficSide::kLeft;
+  left.traffic_strength = 0.4;
+  EXPECT_EQ(generateWorld(left, 2).traffic, (TrafficRule{TrafficSide::kLeft, 0.4}));
+  left.traffic_strength = 2.0;
+  EXPECT_NE(left.validate().find("traffic"), std::string::npos);
+}
+
+TEST(Worlds, PeopleWalkTheCorridorOnTheirRight) {
+  // In generated corridors with the robot parked, people walking along it keep to the right half of their way more
+  // often than not with the rule, and without it as often on either side.
+  auto rightShare = [](double strength) {
+    long right = 0, counted = 0;
+    for (uint64_t seed = 1; seed <= 6; ++seed) {
+      WorldFamilyConfig c = family(WorldFamily::kCorridor, 8);
+      c.traffic_strength = strength;
+      World world(generateWorld(c, seed), WorldConfig{}, seed);
+      for (int k = 0; k < 200; ++k) {
+        world.step({0.0, 0.0}, 0.2);
+        for (const Person& p : world.crowd().people()) {
+          if (std::abs(p.velocity.x()) < 0.5 || std::abs(p.position.x()) > 4.0) continue;  // walking mid-corridor
+          ++counted;
+          right += (p.velocity.x() > 0.0) == (p.position.y() < 0.0);
+        }
+      }
+    }
+    return static_cast<double>(right) / static_cast<double>(counted);
+  };
+  const double with_rule = rightShare(1.0), without = rightShare(0.0);
+  std::printf("[ corridor ] share of walkers on their right half: %.2f with the rule, %.2f without\n", with_rule,
+              without);
+  EXPECT_GT(with_rule, 0.85);
+  EXPECT_LT(without, 0.75);
 }
 
 TEST(Worlds, PeopleInTheWorldAreSeenByTheirLegsAndHitByTheirBodies) {

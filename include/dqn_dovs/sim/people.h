@@ -15,6 +15,9 @@
 // stride that grows with the walking speed, scaled to the scan height (legs pivot at the hip); the phase advances
 // with the distance walked, so a standing person's legs are side by side.
 // Nobody walks through a wall: a move that would cross one keeps only its component along it.
+// Traffic in buildings (docs/simulator.md, "Traffic in buildings"): a TrafficRule makes people keep to one side of
+// a way bounded by walls on both sides (a corridor), and at each Door people pass one at a time, the others waiting
+// beside the door, off its line, on their own side.
 // Deterministic: the same people, walls, configuration and robot motion give the same trajectories.
 #pragma once
 
@@ -70,6 +73,50 @@ struct PeopleMix {
   std::string validate() const;
   /// The behaviour a draw u in [0, 1) picks: attentive first, then impassive, then oblivious.
   PersonBehavior pick(double u) const;
+};
+
+/// Which side of a way people keep to.
+enum class TrafficSide { kNone = 0, kRight = 1, kLeft = 2 };
+/// "none", "right", "left"; parseTrafficSide throws SimConfigError naming an unknown name.
+const char* trafficSideName(TrafficSide side);
+TrafficSide parseTrafficSide(const std::string& name);
+
+/// The keep-to-a-side rule of a world: between two walls (both within TrafficRule::kLaneReach_m of a person,
+/// across its way) each person steers toward a lane on its `side`, its centre a fraction of the way's width from
+/// the wall on that side (never nearer the wall than its radius + 0.15 m, never past the way's middle), so that two
+/// people walking opposite ways pass each other each on its own side. `strength` in [0, 1] scales how hard it
+/// steers there (0: not at all; 1: up to about 27 deg off its way). Without walls on both sides (an open room) the
+/// rule does nothing. Near its destination (within 1.5 m) a person lets the rule fade, so that every stop is
+/// reached.
+struct TrafficRule {
+  TrafficSide side = TrafficSide::kNone;
+  double strength = 0.0;
+  static constexpr double kLaneReach_m = 2.5;   ///< walls farther than this across a person's way do not count
+  static constexpr double kLaneFraction = 0.3;  ///< the lane's centre: this fraction of the width from the wall
+  bool active() const { return side != TrafficSide::kNone && strength > 0.0; }
+  bool operator==(const TrafficRule& o) const { return side == o.side && strength == o.strength; }
+  /// Empty when consistent, otherwise a message naming the field and why.
+  std::string validate() const;
+};
+
+/// A door people pass one at a time (docs/simulator.md, "Traffic in buildings"): its centre, the unit direction
+/// across it (normal to its wall) and its width (m). Someone walking through it (its next waypoint is the door's
+/// centre, or its last one was and it has not yet crossed) within kApproach_m of the centre either holds the door
+/// (the one inside it, else the nearest, with the time waited counting as nearness: kPatience_mps; ties to the
+/// lower index; the holder's group goes with it) or waits beside the door on its own side of the wall, to the side
+/// of its TrafficRule (right when none; the other side, or farther back, when a wall is in the way), off the
+/// door's line, so that whoever comes out has a free way. The holder keeps the door until it is out of it on the
+/// other side, or for at most kHold_s (so that nobody waits forever).
+struct Door {
+  Vec2 center = Vec2::Zero();
+  Vec2 across = Vec2(1.0, 0.0);  ///< unit, normal to the door's wall
+  double width_m = 1.0;
+  static constexpr double kApproach_m = 2.5;
+  static constexpr double kHold_s = 10.0;
+  static constexpr double kPatience_mps = 0.5;
+  bool operator==(const Door& o) const { return center == o.center && across == o.across && width_m == o.width_m; }
+  /// Empty when consistent (finite, across of unit length, width > 0), otherwise a message saying why.
+  std::string validate() const;
 };
 
 /// One person's initial state and plan.
@@ -158,6 +205,9 @@ struct Person {
   double yield_strength = 1.0;                           ///< attentive: its strength of giving way
   double seen_s = 0.0;                                   ///< attentive: how long the robot has been in view, s
   bool noticed = false;                                  ///< attentive: it gives way to the robot now
+  bool door_waiting = false;  ///< waits for a door (Door) at door_spot instead of walking to its destination
+  Vec2 door_spot = Vec2::Zero();
+  double door_waited_s = 0.0;  ///< how long it has waited for the door it is bound for, s
 };
 
 /// The people of one episode.
@@ -167,7 +217,10 @@ class Crowd {
   /// Throws SimConfigError when config.validate() fails or a spec is not finite or has a non-positive radius or
   /// speed. Each person's behaviour (and an attentive one's reaction delay and strength) is drawn from config.mix
   /// with `seed` (a stream of its own: the same seed, the same behaviours, whatever else the seed drives).
-  Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config, uint64_t seed = 0);
+  /// `rule` and `doors`: the world's traffic (Scenario::traffic, Scenario::doors); throws SimConfigError when one
+  /// fails its validate().
+  Crowd(const std::vector<PersonSpec>& people, const PeopleConfig& config, uint64_t seed = 0,
+        const TrafficRule& rule = {}, const std::vector<Door>& doors = {});
 
   /// Advances every person by dt_s (split into steps of at most config.physics_step_s). `walls` repel and
   /// block people (social force); `robot` and `robot_velocity` matter to impassive and attentive people only.
@@ -175,6 +228,10 @@ class Crowd {
 
   const std::vector<Person>& people() const { return people_; }
   const PeopleConfig& config() const { return config_; }
+  const TrafficRule& trafficRule() const { return rule_; }
+  const std::vector<Door>& doors() const { return doors_; }
+  /// The person holding door k (index into people()), or -1 when it is free.
+  int doorHolder(size_t k) const { return door_state_.at(k).holder; }
   /// The body discs (contact).
   std::vector<Circle> bodies() const;
   /// The two leg discs of every person, left then right (what a LIDAR at leg height sees).
@@ -189,15 +246,28 @@ class Crowd {
 
  private:
   void substep(double dt, const std::vector<Segment>& walls, const Circle& robot, const Vec2& robot_velocity);
-  Vec2 drive(const Person& p) const;
+  Vec2 drive(const Person& p, const std::vector<Segment>& walls) const;
+  /// The rule's lateral steering of a desired velocity `v` (dist: to the target).
+  Vec2 keepToSide(const Person& p, const Vec2& v, double dist, const std::vector<Segment>& walls) const;
+  /// Who holds each door and who waits where, after this step of dt.
+  void updateDoors(double dt, const std::vector<Segment>& walls);
   /// Attentive people: whether each has noticed the robot, after this step of dt.
   void notice(double dt, const Circle& robot);
   /// The orca model's velocity for person i over a step of dt.
   Vec2 orcaVelocity(size_t i, double dt, const std::vector<Segment>& walls, const Circle& robot,
                     const Vec2& robot_velocity) const;
 
+  struct DoorState {
+    int holder = -1;
+    int from_side = 0;  ///< the side (sign across the door) the holder came from
+    double held_s = 0.0;
+  };
+
   std::vector<Person> people_;
   PeopleConfig config_;
+  TrafficRule rule_;
+  std::vector<Door> doors_;
+  std::vector<DoorState> door_state_;
 };
 
 }  // namespace dqn_dovs::sim

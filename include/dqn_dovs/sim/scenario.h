@@ -24,6 +24,8 @@ struct Scenario {
   std::vector<Segment> static_segments;   ///< Optional extra static walls inside the room (not stored in .dovs).
   std::vector<PersonSpec> people;         ///< People walking between destinations (not stored in .dovs).
   double room_half_size_m = 4.0;          ///< Half the side of the square room (m): walls at x, y = +-room_half_size_m.
+  TrafficRule traffic;                    ///< Which side people keep to (none: no rule).
+  std::vector<Door> doors;                ///< Doors people pass one at a time (not junction centres).
 };
 
 /// Default disc radius of the obstacles of the `.dovs` files (m); the format does not store radii.
@@ -142,6 +144,8 @@ Scenario generateScenario(const GeneratorConfig& config, uint64_t seed);
 ///   wall X1 Y1 X2 Y2 | polygon X1 Y1 X2 Y2 X3 Y3 ... (closed) | map FILE.yaml (its walls; path relative to the file)
 ///   person X Y HEADING RADIUS SPEED WAIT GROUP [[via] DX DY ...] (destinations, walked in turn; `via` marks a
 ///   waypoint passed on the way, PersonSpec::pass_through)
+///   traffic none|right|left STRENGTH (Scenario::traffic; absent: none) | door X Y ACROSS_X ACROSS_Y WIDTH
+///   (Scenario::doors); both written only when set, so a scenario without them is written as before
 /// Units: m, rad, m/s, rad/s, s; GROUP -1 for none. Throws ScenarioError naming the file, the line and the reason
 /// (an unknown item, a missing or non-numeric value, NaN/inf, a non-positive radius or room size, a map that cannot
 /// be read; the robot, goal, obstacles and people must lie strictly inside the room).

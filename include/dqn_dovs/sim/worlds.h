@@ -8,8 +8,12 @@
 //   junction  an L or T junction of corridors; start at one end, goal at another
 // People walk between destinations at least destination_min_distance_m apart, through doors and junction
 // centres on their way (so no plan leads into a wall), wait a moment at each, and pair up into groups at
-// random. Everything is drawn from `seed` alone: the same configuration and seed give the same world on every
-// platform.
+// random. Where the family calls for it the destinations are natural ones: near the corridor's two ends (people
+// walk its length), at the junction's arm ends, in the doorway's two rooms in turn (through the door); anywhere in
+// the crowd and clutter rooms. The corridor, doorway and junction keep to a side (Scenario::traffic, from
+// traffic_side and traffic_strength) and the doorway's door is a Door people pass one at a time
+// (docs/simulator.md, "Traffic in buildings"). Everything is drawn from `seed` alone: the same configuration and seed
+// give the same world on every platform.
 #pragma once
 
 #include <cstdint>
@@ -52,6 +56,9 @@ struct WorldFamilyConfig {
   int furniture_max = 10;
   /// Free space kept around the robot's start and goal (m).
   double start_goal_clearance_m = 0.8;
+  /// The traffic rule of the corridor, doorway and junction (the crowd and clutter rooms have none).
+  TrafficSide traffic_side = TrafficSide::kRight;
+  double traffic_strength = 1.0;  ///< in [0, 1]; 0: no rule
   /// The room family's generator (its obstacle counts are replaced by `people`).
   GeneratorConfig room;
   /// Rejection-sampling budget per placed item before giving up with a ScenarioError.
