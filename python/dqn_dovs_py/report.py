@@ -465,6 +465,7 @@ class RunInfo:
     people_predictor: str = ""  # the learned people prediction the planners saw (dqn_dovs_eval --predict-people)
     tracker_map: bool = False  # the tracker was given the map's walls and furniture (dqn_dovs_eval --tracker-map)
     dovs_map: bool = False  # the velocity space took the map's walls near the robot (dqn_dovs_eval --dovs-map)
+    people_mix: str = "oblivious=1"  # how people treat the robot (dqn_dovs_eval --people-mix, normalised shares)
 
 
 def _type_ok(value: object, kind: type) -> bool:
@@ -483,7 +484,7 @@ _RUN_TYPES: dict[str, type] = {"command": str, "scenarios": str, "seed": int, "o
                                "reference": str, "goal_tolerance_m": float}
 _OPTIONAL_RUN_TYPES: dict[str, type] = {"world": str, "sensor": str, "people_model": str, "people_see_robot": bool,
                                         "odom_noise": str, "route": str, "people_predictor": str,
-                                        "tracker_map": bool, "dovs_map": bool}
+                                        "tracker_map": bool, "dovs_map": bool, "people_mix": str}
 _TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
                list: "a non-empty list of strings"}
 
@@ -531,7 +532,8 @@ def run_header(run: RunInfo) -> str:
         perception += "; the map's walls near the robot beside the scan's"
     world = ""
     if run.world != "room" or run.sensor != "sim" or run.odom_noise != "none":
-        sees = "people give way to the robot" if run.people_see_robot else "the robot invisible to people"
+        sees = ("people give way to the robot" if run.people_see_robot else
+                "the robot invisible to people" if run.people_mix == "oblivious=1" else f"people mix {run.people_mix}")
         odom = "" if run.odom_noise == "none" else f"; odometry drift {run.odom_noise}"
         route = f"; route {run.route}"
         world = (f"World: {run.world} ({run.people_model} people, {sees}); LIDAR profile {run.sensor}{odom}{route}  \n"
