@@ -531,6 +531,13 @@ def _perception_section(title: str, s: Summary, paper, plot_rel: str,
             "The robot's linear speed when it collided: mean over the method's collisions, 95th percentile "
             "(nearest rank) in brackets. `all` pools every N; `-`: no collision (or speeds not recorded).", "",
             contact_speed_table(s), ""]
+    if s.faults_recorded:
+        out += ["### Passive-safety rate", "",
+                "1 - the rate of collisions with the robot at fault (any static contact, the robot moving at "
+                f"{REST_SPEED_MPS} m/s or more, or at rest for less than 0.5 s before it), beside strict success "
+                "above; in brackets: collisions with the robot at fault / hit at rest. `-`: not recorded.", "",
+                method_table(s, lambda c: "-" if c.at_fault is None else
+                             f"{_f(c.passive_safety_rate)} ({c.at_fault} / {c.hit_at_rest})"), ""]
     by_decision = last_decision_table(records, s.methods) if records is not None else None
     if by_decision is not None:
         out += ["### Collisions by the last decision", "",

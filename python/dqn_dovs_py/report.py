@@ -423,6 +423,10 @@ def summary_figures(s: Summary) -> dict[str, float]:
         figures += [(f"success_{n}", s.cell(m, n).success_rate) for n in s.counts]
         if ORACLE in s.methods and m != ORACLE:
             figures.append(("oracle_share", oracle_share(s, m)))
+        figures += [("passive_safety_rate", o.passive_safety_rate), ("intimate_s_mean", o.mean_intimate_s),
+                    ("personal_s_mean", o.mean_personal_s), ("blocking_s_mean", o.mean_blocking_s),
+                    ("delay_s_mean", o.mean_delay_s), ("time_ratio_route_mean", o.mean_time_ratio),
+                    ("path_irregularity_mean", o.mean_path_irregularity)]
         for key, value in figures:
             out[p + key] = value if o.episodes else math.nan
     return out

@@ -170,10 +170,11 @@ def fault_rate(records: Sequence[Record]) -> float:
 
 
 def paired(records: Sequence[Record], method: str, rival: str, good: Callable[[Record], bool]) -> Paired:
-    """`method` against `rival` on the episodes both ran (matched by N and episode): episodes good for one and not
-    for the other, and the exact two-sided sign test."""
-    mine = {(r.obstacles, r.episode): good(r) for r in records if r.method == method}
-    theirs = {(r.obstacles, r.episode): good(r) for r in records if r.method == rival}
+    """`method` against `rival` on the episodes both ran (matched by scenario, N and episode, so that records pooled
+    over families pair up within each): episodes good for one and not for the other, and the exact two-sided sign
+    test."""
+    mine = {(r.scenario, r.obstacles, r.episode): good(r) for r in records if r.method == method}
+    theirs = {(r.scenario, r.obstacles, r.episode): good(r) for r in records if r.method == rival}
     p = Paired()
     for key, ok in mine.items():
         if key not in theirs:

@@ -102,6 +102,8 @@ def test_protocol_tables_and_oracle_target(runs: Path, tmp_path: Path):
     assert text.count(header) == 2
     assert "| corridor | 0.80 / 0.20 | 0.50 / 0.50 | 0.50 / 0.50 | 0.50 / 0.50 | 1.00 / 0.00 |" in text
     assert "| corridor | +9 / -0, p = 0.0039 * | +12 / -3, p = 0.035 * | +12 / -3, p = 0.035 * |" in text
+    # Pooled over the families, each pairs within itself: the corridor's 9 and every family's 12 / 3.
+    assert "| **all** | +9 / -0, p = 0.0039 * | +60 / -15, p = " in text
     assert "short of 0.95 at N = 8: doorway (0.80)" in text
     assert "at least 0.95 of every family at N = 8" in text  # the oblivious protocol's oracle solves all
     assert "| doorway | 1.00 | 0.80 | 1.00 |" in text.split("## Headline mix")[1].split("## Oblivious")[0]
