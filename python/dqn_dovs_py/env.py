@@ -137,7 +137,7 @@ class VecEnv:
 
     def __init__(self, num_envs: int, seed: int, perfect_info: bool = False, core: Any = None,
                  action_shield: bool = False, shield_parameters: dict[str, str] | None = None,
-                 dovs_parameters: dict[str, str] | None = None):
+                 dovs_parameters: dict[str, str] | None = None, reward_parameters: dict[str, str] | None = None):
         if num_envs < 1:
             raise ValueError(f"VecEnv: num_envs must be >= 1, got {num_envs}")
         self.num_envs = int(num_envs)
@@ -146,7 +146,8 @@ class VecEnv:
             core = import_core().VecEnv(self.num_envs, self.seed, bool(perfect_info),
                                         action_shield=bool(action_shield),
                                         shield_parameters=dict(shield_parameters or {}),
-                                        dovs_parameters=dict(dovs_parameters or {}))
+                                        dovs_parameters=dict(dovs_parameters or {}),
+                                        reward_parameters=dict(reward_parameters or {}))
         self._core = core
         self._worlds = ROOM_ONLY
         # Floats per state: 408, or 1,208 with the dynamic window and the goal line as grid channels

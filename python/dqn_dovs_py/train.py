@@ -261,6 +261,11 @@ class TrainConfig:
     # in every world: e.g. {grid_contact_horizon: 5.0} for the graded grid. The exported weight file records
     # the state encoding they give (its normalisation), and the robot's dovs.yaml must then say the same.
     dovs: dict = field(default_factory=dict)
+    # The reward's parameters by name (RewardConfig, docs/training.md "Reward") on top of the paper's: e.g.
+    # {hit_at_rest_reward: -5, intimate_weight: 0.5, blocking_weight: 0.5, shaping_gamma: 0.97}. shaping_gamma, when
+    # given, must be 1 (the paper's progress term) or this config's gamma (potential-based shaping that leaves the
+    # optimal policy unchanged).
+    reward: dict = field(default_factory=dict)
     # Discount per control period.
     gamma: float = 0.97
     # Rewards summed before bootstrapping.
@@ -285,10 +290,15 @@ class TrainConfig:
             return f"gamma must be in (0, 1], got {self.gamma}"
         if self.n_step < 1:
             return f"n_step must be >= 1, got {self.n_step}"
-        for name, value in self.dovs.items():
-            if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (int, float)) \
-                    or not math.isfinite(value):
-                return f"dovs: {name!r} must map to a finite number, got {value!r}"
+        for section, values in (("dovs", self.dovs), ("reward", self.reward)):
+            for name, value in values.items():
+                if not isinstance(name, str) or isinstance(value, bool) or not isinstance(value, (int, float)) \
+                        or not math.isfinite(value):
+                    return f"{section}: {name!r} must map to a finite number, got {value!r}"
+        shaping = self.reward.get("shaping_gamma")
+        if shaping is not None and shaping != 1.0 and not math.isclose(shaping, self.gamma):
+            return (f"reward: shaping_gamma {shaping} is neither 1 (the paper's progress term) nor gamma {self.gamma} "
+                    "(shaping that leaves the optimal policy unchanged)")
         for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log, self.teacher,
                      self.auxiliary):
             error = part.validate()
@@ -323,9 +333,9 @@ class TrainConfig:
                 kwargs[name] = _build_section(name, sections[name], value or {})
             elif name == "curriculum":
                 kwargs[name] = copy.deepcopy(value)
-            elif name == "dovs":
+            elif name in ("dovs", "reward"):
                 if not isinstance(value or {}, dict):
-                    raise ConfigError("dovs: expected a mapping of DOVS parameter names to numbers")
+                    raise ConfigError(f"{name}: expected a mapping of {name} parameter names to numbers")
                 kwargs[name] = dict(value or {})
             else:
                 kwargs[name] = _coerce(name, TrainConfig.__dataclass_fields__[name].default, value)
@@ -571,14 +581,19 @@ class Trainer:
         shield_parameters = self.shield_parameters
         dovs_parameters = {name: repr(float(value)) if isinstance(value, float) else str(value)
                            for name, value in config.dovs.items()}
-        if dovs_parameters and env_factory is None:
-            try:  # names and ranges are the C++ DOVS's: one environment built now says what is wrong, before any run
-                import_core().VecEnv(1, 0, threads=1, dovs_parameters=dovs_parameters)
-            except ValueError as error:
-                raise ConfigError(f"dovs: {error}") from None
+        reward_parameters = {name: repr(float(value)) if isinstance(value, float) else str(value)
+                             for name, value in config.reward.items()}
+        for section, parameters in (("dovs", {"dovs_parameters": dovs_parameters}),
+                                    ("reward", {"reward_parameters": reward_parameters})):
+            if next(iter(parameters.values())) and env_factory is None:
+                try:  # names and ranges are the C++ side's: one environment built now says what is wrong
+                    import_core().VecEnv(1, 0, threads=1, **parameters)
+                except ValueError as error:
+                    raise ConfigError(f"{section}: {error}") from None
         self._env_factory = env_factory or (
             lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
-                                            shield_parameters=shield_parameters, dovs_parameters=dovs_parameters))
+                                            shield_parameters=shield_parameters, dovs_parameters=dovs_parameters,
+                                            reward_parameters=reward_parameters))
         grid_channels = grid_channels_of(config.dovs)
         feature_count = feature_count_of(config.dovs)
         self._model_factory = model_factory or (lambda: default_model_factory(grid_channels, feature_count))
@@ -1011,11 +1026,11 @@ class Trainer:
         saved = state["config"]
         mine = self.config.to_dict()
         for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay", "teacher", "auxiliary",
-                    "dovs"):
+                    "dovs", "reward"):
             if key in ("teacher", "auxiliary") and key not in saved and not getattr(self.config, key).enabled:
                 continue  # a run from before teachers / auxiliary heads existed, resumed without one
-            if key == "dovs" and key not in saved and not self.config.dovs:
-                continue  # a run from before the dovs section, resumed without one
+            if key in ("dovs", "reward") and key not in saved and not getattr(self.config, key):
+                continue  # a run from before the dovs / reward section, resumed without one
             if saved.get(key) != mine.get(key):
                 raise ConfigError(f"--resume: {key} differs from the one the run in {self.out_dir} was started with "
                                   f"({saved.get(key)!r} != {mine.get(key)!r}); resume with the run's own "

@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dqn_dovs/common/named_fields.h"
+#include "dqn_dovs/evaluation/yardstick.h"
 #include "dqn_dovs/perception/hungarian.h"
 
 namespace dqn_dovs {
@@ -27,8 +29,47 @@ std::string RewardConfig::validate() const {
     os << "reward.goal_speed_mps must be > 0";
   else if (max_steps < 1)
     os << "reward.max_steps must be >= 1";
+  else if (!std::isnan(hit_at_rest_reward) && !(hit_at_rest_reward >= collision_reward && hit_at_rest_reward < 0.0))
+    os << "reward.hit_at_rest_reward " << hit_at_rest_reward << " must lie in [collision_reward, 0) (a robot-at-fault "
+       << "contact costs most)";
+  else if (!(shaping_gamma > 0.0 && shaping_gamma <= 1.0))
+    os << "reward.shaping_gamma " << shaping_gamma << " must lie in (0, 1]";
+  else if (!(intimate_weight >= 0.0 && std::isfinite(intimate_weight)))
+    os << "reward.intimate_weight must be finite and >= 0";
+  else if (!(blocking_weight >= 0.0 && std::isfinite(blocking_weight)))
+    os << "reward.blocking_weight must be finite and >= 0";
   return os.str();
 }
+
+namespace {
+
+const std::vector<NamedField<RewardConfig>>& rewardFields() {
+  static const std::vector<NamedField<RewardConfig>> fields = {
+      {"goal_reward", &RewardConfig::goal_reward},
+      {"collision_reward", &RewardConfig::collision_reward},
+      {"distance_weight", &RewardConfig::distance_weight},
+      {"safe_distance_m", &RewardConfig::safe_distance_m},
+      {"safe_weight", &RewardConfig::safe_weight},
+      {"goal_tolerance_m", &RewardConfig::goal_tolerance_m},
+      {"goal_speed_mps", &RewardConfig::goal_speed_mps},
+      {"max_steps", nullptr, &RewardConfig::max_steps},
+      {"hit_at_rest_reward", &RewardConfig::hit_at_rest_reward},
+      {"shaping_gamma", &RewardConfig::shaping_gamma},
+      {"intimate_weight", &RewardConfig::intimate_weight},
+      {"blocking_weight", &RewardConfig::blocking_weight},
+  };
+  return fields;
+}
+
+}  // namespace
+
+std::string setRewardParameter(RewardConfig& config, const std::string& name, const std::string& value) {
+  std::string known;
+  for (const std::string& n : rewardParameterNames()) known += (known.empty() ? "" : ", ") + n;
+  return setNamedField(rewardFields(), config, "reward parameter", name, value, "(known: " + known + ")");
+}
+
+std::vector<std::string> rewardParameterNames() { return namedFieldNames(rewardFields()); }
 
 std::string EpisodeRouteConfig::validate() const {
   if (!(std::isfinite(resolution_m) && resolution_m >= 0.01 && resolution_m <= 0.5)) {
@@ -402,7 +443,7 @@ StepResult Episode::advance(const std::function<void(double)>& move_robot) {
   const double clearance = world_.minClearance_m();
   if (clearance < rc.safe_distance_m) ++danger_steps_;
   if (world_.collided()) {
-    r.reward = rc.collision_reward;
+    r.reward = rc.collisionReward(robotAtFault(world_.collision()));
     r.terminated = true;
     outcome_ = Outcome::kCollision;
   } else if (goal_distance < rc.goal_tolerance_m && world_.robotTwist().v < rc.goal_speed_mps) {
@@ -410,8 +451,9 @@ StepResult Episode::advance(const std::function<void(double)>& move_robot) {
     r.terminated = true;
     outcome_ = Outcome::kSuccess;
   } else {
-    r.reward = -rc.distance_weight * (d_after - d_before);
+    r.reward = rc.distance_weight * (d_before - rc.shaping_gamma * d_after);
     if (clearance < rc.safe_distance_m) r.reward -= rc.safe_weight * std::abs(rc.safe_distance_m - clearance);
+    if (rc.intimate_weight > 0.0 || rc.blocking_weight > 0.0) r.reward -= yardstickCost();
     if (steps_ >= rc.max_steps) {
       r.truncated = true;
       outcome_ = Outcome::kTimeout;
@@ -420,6 +462,18 @@ StepResult Episode::advance(const std::function<void(double)>& move_robot) {
   r.outcome = outcome_;
   buildContext();
   return r;
+}
+
+double Episode::yardstickCost() const {
+  const RewardConfig& rc = config_.reward;
+  const RobotLimits& limits = config_.world.robot;
+  if (world_.crowd().people().empty()) return 0.0;
+  if (std::abs(world_.robotTwist().v) >= kRestSpeedMps) {
+    const double nearest =
+        nearestPersonGap(world_.crowd().people(), Circle{world_.robotPose().position(), limits.radius});
+    return nearest < kIntimateDistance_m ? rc.intimate_weight * limits.dt : 0.0;
+  }
+  return rc.blocking_weight > 0.0 && blocksPassage(world_, limits.radius) ? rc.blocking_weight * limits.dt : 0.0;
 }
 
 }  // namespace dqn_dovs

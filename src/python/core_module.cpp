@@ -59,8 +59,12 @@ class VecEnv {
   VecEnv(int num_envs, uint64_t seed, bool perfect_info, int threads, bool action_shield,
          const std::map<std::string, std::string>& shield_parameters,
          const std::map<std::string, std::string>& world_options,
-         const std::map<std::string, std::string>& dovs_parameters)
-      : seed_(seed), perfect_info_(perfect_info), dovs_parameters_(dovs_parameters) {
+         const std::map<std::string, std::string>& dovs_parameters,
+         const std::map<std::string, std::string>& reward_parameters)
+      : seed_(seed),
+        perfect_info_(perfect_info),
+        dovs_parameters_(dovs_parameters),
+        reward_parameters_(reward_parameters) {
     // The shield as the robot runs it: the named parameters of config/dovs.yaml and config/static_safety.yaml
     // (python/dqn_dovs_py/decision_config.py reads them), then `action_shield` switches it on or off.
     for (const auto& [name, value] : shield_parameters) {
@@ -456,6 +460,13 @@ class VecEnv {
     }
     if (const std::string e = v.config.dovs.validate(); !e.empty())
       throw std::invalid_argument("dovs_parameters: " + e);
+    // The reward by name (the trainer's config, `reward:`), in every world.
+    for (const auto& [name, value] : reward_parameters_) {
+      if (const std::string e = setRewardParameter(v.config.reward, name, value); !e.empty())
+        throw std::invalid_argument("reward_parameters: " + e);
+    }
+    if (const std::string e = v.config.reward.validate(); !e.empty())
+      throw std::invalid_argument("reward_parameters: " + e);
     return v;
   }
 
@@ -544,8 +555,9 @@ class VecEnv {
   std::vector<WorldVariant> variants_;
   uint64_t seed_ = 0;
   bool perfect_info_ = false;
-  std::map<std::string, std::string> dovs_parameters_;  // applied to every world's DovsConfig
-  int state_size_ = kStateSize;                         // floats per state (stateSize of the grid channels)
+  std::map<std::string, std::string> dovs_parameters_;    // applied to every world's DovsConfig
+  std::map<std::string, std::string> reward_parameters_;  // applied to every world's RewardConfig
+  int state_size_ = kStateSize;                           // floats per state (stateSize of the grid channels)
   int threads_ = 1;
 
  public:
@@ -559,6 +571,8 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "dqn_dovs C++ core: vectorised training environment (simulator -> LIDAR -> tracker -> DOVS -> state)";
   m.attr("STATE_SIZE") = kStateSize;
   m.attr("NUM_ACTIONS") = kNumActions;
+  m.def("reward_parameter_names", &rewardParameterNames,
+        "Every reward parameter name (RewardConfig; the trainer config's reward: section).");
   m.def("shield_parameter_names", &shieldParameterNames,
         "Every action shield parameter name (config/dovs.yaml action_shield/*, config/static_safety.yaml).");
   m.def(
@@ -566,11 +580,13 @@ PYBIND11_MODULE(_core, m) {
       "The C++ defaults of the shield's parameters (what dqn_dovs_eval runs without --shield).");
   py::class_<VecEnv>(m, "VecEnv")
       .def(py::init<int, uint64_t, bool, int, bool, const std::map<std::string, std::string>&,
-                    const std::map<std::string, std::string>&, const std::map<std::string, std::string>&>(),
+                    const std::map<std::string, std::string>&, const std::map<std::string, std::string>&,
+                    const std::map<std::string, std::string>&>(),
            py::arg("num_envs"), py::arg("seed"), py::arg("perfect_info") = false, py::arg("threads") = 0,
            py::arg("action_shield") = false, py::arg("shield_parameters") = std::map<std::string, std::string>{},
            py::arg("world_options") = std::map<std::string, std::string>{},
            py::arg("dovs_parameters") = std::map<std::string, std::string>{},
+           py::arg("reward_parameters") = std::map<std::string, std::string>{},
            "world_options: the evaluation's world flags by name (world: room, crowd, corridor, doorway, clutter, "
            "junction, with the stage's obstacle counts as people; sensor; people_model; people_see_robot: true or "
            "false; people_mix: attentive=A,impassive=I,oblivious=O shares or headline; odom_noise; route: on (default: "
@@ -578,7 +594,9 @@ PYBIND11_MODULE(_core, m) {
            "worlds with walls, as the robot follows them) or off; "
            "people_predictor: a people predictor file whose predicted arcs the DOVS takes, as --predict-people). "
            "dovs_parameters: the DOVS model's parameters by name (config/dovs.yaml dovs/*, e.g. grid_contact_horizon), "
-           "applied in every world.")
+           "applied in every world. reward_parameters: the reward's parameters by name (RewardConfig: goal_reward, "
+           "collision_reward, distance_weight, ..., hit_at_rest_reward, shaping_gamma, intimate_weight, "
+           "blocking_weight), applied in every world.")
       .def("shield_parameters", &VecEnv::shieldParameters,
            "The action shield's parameters as the environments run them (name -> value as text).")
       .def("set_stage", &VecEnv::setStage, py::arg("goal_distance_min"), py::arg("goal_distance_max"),

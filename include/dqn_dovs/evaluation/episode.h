@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,17 +26,38 @@
 namespace dqn_dovs {
 
 /// Reward and termination constants (DESIGN §7, the paper's values).
+/// The defaults are the paper's; the terms after max_steps price the yardstick (evaluation/yardstick.h) and are off
+/// by default. The trainer sets them by name (setRewardParameter, its config's `reward:` section).
 struct RewardConfig {
   double goal_reward = 15.0;        ///< terminal reward for reaching and stopping at the goal
-  double collision_reward = -15.0;  ///< terminal reward for a collision
-  double distance_weight = 2.5;     ///< r = -distance_weight * (d(t) - d(t-1)), d along the route if any
+  double collision_reward = -15.0;  ///< terminal reward for a collision the robot is at fault for (robotAtFault)
+  double distance_weight = 2.5;     ///< r = distance_weight * (d(t-1) - shaping_gamma d(t)), d along the route if any
   double safe_distance_m = 0.2;     ///< clearance below which r_safe applies
   double safe_weight = 0.1;         ///< r_safe = -safe_weight * |safe_distance_m - clearance|
   double goal_tolerance_m = 0.15;   ///< success: distance to goal below this ...
   double goal_speed_mps = 0.2;      ///< ... and linear speed below this
   int max_steps = 500;              ///< decisions before the episode is truncated (timeout)
+  /// Terminal reward for a collision the robot is not at fault for (walked into while at rest long enough); NaN:
+  /// collision_reward, as the paper does not tell the two apart. Must lie in [collision_reward, 0).
+  double hit_at_rest_reward = std::numeric_limits<double>::quiet_NaN();
+  /// The progress term as potential-based shaping with potential -distance_weight d: gamma-consistent when it is
+  /// the trainer's discount (Ng et al., 1999); 1 is the paper's difference of distances. In (0, 1].
+  double shaping_gamma = 1.0;
+  /// Per second of a control period ending with a person's body within kIntimateDistance_m of the moving robot's.
+  double intimate_weight = 0.0;
+  /// Per second of a control period ending with the robot blocking a passage (inPassageMiddle, someone held up).
+  double blocking_weight = 0.0;
+  /// The collision reward of a contact: collision_reward when the robot was at fault, hit_at_rest_reward otherwise.
+  double collisionReward(bool at_fault) const {
+    return at_fault || std::isnan(hit_at_rest_reward) ? collision_reward : hit_at_rest_reward;
+  }
   std::string validate() const;
 };
+/// Sets a reward parameter by its field name ("goal_reward", ..., "blocking_weight"); "" on success, otherwise the
+/// name and the reason (unknown name, not a number). Call validate() after.
+std::string setRewardParameter(RewardConfig& config, const std::string& name, const std::string& value);
+/// Every name setRewardParameter accepts, in declaration order.
+std::vector<std::string> rewardParameterNames();
 
 /// The route of an episode (docs/simulator.md, "Routes in episodes"): in a scenario with static segments
 /// (walls, furniture; not the paper's room, whose only walls are its own four) the robot plans a route on the grid
@@ -170,6 +192,8 @@ class Episode {
   /// The obstacle points the robot sees now (odom frame), for the route's blocked check: the last scan's returns,
   /// or with perfect information points around the true bodies.
   std::vector<Vec2> routeScanPoints() const;
+  /// The yardstick's price of the control period just run (RewardConfig::intimate_weight, blocking_weight).
+  double yardstickCost() const;
   // Runs one control period, moving the robot with `move_robot(dt_s)` at each scan, then scores it.
   StepResult advance(const std::function<void(double)>& move_robot);
   // step() recording `choice` (an action, or kPreviousChoiceOther) as the next state's previous choice.
