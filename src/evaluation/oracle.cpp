@@ -19,6 +19,8 @@ constexpr int kSubsteps = 4;  // collision checks per control period
 // candidate of the one before (OraclePlanner::decide).
 constexpr int kReactionSearches = 3;
 constexpr float kInf = std::numeric_limits<float>::infinity();
+// Half a cell's diagonal, in cells: how far a point of a cell may lie from its centre.
+constexpr double kCellReach = 0.7072;
 // Added to the cost of a sequence whose end has no way on (terminal_periods): more than any horizon's time and path
 // to go, so every end with a way on ranks first.
 constexpr double kUnsafeEndPenalty_s = 1.0e4;
@@ -191,6 +193,11 @@ void OraclePlanner::prepareStatics(const sim::World& world) {
       const Vec2 c = grid_origin_ + Vec2((i + 0.5) * h, (j + 0.5) * h);
       float best = kInf;
       for (const Segment& w : world.walls()) best = std::min(best, static_cast<float>(pointSegmentDistance(c, w)));
+      // Static discs (chairs, posts) never move: they belong to the static geometry, so that the path to the goal
+      // goes round them instead of through them.
+      for (const sim::SimObstacle& o : world.obstacles()) {
+        if (o.body.is_static) best = std::min(best, static_cast<float>((c - o.body.center).norm() - o.body.radius));
+      }
       clearance_[static_cast<size_t>(j) * grid_w_ + i] = best;
     }
   }
@@ -214,7 +221,9 @@ void OraclePlanner::prepareStatics(const sim::World& world) {
         const int ni = i + di, nj = j + dj;
         if (ni < 0 || nj < 0 || ni >= grid_w_ || nj >= grid_h_) continue;
         const size_t nk = static_cast<size_t>(nj) * grid_w_ + ni;
-        if (clearance_[nk] < radius) continue;
+        // Passable as the search checks a pose (wallClearance): a gap the search cannot pass would otherwise draw it
+        // into a dead end it never leaves.
+        if (clearance_[nk] - kCellReach * h < radius) continue;
         const float nd = d + (di != 0 && dj != 0 ? diagonal : static_cast<float>(h));
         if (nd < to_goal_[nk]) {
           to_goal_[nk] = nd;
@@ -231,7 +240,7 @@ double OraclePlanner::wallClearance(const Vec2& p) const {
   const int j = static_cast<int>(std::floor((p.y() - grid_origin_.y()) / config_.grid_cell_m));
   if (i < 0 || j < 0 || i >= grid_w_ || j >= grid_h_) return 0.0;
   // The cell centre's clearance, less half a cell diagonal: never more than the point's own.
-  return clearance_[static_cast<size_t>(j) * grid_w_ + i] - 0.7072 * config_.grid_cell_m;
+  return clearance_[static_cast<size_t>(j) * grid_w_ + i] - kCellReach * config_.grid_cell_m;
 }
 
 double OraclePlanner::pathToGoal(const Vec2& p) const {

@@ -5,9 +5,9 @@
 // robot braking where it is, and searches the robot's dynamic
 // window period by period (a time-expanded kinodynamic search under the same limits, the same integration and the
 // same success rule as the episode) for the command sequence that reaches the goal soonest without touching
-// anything; it executes the first command and searches again at the next period. Static geometry is kept in a
-// clearance field and the cost to go is the shortest path around the walls (not the straight line), so rooms,
-// corridors and doorways do not trap it.
+// anything; it executes the first command and searches again at the next period. Static geometry (walls and static
+// discs) is kept in a clearance field and the cost to go is the shortest path around it (not the straight line), over
+// cells the search itself could pass, so rooms, corridors, doorways and furniture do not trap it.
 //
 // Among people who react to the robot (PeopleConfig::mix with attentive or impassive people) that future depends on
 // what the robot does: the oracle then steps a copy of the true simulator along each candidate sequence (the best
