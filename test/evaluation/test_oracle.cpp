@@ -105,6 +105,29 @@ TEST(Oracle, FindsTheDoorAroundTheWall) {
   EXPECT_EQ(r.outcome, Outcome::kSuccess) << r.last_decision;
 }
 
+TEST(Oracle, GoesRoundAGapItCannotPassAndAChairInADoor) {
+  // A wall across the room with a way round through a wide door near its end. In its middle: a gap the robot's disc
+  // passes with 10 cm a side, less than the search's check of a pose keeps (a grid cell's half diagonal beyond the
+  // clearance margin), or a door with a chair in it. The path to the goal must not lead through either, or the
+  // search presses against them until the episode times out.
+  for (const bool chair : {false, true}) {
+    sim::Scenario s = emptyRoom({-2.0, 0.0, 0.0}, {2.0, 0.0});
+    const double half = chair ? 0.5 : 0.3;  // the middle opening's half width
+    s.static_segments = {
+        {Vec2(0.0, -4.0), Vec2(0.0, -half)}, {Vec2(0.0, half), Vec2(0.0, 2.2)}, {Vec2(0.0, 3.4), Vec2(0.0, 4.0)}};
+    if (chair) {
+      MovingObstacle c;
+      c.center = Vec2(0.0, 0.0);
+      c.radius = 0.3;
+      c.is_static = true;
+      s.obstacles = {c};
+    }
+    const EpisodeRecord r = run("oracle", s);
+    EXPECT_EQ(r.outcome, Outcome::kSuccess) << (chair ? "chair: " : "gap: ") << r.last_decision;
+    EXPECT_GT(r.path_length_m, 6.0) << "round through the wide door";
+  }
+}
+
 TEST(Oracle, TriesFurtherSearchesOnAnEpisodeItsFirstSearchDoesNotSolve) {
   // The door world without people: a first search that keeps 0.45 m beyond the robot's radius cannot fit through
   // the 0.9-1.2 m door; a retry that keeps 2 cm goes through, and its record stands.
