@@ -54,6 +54,9 @@ class WorldSpec:
     people_model: str = "social_force"
     # People see the robot and give way (false: the robot is invisible to them, the hardest case).
     people_see_robot: bool = False
+    # How people treat the robot: attentive=A,impassive=I,oblivious=O shares, or headline (docs/simulator.md, "People
+    # who notice the robot"); "": every person oblivious (unless people_see_robot).
+    people_mix: str = ""
     # Wheel-odometry drift: none, low, high.
     odom_noise: str = "none"
     # Worlds with walls: follow a route planned on the known walls and furniture (on, as the robot), or drive at the
@@ -75,6 +78,8 @@ class WorldSpec:
                 parts.append(str(getattr(self, name)))
         if self.people_see_robot:
             parts.append("see_robot")
+        if self.people_mix:
+            parts.append(self.people_mix)
         if self.route != default.route:
             parts.append(f"route_{self.route}")
         if self.people_predictor:
@@ -88,6 +93,8 @@ class WorldSpec:
                    "route": self.route}
         if self.people_predictor:
             options["people_predictor"] = self.people_predictor
+        if self.people_mix:
+            options["people_mix"] = self.people_mix
         return options
 
 
@@ -240,7 +247,7 @@ def _parse_worlds(raw, where: str) -> tuple[WorldSpec, ...]:
             raise CurriculumError(f"{at}.world must be one of {list(WORLD_FAMILIES)}, got {item.get('world')!r}")
         if "route" in item and item["route"] not in ("on", "off"):
             raise CurriculumError(f"{at}.route must be 'on' or 'off', got {item['route']!r}")
-        for name in ("sensor", "people_model", "odom_noise", "people_predictor"):
+        for name in ("sensor", "people_model", "odom_noise", "people_predictor", "people_mix"):
             if name in item and not (isinstance(item[name], str) and item[name]):
                 raise CurriculumError(f"{at}.{name} must be a non-empty string, got {item[name]!r}")
         if "people_see_robot" in item and not isinstance(item["people_see_robot"], bool):

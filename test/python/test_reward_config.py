@@ -56,3 +56,34 @@ def test_the_trainer_config_checks_its_reward_section():
     assert TrainConfig.from_dict({"reward": {"blocking_weight": 1}}).reward == {"blocking_weight": 1}
     with pytest.raises(ConfigError, match="reward: expected a mapping"):
         TrainConfig.from_dict({"reward": [1]})
+
+
+def test_the_deployed_curriculum_trains_among_people_who_notice_the_robot(core, monkeypatch):
+    """config/curriculum_deployed.yaml: valid; its dynamic stages draw every building family, mostly at the headline
+    mix with shares of the oblivious stress test and of all attentive people; its reward prices the yardstick with
+    shaping consistent with its discount; and the C++ environments accept every world and the reward as written."""
+    import os  # noqa: PLC0415
+
+    from dqn_dovs_py.train import load_config  # noqa: PLC0415 - torch only where it trains
+
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+    monkeypatch.chdir(root)  # the predictor's path is relative to the repository, where training runs
+    config_dir = os.path.join(root, "config")
+    config = load_config(os.path.join(config_dir, "curriculum_deployed.yaml"))
+    assert config.validate() == ""
+    assert config.action_shield and config.decision_config == ""  # the robot's own dovs.yaml and static_safety.yaml
+    assert config.reward["shaping_gamma"] == config.gamma
+    assert config.reward["hit_at_rest_reward"] < 0
+    dynamic = [s for s in config.build_curriculum().stages if s.obstacle_type not in ("none", "static")]
+    assert dynamic
+    for stage in dynamic:
+        people = [w for w in stage.worlds if w.world != "room"]
+        assert {w.world for w in people} == {"crowd", "corridor", "doorway", "clutter", "junction"}
+        weight = {mix: sum(w.weight for w in people if w.people_mix == mix)
+                  for mix in ("headline", "oblivious=1", "attentive=1")}
+        assert weight["headline"] > weight["oblivious=1"] > 0 and weight["attentive=1"] > 0
+        assert sum(weight.values()) == sum(w.weight for w in people)
+        assert {w.sensor for w in people} >= {"sim", "urg04lx", "rplidar_a1"}
+        assert all(w.people_predictor for w in people)
+        env = core.VecEnv(1, 1, threads=1, reward_parameters={k: str(v) for k, v in config.reward.items()})
+        env.set_worlds([w.options() for w in stage.worlds], [w.weight for w in stage.worlds])
