@@ -583,13 +583,13 @@ class Trainer:
                            for name, value in config.dovs.items()}
         reward_parameters = {name: repr(float(value)) if isinstance(value, float) else str(value)
                              for name, value in config.reward.items()}
-        for section, parameters in (("dovs", {"dovs_parameters": dovs_parameters}),
-                                    ("reward", {"reward_parameters": reward_parameters})):
-            if next(iter(parameters.values())) and env_factory is None:
-                try:  # names and ranges are the C++ side's: one environment built now says what is wrong
-                    import_core().VecEnv(1, 0, threads=1, **parameters)
-                except ValueError as error:
-                    raise ConfigError(f"{section}: {error}") from None
+        if (dovs_parameters or reward_parameters) and env_factory is None:
+            try:  # names and ranges are the C++ side's: one environment built now says what is wrong, naming the
+                # section (dovs_parameters: ..., reward_parameters: ...), before any run
+                import_core().VecEnv(1, 0, threads=1, dovs_parameters=dovs_parameters,
+                                     reward_parameters=reward_parameters)
+            except ValueError as error:
+                raise ConfigError(str(error)) from None
         self._env_factory = env_factory or (
             lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
                                             shield_parameters=shield_parameters, dovs_parameters=dovs_parameters,

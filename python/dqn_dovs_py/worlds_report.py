@@ -35,7 +35,7 @@ from matplotlib.figure import Figure
 
 from .benchmark_report import ORACLE, SIGNIFICANCE, Paired, sign_test_p
 from .performance_report import machine_info
-from .report import Record, RunInfo, nan_mean, read_results, read_run
+from .report import Record, RunInfo, fixed, nan_mean, read_results, read_run
 from .run_info import sha256_of
 
 METHOD = "dqn_dovs"
@@ -197,10 +197,6 @@ def pooled(runs: dict[tuple[str, str, int], Run], protocol: str, family: str | N
 
 
 # ----------------------------------------------------------------------------------------------- document
-
-
-def fixed(x: float, digits: int = 2) -> str:
-    return "-" if math.isnan(x) else f"{x:.{digits}f}"
 
 
 def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:

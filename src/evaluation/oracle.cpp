@@ -464,7 +464,7 @@ PlannerDecision OraclePlanner::search(const sim::World& world, std::vector<Candi
             (child.pose.position() - goal_).norm() < config_.goal_tolerance_m) {
           if (candidates != nullptr) {
             // Reaching the goal ranks before every other sequence.
-            candidates->push_back({sequence(depth, child.parent, child.command), t_end - 1.0e6, true});
+            candidates->push_back({sequence(depth, child.parent, child.command), t_end - 1.0e6});
             continue;
           }
           PlannerDecision d;
@@ -540,7 +540,7 @@ PlannerDecision OraclePlanner::search(const sim::World& world, std::vector<Candi
       for (const int k : best_of) {
         if (k < 0) continue;
         const Node& n = beam[static_cast<size_t>(k)];
-        candidates->push_back({sequence(depth - 1, n.parent, n.command), n.cost, false});
+        candidates->push_back({sequence(depth - 1, n.parent, n.command), n.cost});
       }
     }
   } else {
@@ -551,7 +551,7 @@ PlannerDecision OraclePlanner::search(const sim::World& world, std::vector<Candi
   }
   if (candidates != nullptr) {
     if (best_dead_first >= 0) {
-      candidates->push_back({sequence(deepest, best_dead_parent, best_dead_command), 1.0e9, false});
+      candidates->push_back({sequence(deepest, best_dead_parent, best_dead_command), 1.0e9});
     }
     std::stable_sort(candidates->begin(), candidates->end(),
                      [](const Candidate& a, const Candidate& b) { return a.cost < b.cost; });
@@ -647,6 +647,8 @@ PlannerDecision OraclePlanner::decide(const PlannerInput& /*input: the oracle re
         return d;
       }
       if (r.free_periods > longest) {
+        // Only a candidate that stays free longer than every one before is stepped again for the people's motion
+        // around it (a rollout without them stops at the first contact, and most candidates are never the longest).
         longest = r.free_periods;
         fallback.command = c.commands.front();
         fallback.note = "oracle: every candidate collides in the true simulator; the one free longest";

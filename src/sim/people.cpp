@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "dqn_dovs/common/orca_lp.h"
@@ -36,11 +37,7 @@ bool isWaypoint(const PersonSpec& spec, size_t k) { return !spec.pass_through.em
 double rayToWalls(const Vec2& from, const Vec2& dir, double reach, const std::vector<Segment>& walls) {
   double best = reach;
   for (const Segment& w : walls) {
-    const Vec2 e = w.b - w.a, d = w.a - from;
-    const double den = dir.x() * e.y() - dir.y() * e.x();
-    if (std::abs(den) < 1e-12) continue;
-    const double t = (d.x() * e.y() - d.y() * e.x()) / den, u = (d.x() * dir.y() - d.y() * dir.x()) / den;
-    if (t >= 0.0 && t < best && u >= 0.0 && u <= 1.0) best = t;
+    if (const std::optional<double> t = raySegment(from, dir, w)) best = std::min(best, *t);
   }
   return best;
 }

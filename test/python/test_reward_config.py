@@ -58,6 +58,18 @@ def test_the_trainer_config_checks_its_reward_section():
         TrainConfig.from_dict({"reward": [1]})
 
 
+def test_the_trainer_refuses_a_reward_the_environment_cannot_take_before_any_run(core, tmp_path):
+    import dataclasses  # noqa: PLC0415
+
+    from dqn_dovs_py.train import ConfigError, Trainer  # noqa: PLC0415 - torch only where it trains
+    from test_train_smoke import smoke_config  # noqa: PLC0415
+
+    bad = dataclasses.replace(smoke_config(), reward={"hit_reward": -5.0})
+    with pytest.raises(ConfigError, match="reward_parameters: unknown reward parameter 'hit_reward'"):
+        Trainer(bad, str(tmp_path / "bad"), device="cpu", threads=1, progress=False)
+    assert not (tmp_path / "bad").exists()
+
+
 def test_the_deployed_curriculum_trains_among_people_who_notice_the_robot(core, monkeypatch):
     """config/curriculum_deployed.yaml: valid; its dynamic stages draw every building family, mostly at the headline
     mix with shares of the oblivious stress test and of all attentive people; its reward prices the yardstick with

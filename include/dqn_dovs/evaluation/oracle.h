@@ -120,7 +120,6 @@ class OraclePlanner : public Planner {
   struct Candidate {
     std::vector<Twist2> commands;
     double cost = 0.0;
-    bool reaches_goal = false;
   };
   /// What a sequence does in a copy of the true simulator.
   struct Rollout {
