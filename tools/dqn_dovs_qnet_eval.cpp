@@ -3,6 +3,10 @@
 //   dqn_dovs_qnet_eval WEIGHTS.dqnw STATES.f32 OUT.f32   states: N x stateSize float32 (408 for one grid channel)
 //   (little-endian, row-major)
 //                                                         out:    N x 8 float32 Q-values
+//   dqn_dovs_qnet_eval --values action|quantiles WEIGHTS.dqnw STATES.f32 OUT.f32
+//                                                         the action values the choice maximises (N x 8: CVaR of a
+//                                                         quantile network, Q otherwise), or every quantile
+//                                                         (N x 8 x quantile count, action-major)
 //   dqn_dovs_qnet_eval --info WEIGHTS.dqnw                prints layers, normalisation and metadata
 //
 // Used by the PyTorch parity test (test/python/test_qnet_parity.py) and to inspect exported files.
@@ -20,6 +24,7 @@ namespace {
 
 int usage() {
   std::cerr << "usage: dqn_dovs_qnet_eval WEIGHTS.dqnw STATES.f32 OUT.f32\n"
+               "       dqn_dovs_qnet_eval --values q|action|quantiles WEIGHTS.dqnw STATES.f32 OUT.f32\n"
                "       dqn_dovs_qnet_eval --info WEIGHTS.dqnw\n";
   return 2;
 }
@@ -32,7 +37,8 @@ int info(const std::string& path) {
   return 0;
 }
 
-int evaluate(const std::string& weights_path, const std::string& states_path, const std::string& out_path) {
+int evaluate(const std::string& weights_path, const std::string& states_path, const std::string& out_path,
+             const std::string& values = "q") {
   const dqn_dovs::QNetwork net = dqn_dovs::QNetwork::load(weights_path);
   std::ifstream in(states_path, std::ios::binary);
   if (!in) {
@@ -57,8 +63,13 @@ int evaluate(const std::string& weights_path, const std::string& states_path, co
     const Eigen::Map<const Eigen::VectorXf> state(states.data() + i * state_size,
                                                   static_cast<Eigen::Index>(state_size));
     try {
-      const auto q = net.qValues(state);
-      q_all.insert(q_all.end(), q.begin(), q.end());
+      if (values == "quantiles") {
+        const std::vector<float> z = net.quantileValues(state);
+        q_all.insert(q_all.end(), z.begin(), z.end());
+      } else {
+        const auto q = values == "action" ? net.actionValues(state) : net.qValues(state);
+        q_all.insert(q_all.end(), q.begin(), q.end());
+      }
     } catch (const dqn_dovs::QNetworkInputError& e) {
       std::cerr << "dqn_dovs_qnet_eval: state " << i << ": " << e.what() << "\n";
       return 1;
@@ -80,6 +91,11 @@ int evaluate(const std::string& weights_path, const std::string& states_path, co
 int main(int argc, char** argv) {
   try {
     if (argc == 3 && std::string(argv[1]) == "--info") return info(argv[2]);
+    if (argc == 6 && std::string(argv[1]) == "--values") {
+      const std::string values = argv[2];
+      if (values != "q" && values != "action" && values != "quantiles") return usage();
+      return evaluate(argv[3], argv[4], argv[5], values);
+    }
     if (argc != 4) return usage();
     return evaluate(argv[1], argv[2], argv[3]);
   } catch (const std::exception& e) {

@@ -22,7 +22,6 @@ import json
 import math
 import os
 import struct
-import subprocess
 import sys
 import warnings
 import zlib
@@ -41,7 +40,10 @@ FORMAT_VERSION = 1
 # Version 2 adds `state layout: grid channels` (u32) after the grid's columns: a network on a grid of several
 # channels (docs/dovs.md "Grid channels"). A one-channel network is always written as version 1.
 FORMAT_VERSION_CHANNELS = 2
-SUPPORTED_VERSIONS = (FORMAT_VERSION, FORMAT_VERSION_CHANNELS)
+# Version 3 adds the wall rays, the person tokens and the quantile head (docs/weight_format.md).
+FORMAT_VERSION_TOKENS = 3
+SUPPORTED_VERSIONS = (FORMAT_VERSION, FORMAT_VERSION_CHANNELS, FORMAT_VERSION_TOKENS)
+MAX_WALL_RAYS, MAX_PERSON_TOKENS, MAX_TOKEN_SIZE, MAX_QUANTILES = 32, 16, 256, 256
 MAX_GRID_CHANNELS = 16
 # Inputs after the grid: the 8 features, or 17 when the state carries the previous choice after them (the file's
 # `state layout: feature count`; docs/dovs.md "The previous action").
@@ -63,8 +65,11 @@ STREAM_FEATURE = 1
 STREAM_TRUNK = 2
 STREAM_VALUE = 3
 STREAM_ADVANTAGE = 4
+STREAM_TOKEN = 5
+STREAM_ATTENTION = 6
 STREAM_NAMES = {STREAM_GRID: "grid", STREAM_FEATURE: "feature", STREAM_TRUNK: "trunk",
-                STREAM_VALUE: "value", STREAM_ADVANTAGE: "advantage"}
+                STREAM_VALUE: "value", STREAM_ADVANTAGE: "advantage", STREAM_TOKEN: "token",
+                STREAM_ATTENTION: "attention"}
 
 MAX_NAME_LENGTH = 255
 MAX_METADATA_LENGTH = 1 << 20
@@ -73,6 +78,8 @@ MAX_METADATA_LENGTH = 1 << 20
 ONNX_OPSET = 17
 ONNX_INPUT = "state"
 ONNX_OUTPUT = "q_values"
+# The second output of a quantile network: each action's CVaR, what its greedy choice maximises.
+ONNX_ACTION_VALUES = "action_values"
 ONNX_PROP_PREFIX = "dqn_dovs."
 
 
@@ -111,6 +118,12 @@ class WeightFile:
     layers: list[LayerRecord]
     metadata: str
     grid_channels: int = 1  # version 2 only; version 1 files have one
+    # Version 3 only (older files: 0, 0, 0, 1, 1).
+    wall_ray_count: int = 0
+    person_token_count: int = 0
+    token_size: int = 0
+    quantile_count: int = 1
+    cvar_count: int = 1
 
 
 # --------------------------------------------------------------------------------------------- writing
@@ -152,6 +165,9 @@ def _layer_records(model: DuelingQNet) -> list[LayerRecord]:
     add(STREAM_TRUNK, model.trunk, "trunk")
     add(STREAM_VALUE, model.value, "value")
     add(STREAM_ADVANTAGE, model.advantage, "advantage")
+    if model.person_tokens > 0:
+        add(STREAM_TOKEN, model.token_encoder, "token_encoder")
+        add(STREAM_ATTENTION, model.attention, "attention")
     return records
 
 
@@ -169,7 +185,11 @@ def serialize(weights: WeightFile, path_for_errors: str = "<memory>") -> bytes:
     out += struct.pack("<III", weights.format_version, weights.grid_rows, weights.grid_cols)
     if weights.format_version >= FORMAT_VERSION_CHANNELS:
         out += struct.pack("<I", weights.grid_channels)
-    out += struct.pack("<II", weights.feature_count, len(weights.normalization))
+    out += struct.pack("<I", weights.feature_count)
+    if weights.format_version >= FORMAT_VERSION_TOKENS:
+        out += struct.pack("<5I", weights.wall_ray_count, weights.person_token_count, weights.token_size,
+                           weights.quantile_count, weights.cvar_count)
+    out += struct.pack("<I", len(weights.normalization))
     for name, value in weights.normalization.items():
         encoded = name.encode("utf-8")
         if not 1 <= len(encoded) <= MAX_NAME_LENGTH:
@@ -220,8 +240,14 @@ def weights_from_model(model: DuelingQNet, normalization: Mapping[str, float], m
         for label, tensor in (("weight", layer.weight), ("bias", layer.bias)):
             if tensor is not None and not np.isfinite(tensor).all():
                 raise ValueError(f"layer {i} ({layer.name}) {label} contains NaN or inf: refusing to export")
-    return WeightFile(format_version_for(model.grid_channels), model.grid_rows, model.grid_cols, model.feature_count,
-                      norm, model.action_count, records, metadata, grid_channels=model.grid_channels)
+    from .model import TOKEN_SIZE, cvar_quantile_count  # noqa: PLC0415
+    tokens = model.wall_rays != 0 or model.person_tokens != 0 or model.quantiles != 1
+    version = FORMAT_VERSION_TOKENS if tokens else format_version_for(model.grid_channels)
+    return WeightFile(version, model.grid_rows, model.grid_cols, model.feature_count,
+                      norm, model.action_count, records, metadata, grid_channels=model.grid_channels,
+                      wall_ray_count=model.wall_rays, person_token_count=model.person_tokens,
+                      token_size=TOKEN_SIZE if model.person_tokens > 0 else 0, quantile_count=model.quantiles,
+                      cvar_count=cvar_quantile_count(model.quantiles, model.cvar_alpha))
 
 
 def onnx_path_for(path: str | os.PathLike) -> Path:
@@ -286,8 +312,8 @@ def parse(data: bytes, path: str = "<memory>") -> WeightFile:
     version = struct.unpack("<I", data[8:12])[0]
     if version not in SUPPORTED_VERSIONS:
         raise WeightFileError(path, "format version",
-                              f"file has version {version}, this reader supports versions {FORMAT_VERSION} and "
-                              f"{FORMAT_VERSION_CHANNELS}")
+                              f"file has version {version}, this reader supports versions {FORMAT_VERSION} to "
+                              f"{FORMAT_VERSION_TOKENS}")
     r = _Reader(data, path)
     r.take(8, "magic")
     r.u32("format version")
@@ -299,6 +325,16 @@ def parse(data: bytes, path: str = "<memory>") -> WeightFile:
             raise WeightFileError(path, "state layout: grid channels",
                                   f"{channels} outside [1, {MAX_GRID_CHANNELS}]")
     features = r.u32("state layout: feature count")
+    v3 = dict(wall_ray_count=0, person_token_count=0, token_size=0, quantile_count=1, cvar_count=1)
+    if version >= FORMAT_VERSION_TOKENS:
+        for key, field_name, low, high in (("wall_ray_count", "state layout: wall rays", 0, MAX_WALL_RAYS),
+                                           ("person_token_count", "state layout: person tokens", 0, MAX_PERSON_TOKENS),
+                                           ("token_size", "state layout: token size", 0, MAX_TOKEN_SIZE),
+                                           ("quantile_count", "quantile count", 1, MAX_QUANTILES),
+                                           ("cvar_count", "cvar count", 1, MAX_QUANTILES)):
+            v3[key] = r.u32(field_name)
+            if not low <= v3[key] <= (v3["quantile_count"] if key == "cvar_count" else high):
+                raise WeightFileError(path, field_name, f"{v3[key]} outside [{low}, {high}]")
     normalization: dict[str, float] = {}
     for i in range(r.u32("normalization count")):
         length = r.u32(f"normalization entry {i} name length")
@@ -338,7 +374,7 @@ def parse(data: bytes, path: str = "<memory>") -> WeightFile:
     if stored != computed:
         raise WeightFileError(path, "checksum", f"CRC-32 stored 0x{stored:08x} but the content gives 0x{computed:08x}")
     return WeightFile(version, rows, cols, features, normalization, action_count, layers, metadata,
-                      grid_channels=channels)
+                      grid_channels=channels, **v3)
 
 
 def load_weights(path: str | os.PathLike) -> WeightFile:
@@ -358,19 +394,31 @@ def model_from_weights(weights: WeightFile) -> DuelingQNet:
     convs = [l for l in by_stream[STREAM_GRID] if l.type == LAYER_CONV2D]
     feature_linears = [l for l in by_stream[STREAM_FEATURE] if l.type == LAYER_LINEAR]
     trunk_linears = [l for l in by_stream[STREAM_TRUNK] if l.type == LAYER_LINEAR]
+    token_linears = [l for l in by_stream[STREAM_TOKEN] if l.type == LAYER_LINEAR]
+    attention_linears = [l for l in by_stream[STREAM_ATTENTION] if l.type == LAYER_LINEAR]
     if not convs or len(feature_linears) != 1:
         raise ValueError("the file's layers do not follow the DuelingQNet structure")
+    # The CVaR share that gives the file's count: m / Nq (cvar_quantile_count rounds it back up to m).
+    alpha = weights.cvar_count / weights.quantile_count
     model = DuelingQNet(
         grid_rows=weights.grid_rows, grid_cols=weights.grid_cols, feature_count=weights.feature_count,
         grid_channels=weights.grid_channels,
         action_count=weights.action_count, conv_channels=[c.shape["out_channels"] for c in convs],
         conv_strides=[c.shape["stride_h"] for c in convs], conv_kernel=convs[0].shape["kernel_h"],
         feature_hidden=feature_linears[0].shape["out_features"],
-        trunk_hidden=[l.shape["out_features"] for l in trunk_linears])
+        trunk_hidden=[l.shape["out_features"] for l in trunk_linears],
+        quantiles=weights.quantile_count, cvar_alpha=alpha, wall_rays=weights.wall_ray_count,
+        person_tokens=weights.person_token_count,
+        token_hidden=[l.shape["out_features"] for l in token_linears] or (64, 64),
+        attention_hidden=[l.shape["out_features"] for l in attention_linears[:-1]])
     expected = _layer_records(model)
     if [(l.stream, l.type, l.shape) for l in expected] != [(l.stream, l.type, l.shape) for l in weights.layers]:
         raise ValueError("the file's layers do not follow the DuelingQNet structure")
-    params = [m for m in model.modules() if isinstance(m, (nn.Conv2d, nn.Linear))]
+    # In file order (stream by stream), which is not the modules' registration order once tokens exist.
+    parts = [model.grid, model.features, model.trunk, model.value, model.advantage]
+    if model.person_tokens > 0:
+        parts += [model.token_encoder, model.attention]
+    params = [m for part in parts for m in part.modules() if isinstance(m, (nn.Conv2d, nn.Linear))]
     weighted = [l for l in weights.layers if l.type != LAYER_RELU]
     with torch.no_grad():
         for module, layer in zip(params, weighted):
@@ -432,7 +480,12 @@ def state_layout_name(weights: WeightFile) -> str:
     """Name of the network input's layout, e.g. `grid20x20+features8` (grid row-major, then the features), or
     `grid3x20x20+features8` for a grid of 3 channels (channel-major)."""
     channels = "" if weights.grid_channels == 1 else f"{weights.grid_channels}x"
-    return f"grid{channels}{weights.grid_rows}x{weights.grid_cols}+features{weights.feature_count}"
+    name = f"grid{channels}{weights.grid_rows}x{weights.grid_cols}+features{weights.feature_count}"
+    if weights.wall_ray_count:
+        name += f"+wallrays{weights.wall_ray_count}"
+    if weights.person_token_count:
+        name += f"+tokens{weights.person_token_count}x{weights.token_size}"
+    return name
 
 
 def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> dict[str, str]:
@@ -457,6 +510,10 @@ def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> 
     }
     if weights.grid_channels != 1:  # a one-channel model's metadata is what it was before channels existed
         props["grid_channels"] = str(weights.grid_channels)
+    if weights.format_version >= FORMAT_VERSION_TOKENS:
+        props.update(wall_rays=str(weights.wall_ray_count), person_tokens=str(weights.person_token_count),
+                     token_size=str(weights.token_size), quantile_count=str(weights.quantile_count),
+                     cvar_count=str(weights.cvar_count))
     return {ONNX_PROP_PREFIX + k: v for k, v in props.items()}
 
 
@@ -479,8 +536,12 @@ def write_onnx(data: bytes, out: str | os.PathLike, weights_path: str = "<memory
     weights = parse(data, weights_path)
     model = model_from_weights(weights).eval()
     example = torch.zeros(1, model.state_size, dtype=torch.float32)
-    options = dict(opset_version=ONNX_OPSET, input_names=[ONNX_INPUT], output_names=[ONNX_OUTPUT],
-                   dynamic_axes={ONNX_INPUT: {0: "batch"}, ONNX_OUTPUT: {0: "batch"}}, do_constant_folding=True)
+    outputs = [ONNX_OUTPUT]
+    if model.quantiles > 1:  # a quantile network also gives what its choice maximises, each action's CVaR
+        outputs.append(ONNX_ACTION_VALUES)
+        model = _QAndActionValues(model)
+    options = dict(opset_version=ONNX_OPSET, input_names=[ONNX_INPUT], output_names=outputs,
+                   dynamic_axes={name: {0: "batch"} for name in [ONNX_INPUT, *outputs]}, do_constant_folding=True)
     if "dynamo" in inspect.signature(torch.onnx.export).parameters:
         options["dynamo"] = False  # the TorchScript exporter: no extra packages
     buffer = io.BytesIO()
@@ -492,7 +553,7 @@ def write_onnx(data: bytes, out: str | os.PathLike, weights_path: str = "<memory
     proto = onnx.load_from_string(buffer.getvalue())
     proto.producer_name = "dqn_dovs_py.export"
     proto.doc_string = (f"DQN-DOVS dueling Q-network of {os.path.basename(weights_path)}: {ONNX_INPUT} "
-                        f"[N, {model.state_size}] float32 (normalised state, {state_layout_name(weights)}) -> "
+                        f"[N, {example.shape[1]}] float32 (normalised state, {state_layout_name(weights)}) -> "
                         f"{ONNX_OUTPUT} [N, {weights.action_count}]")
     del proto.metadata_props[:]
     for key, value in onnx_metadata_props(weights, data, weights_path).items():
@@ -504,6 +565,19 @@ def write_onnx(data: bytes, out: str | os.PathLike, weights_path: str = "<memory
     except OSError as exc:
         raise OnnxExportError(out, f"cannot write: {exc.strerror}") from exc
     return out
+
+
+class _QAndActionValues(nn.Module):
+    """A quantile network with two outputs for ONNX: Q (the quantiles' mean) and the action values (CVaR)."""
+
+    def __init__(self, net: DuelingQNet) -> None:
+        super().__init__()
+        self.net = net
+
+    def forward(self, state: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        z = self.net.quantile_values(state)
+        from .model import cvar_of_quantiles  # noqa: PLC0415
+        return z.mean(dim=2), cvar_of_quantiles(z, self.net.cvar_alpha)
 
 
 def onnx_from_weights(weights_path: str | os.PathLike, out: str | os.PathLike | None = None) -> Path:
@@ -540,21 +614,16 @@ def read_onnx_metadata(path: str | os.PathLike) -> dict[str, str]:
 
 # --------------------------------------------------------------------------------------------- CLI
 
-def _git_describe() -> str:
-    try:
-        here = Path(__file__).resolve().parent
-        out = subprocess.run(["git", "describe", "--always", "--dirty", "--tags"], cwd=here, capture_output=True,
-                             text=True, timeout=10)
-        return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
+def build_metadata(training_command: str | None, checkpoint: str | None, note: str | None = None,
+                   provenance: Mapping[str, str] | None = None) -> str:
+    """The metadata text: the training command, the export date, the provenance keys (provenance.KEYS: config,
+    seed, source commit, init from; a key `provenance` lacks reads `unknown`), the checkpoint and the note."""
+    from . import provenance as prov  # noqa: PLC0415 - provenance imports this module
 
-
-def build_metadata(training_command: str | None, checkpoint: str | None, note: str | None = None) -> str:
     lines = [
         f"training command: {training_command or 'unknown'}",
         f"exported: {datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}",
-        f"source revision: {_git_describe()}",
+        *prov.lines(provenance or {}).splitlines(),
     ]
     if checkpoint:
         lines.append(f"checkpoint: {checkpoint}")
@@ -612,7 +681,8 @@ def main(argv: list[str] | None = None) -> int:
         normalization = _load_mapping(args.normalization) if args.normalization else ckpt.get("normalization")
         if not normalization:
             raise ValueError(f"{args.checkpoint} has no 'normalization' entry: pass --normalization FILE")
-        metadata = build_metadata(ckpt.get("command"), os.path.abspath(args.checkpoint), args.note)
+        metadata = build_metadata(ckpt.get("command"), os.path.abspath(args.checkpoint), args.note,
+                                  ckpt.get("provenance"))
         path = export_model(model.eval(), args.out, normalization, metadata, onnx=not args.no_onnx)
     except (OSError, ValueError, RuntimeError, KeyError, TypeError) as exc:
         print(f"export failed: {exc}", file=sys.stderr)

@@ -73,6 +73,9 @@ std::string DovsConfig::validate() const {
     return fieldError("grid_channels", grid_channels, kGridChannelsRule);
   if (previous_action != 0 && previous_action != 1)
     return fieldError("previous_action", previous_action, "must be 0 (off) or 1 (the previous choice in the state)");
+  if (wall_rays < 0 || wall_rays > 32) return fieldError("wall_rays", wall_rays, "must be in [0, 32] (0: none)");
+  if (person_tokens < 0 || person_tokens > 16)
+    return fieldError("person_tokens", person_tokens, "must be in [0, 16] (0: none)");
   return {};
 }
 
@@ -92,6 +95,8 @@ const std::vector<DovsField>& dovsFields() {
       {"grid_contact_horizon", &DovsConfig::grid_contact_horizon_s},
       {"grid_channels", nullptr, &DovsConfig::grid_channels},
       {"previous_action", nullptr, &DovsConfig::previous_action},
+      {"wall_rays", nullptr, &DovsConfig::wall_rays},
+      {"person_tokens", nullptr, &DovsConfig::person_tokens},
   };
   return fields;
 }

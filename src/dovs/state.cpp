@@ -117,6 +117,11 @@ std::string StateNormalization::validate() const {
     return "state grid_channels = " + std::to_string(grid_channels) + ": " + kGridChannelsRule;
   if (previous_action != 0 && previous_action != 1)
     return "state previous_action = " + std::to_string(previous_action) + ": must be 0 (off) or 1 (on)";
+  if (wall_rays < 0 || wall_rays > kMaxWallRays)
+    return "state wall_rays = " + std::to_string(wall_rays) + ": must be in [0, " + std::to_string(kMaxWallRays) + "]";
+  if (person_tokens < 0 || person_tokens > kMaxPersonTokens)
+    return "state person_tokens = " + std::to_string(person_tokens) + ": must be in [0, " +
+           std::to_string(kMaxPersonTokens) + "]";
   const float t = grid_contact_horizon_s;
   if (!(std::isfinite(t) && (t == 0.0f || (t >= 0.5f && t <= 30.0f)))) {
     std::ostringstream os;
@@ -289,15 +294,123 @@ std::vector<float> windowGoalChannels(const VelocitySpace& dovs, const Observati
   return out;
 }
 
+void TrackHistory::clear() {
+  tracks_.clear();
+  last_stamp_s_ = -1e300;
+}
+
+void TrackHistory::update(double stamp_s, const std::vector<MovingObstacle>& obstacles) {
+  if (!std::isfinite(stamp_s)) throw StateError("track history: the stamp is NaN or infinite");
+  if (stamp_s < last_stamp_s_) clear();
+  last_stamp_s_ = stamp_s;
+  // Keep a little more than the history reaches so that the sample nearest 1 s before is there.
+  const double keep_from = stamp_s - kTokenHistory_s - 0.5;
+  std::vector<std::pair<int, std::vector<Sample>>> kept;
+  kept.reserve(obstacles.size());
+  for (const MovingObstacle& o : obstacles) {
+    if (o.id < 0 || !o.center.allFinite()) continue;
+    auto it = std::find_if(tracks_.begin(), tracks_.end(), [&o](const auto& t) { return t.first == o.id; });
+    std::vector<Sample> samples;
+    if (it != tracks_.end()) samples = std::move(it->second);
+    samples.erase(
+        std::remove_if(samples.begin(), samples.end(), [keep_from](const Sample& x) { return x.stamp_s < keep_from; }),
+        samples.end());
+    if (samples.empty() || samples.back().stamp_s < stamp_s) samples.push_back({stamp_s, o.center});
+    kept.emplace_back(o.id, std::move(samples));
+  }
+  tracks_ = std::move(kept);  // tracks not seen now are forgotten
+}
+
+bool TrackHistory::positionBefore(int id, Vec2& out) const {
+  auto it = std::find_if(tracks_.begin(), tracks_.end(), [id](const auto& t) { return t.first == id; });
+  if (it == tracks_.end() || it->second.empty()) return false;
+  const double want = last_stamp_s_ - kTokenHistory_s;
+  const Sample* best = &it->second.front();
+  for (const Sample& x : it->second)
+    if (std::abs(x.stamp_s - want) < std::abs(best->stamp_s - want)) best = &x;
+  out = best->position;
+  return true;
+}
+
+std::vector<float> personTokens(const Observation& obs, const StateNormalization& norm, const TrackHistory* history) {
+  const int k = norm.person_tokens;
+  std::vector<float> out(static_cast<size_t>(std::max(k, 0) * kPersonTokenSize), 0.0f);
+  if (k <= 0) return out;
+  const Pose2& robot = obs.robot_pose;
+  if (!std::isfinite(robot.x) || !std::isfinite(robot.y) || !std::isfinite(robot.theta))
+    throw StateError("person tokens: the robot pose must be finite");
+  std::vector<std::pair<double, size_t>> order;
+  for (size_t i = 0; i < obs.obstacles.size(); ++i) {
+    const MovingObstacle& o = obs.obstacles[i];
+    if (!o.center.allFinite() || !std::isfinite(o.radius) || !std::isfinite(o.heading) || !std::isfinite(o.speed) ||
+        !std::isfinite(o.turn_rate))
+      throw StateError("person tokens: obstacle " + std::to_string(i) + " has a NaN/inf value");
+    order.emplace_back((o.center - robot.position()).norm() - o.radius, i);
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  const float pos_scale = norm.obstacle_clearance_scale_m, speed_scale = norm.obstacle_speed_scale_mps;
+  auto put = [](float* t, int i, double value, float scale) {
+    t[i] = std::clamp(static_cast<float>(value / scale), -kTokenClip, kTokenClip);
+  };
+  const double c = std::cos(robot.theta), sn = std::sin(robot.theta);
+  for (int slot = 0; slot < k && slot < static_cast<int>(order.size()); ++slot) {
+    const MovingObstacle& o = obs.obstacles[order[static_cast<size_t>(slot)].second];
+    float* t = out.data() + static_cast<size_t>(slot) * kPersonTokenSize;
+    t[0] = 1.0f;
+    const Vec2 p = robot.toLocal(o.center);
+    put(t, 1, p.x(), pos_scale);
+    put(t, 2, p.y(), pos_scale);
+    const double speed = o.is_static ? 0.0 : o.speed, turn = o.is_static ? 0.0 : o.turn_rate;
+    const Vec2 v_world(speed * std::cos(o.heading), speed * std::sin(o.heading));
+    put(t, 3, c * v_world.x() + sn * v_world.y(), speed_scale);
+    put(t, 4, -sn * v_world.x() + c * v_world.y(), speed_scale);
+    put(t, 5, o.radius, kTokenRadiusScale_m);
+    Vec2 before = o.center;
+    if (history != nullptr && o.id >= 0) history->positionBefore(o.id, before);
+    const Vec2 b = robot.toLocal(before);
+    put(t, 6, b.x(), pos_scale);
+    put(t, 7, b.y(), pos_scale);
+    const Pose2 start{o.center.x(), o.center.y(), o.heading};
+    for (int step = 1; step <= 2; ++step) {
+      const Vec2 ahead = robot.toLocal(integrateUnicycle(start, speed, turn, static_cast<double>(step)).position());
+      put(t, 6 + 2 * step, ahead.x(), pos_scale);
+      put(t, 7 + 2 * step, ahead.y(), pos_scale);
+    }
+    put(t, 12, o.age_s >= 0.0 && std::isfinite(o.age_s) ? o.age_s : kTokenAgeScale_s, kTokenAgeScale_s);
+    t[12] = std::min(t[12], 1.0f);
+    put(t, 13, o.position_sigma_m >= 0.0 && std::isfinite(o.position_sigma_m) ? o.position_sigma_m : 0.0,
+        kTokenSigmaScale_m);
+    t[13] = std::min(t[13], 1.0f);
+  }
+  return out;
+}
+
+std::vector<float> wallRays(const Observation& obs, const StateNormalization& norm) {
+  const int n = norm.wall_rays;
+  std::vector<float> out(static_cast<size_t>(std::max(n, 0)), 1.0f);
+  const double range = norm.obstacle_clearance_scale_m;
+  const Vec2 origin = obs.robot_pose.position();
+  for (int k = 0; k < n; ++k) {
+    const double a = obs.robot_pose.theta + 2.0 * M_PI * k / n;
+    const Vec2 d(std::cos(a), std::sin(a));
+    double best = range;
+    for (const Segment& seg : obs.segments) {
+      if (const auto hit = raySegment(origin, d, seg); hit && *hit < best) best = *hit;
+    }
+    out[static_cast<size_t>(k)] = static_cast<float>(best / range);
+  }
+  return out;
+}
+
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
-                       const std::vector<float>* previous_grid, int previous_choice) {
+                       const std::vector<float>* previous_grid, int previous_choice, const TrackHistory* history) {
   requireStateGrid(dovs);
   const FeatureVector f = computeFeatures(dovs, obs, norm);  // validates norm and the robot state first
   if (previous_choice < kNoPreviousChoice || previous_choice > kPreviousChoiceOther)
     throw StateError("state: the previous choice " + std::to_string(previous_choice) + " is not in [-1, " +
                      std::to_string(kPreviousChoiceOther) + "]");
   const int grid_values = norm.grid_channels * kStateGridCells;
-  StateVector s(stateSize(norm.grid_channels, norm.previous_action != 0));
+  StateVector s(norm.stateSize());
   if (norm.grid_contact_horizon_s > 0.0f) {
     const std::vector<float> grid = gradedGrid(dovs, obs, norm.grid_contact_horizon_s);
     for (int i = 0; i < kStateGridCells; ++i) s(i) = grid[static_cast<size_t>(i)];
@@ -327,6 +440,9 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
     s.segment(grid_values + kNumFeatures, kPreviousChoiceInputs).setZero();
     if (previous_choice != kNoPreviousChoice) s(grid_values + kNumFeatures + previous_choice) = 1.0f;
   }
+  int at = grid_values + norm.featureInputs();
+  for (float r : wallRays(obs, norm)) s(at++) = r;
+  for (float t : personTokens(obs, norm, history)) s(at++) = t;
   return s;
 }
 
@@ -338,6 +454,8 @@ StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfi
   n.grid_contact_horizon_s = static_cast<float>(dovs.grid_contact_horizon_s);
   n.grid_channels = dovs.grid_channels;
   n.previous_action = dovs.previous_action;
+  n.wall_rays = dovs.wall_rays;
+  n.person_tokens = dovs.person_tokens;
   return n;
 }
 

@@ -154,7 +154,7 @@ Episode::Episode(const EpisodeConfig& config)
       dovs_builder_(config_.world.robot, config_.dovs),
       normalization_(stateNormalization(config_.world.robot, config_.dovs)),
       route_guide_(config_.route.guide),
-      state_(Eigen::VectorXf::Zero(stateSize(normalization_.grid_channels, normalization_.previous_action != 0))) {
+      state_(Eigen::VectorXf::Zero(normalization_.stateSize())) {
   if (!config_.people_predictor.empty()) {
     std::shared_ptr<const PeoplePredictor> predictor;
     try {
@@ -185,6 +185,7 @@ void Episode::reset(const sim::Scenario& scenario, uint64_t seed) {
   guidance_ = RouteGuidance();
   route_error_.clear();
   previous_grid_.clear();  // the first decision's history channel is its own grid
+  track_history_.clear();
   previous_choice_ = kNoPreviousChoice;
   known_structure_.reset();
   map_segments_.clear();
@@ -316,8 +317,13 @@ void Episode::buildContext() {
   dovs_builder_.build(observation_, dovs_);
   const Vec2 goal_local = observation_.robot_pose.toLocal(observation_.goal);
   actions_ = computeActions(observation_.robot_twist, goal_local, config_.world.robot);
+  if (normalization_.person_tokens > 0) {
+    if (config_.perfect_info)  // the world's bodies in a fixed order: their index is their id
+      for (size_t k = 0; k < observation_.obstacles.size(); ++k) observation_.obstacles[k].id = static_cast<int>(k);
+    track_history_.update(observation_.stamp_s, observation_.obstacles);
+  }
   state_ = buildState(dovs_, observation_, normalization_, previous_grid_.empty() ? nullptr : &previous_grid_,
-                      previous_choice_);
+                      previous_choice_, &track_history_);
   if (normalization_.grid_channels == kHistoryGridChannels)  // one step of history: this decision's first channel
     previous_grid_.assign(state_.data(), state_.data() + kStateGridCells);
 }

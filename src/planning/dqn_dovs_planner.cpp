@@ -35,6 +35,8 @@ std::shared_ptr<const QNetwork> loadNetwork(const DqnDovsConfig& config) {
   std::string mismatch = net->normalizationMismatch(config.normalization.fields(), config.normalization_tolerance);
   if (mismatch.empty()) mismatch = net->gridChannelsMismatch(config.normalization.grid_channels);
   if (mismatch.empty()) mismatch = net->previousActionMismatch(config.normalization.previous_action != 0);
+  if (mismatch.empty())
+    mismatch = net->tokenLayoutMismatch(config.normalization.wall_rays, config.normalization.person_tokens);
   if (!mismatch.empty()) {
     throw PlannerError("DQN-DOVS: the Q-network '" + config.model_path +
                        "' was trained with another state normalisation or layout: " + mismatch);

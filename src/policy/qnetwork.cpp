@@ -8,6 +8,7 @@
 
 #include "dqn_dovs/common/random.h"
 #include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/dovs/state.h"
 
 namespace dqn_dovs {
 
@@ -86,6 +87,22 @@ std::string DuelingArchitecture::validate() const {
            std::to_string(QNetwork::kFeatureCount) + " or " +
            std::to_string(QNetwork::kFeatureCountWithPreviousChoice) + " (with the previous choice)";
   }
+  if (wall_rays > static_cast<std::uint32_t>(kMaxWallRays))
+    return "architecture field 'wall_rays' = " + std::to_string(wall_rays) + ": must be in [0, " +
+           std::to_string(kMaxWallRays) + "]";
+  if (person_tokens > static_cast<std::uint32_t>(kMaxPersonTokens))
+    return "architecture field 'person_tokens' = " + std::to_string(person_tokens) + ": must be in [0, " +
+           std::to_string(kMaxPersonTokens) + "]";
+  if (person_tokens > 0 && token_hidden.empty()) return "architecture field 'token_hidden' is empty";
+  for (std::uint32_t h : token_hidden)
+    if (h == 0) return "architecture field 'token_hidden' contains 0";
+  for (std::uint32_t h : attention_hidden)
+    if (h == 0) return "architecture field 'attention_hidden' contains 0";
+  if (quantiles < 1 || quantiles > kMaxQuantiles)
+    return "architecture field 'quantiles' = " + std::to_string(quantiles) + ": must be in [1, " +
+           std::to_string(kMaxQuantiles) + "]";
+  if (cvar_count < 1 || cvar_count > quantiles)
+    return "architecture field 'cvar_count' = " + std::to_string(cvar_count) + ": must be in [1, quantiles]";
   return {};
 }
 
@@ -98,8 +115,13 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
   c.grid_rows = QNetwork::kGridRows;
   c.grid_cols = QNetwork::kGridCols;
   c.grid_channels = arch.grid_channels;
-  c.format_version = weightFormatVersionFor(arch.grid_channels);
   c.feature_count = arch.feature_count;
+  c.wall_ray_count = arch.wall_rays;
+  c.person_token_count = arch.person_tokens;
+  c.token_size = arch.person_tokens > 0 ? static_cast<std::uint32_t>(kPersonTokenSize) : 0u;
+  c.quantile_count = arch.quantiles;
+  c.cvar_count = arch.cvar_count;
+  c.format_version = weightFormatVersionFor(c);
   c.action_count = QNetwork::kActionCount;
   c.normalization = std::move(normalization);
   c.metadata = std::move(metadata);
@@ -145,16 +167,32 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
     h = (h + 2 * pad - k) / arch.conv_strides[i] + 1;
     w = (w + 2 * pad - k) / arch.conv_strides[i] + 1;
   }
-  linear(LayerStream::kFeature, arch.feature_count, arch.feature_hidden);
+  linear(LayerStream::kFeature, arch.feature_count + arch.wall_rays, arch.feature_hidden);
   relu(LayerStream::kFeature);
-  std::uint32_t width = channels * h * w + arch.feature_hidden;
+  const std::uint32_t embedding = arch.person_tokens > 0 ? arch.token_hidden.back() : 0u;
+  std::uint32_t width = channels * h * w + arch.feature_hidden + embedding;
   for (std::uint32_t hidden : arch.trunk_hidden) {
     linear(LayerStream::kTrunk, width, hidden);
     relu(LayerStream::kTrunk);
     width = hidden;
   }
-  linear(LayerStream::kValue, width, 1);
-  linear(LayerStream::kAdvantage, width, QNetwork::kActionCount);
+  linear(LayerStream::kValue, width, arch.quantiles);
+  linear(LayerStream::kAdvantage, width, QNetwork::kActionCount * arch.quantiles);
+  if (arch.person_tokens > 0) {
+    std::uint32_t in = kPersonTokenSize;
+    for (std::uint32_t hidden : arch.token_hidden) {
+      linear(LayerStream::kToken, in, hidden);
+      relu(LayerStream::kToken);
+      in = hidden;
+    }
+    in = 2 * embedding;
+    for (std::uint32_t hidden : arch.attention_hidden) {
+      linear(LayerStream::kAttention, in, hidden);
+      relu(LayerStream::kAttention);
+      in = hidden;
+    }
+    linear(LayerStream::kAttention, in, 1);
+  }
   return c;
 }
 
@@ -174,11 +212,36 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
            "file has " + std::to_string(found) + ", this planner's network input needs " + std::to_string(expected));
     }
   };
-  if (c.format_version != kWeightFormatVersion && c.format_version != kWeightFormatVersionChannels) {
+  if (c.format_version < kWeightFormatVersion || c.format_version > kWeightFormatVersionTokens) {
     fail("format version", "version " + std::to_string(c.format_version) + " is not supported (reader versions " +
-                               std::to_string(kWeightFormatVersion) + " and " +
-                               std::to_string(kWeightFormatVersionChannels) + ")");
+                               std::to_string(kWeightFormatVersion) + " to " +
+                               std::to_string(kWeightFormatVersionTokens) + ")");
   }
+  if (c.format_version < kWeightFormatVersionTokens &&
+      (c.wall_ray_count != 0 || c.person_token_count != 0 || c.token_size != 0 || c.quantile_count != 1 ||
+       c.cvar_count != 1)) {
+    fail("format version", "version " + std::to_string(c.format_version) +
+                               " has no wall rays, person tokens or quantiles (version 3 does)");
+  }
+  if (c.wall_ray_count > static_cast<std::uint32_t>(kMaxWallRays))
+    fail("state layout: wall rays", "file has " + std::to_string(c.wall_ray_count) +
+                                        ", the planner's states have at "
+                                        "most " +
+                                        std::to_string(kMaxWallRays));
+  if (c.person_token_count > static_cast<std::uint32_t>(kMaxPersonTokens))
+    fail("state layout: person tokens", "file has " + std::to_string(c.person_token_count) +
+                                            ", the planner's states have at most " + std::to_string(kMaxPersonTokens));
+  if (c.token_size != (c.person_token_count > 0 ? static_cast<std::uint32_t>(kPersonTokenSize) : 0u))
+    fail("state layout: token size",
+         "file has " + std::to_string(c.token_size) + ", the planner's person tokens " +
+             (c.person_token_count > 0 ? "have " + std::to_string(kPersonTokenSize) + " floats"
+                                       : std::string("are absent (0)")));
+  if (c.quantile_count < 1 || c.quantile_count > kMaxQuantiles)
+    fail("quantile count",
+         "file has " + std::to_string(c.quantile_count) + ", must be in [1, " + std::to_string(kMaxQuantiles) + "]");
+  if (c.cvar_count < 1 || c.cvar_count > c.quantile_count)
+    fail("cvar count", "file has " + std::to_string(c.cvar_count) +
+                           ", must be in [1, quantile count = " + std::to_string(c.quantile_count) + "]");
   if (c.format_version == kWeightFormatVersion && c.grid_channels != 1) {
     fail("state layout: grid channels",
          "a version 1 file has one grid channel, not " + std::to_string(c.grid_channels));
@@ -207,14 +270,14 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   }
 
   // Pass 1: group the layers into streams and infer every shape.
-  std::array<std::vector<PlannedLayer>, 5> streams;
+  std::array<std::vector<PlannedLayer>, 7> streams;
   int last_stream = -1;
   for (std::size_t i = 0; i < c.layers.size(); ++i) {
     const LayerRecord& l = c.layers[i];
     const int s = static_cast<int>(l.stream);
     if (s < last_stream) {
       fail(layerName(i, l) + " stream",
-           "layers must be grouped by stream in the order grid, feature, trunk, value, advantage");
+           "layers must be grouped by stream in the order grid, feature, trunk, value, advantage, token, attention");
     }
     last_stream = s;
     if (l.weight.size() != l.weightCount() || l.bias.size() != l.biasCount()) {
@@ -308,16 +371,31 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   }
   requireWeighted(streams[1], LayerType::kLinear, "feature");
   const int feature_count = static_cast<int>(c.feature_count);
-  concat_feature = planVector(streams[1], feature_count, "feature");
-  trunk_out = planVector(streams[2], concat_grid + concat_feature, "trunk");
+  const int wall_rays = static_cast<int>(c.wall_ray_count);
+  concat_feature = planVector(streams[1], feature_count + wall_rays, "feature");
+  const int tokens = static_cast<int>(c.person_token_count), token_size = static_cast<int>(c.token_size);
+  int embedding = 0;
+  if (tokens > 0) {
+    requireWeighted(streams[5], LayerType::kLinear, "token");
+    embedding = planVector(streams[5], token_size, "token");
+    requireWeighted(streams[6], LayerType::kLinear, "attention");
+    if (const int a = planVector(streams[6], 2 * embedding, "attention"); a != 1)
+      fail("attention stream", "ends with " + std::to_string(a) + " outputs, the attention score needs 1");
+  } else if (!streams[5].empty() || !streams[6].empty()) {
+    fail("token stream", "the file has token or attention layers but no person tokens");
+  }
+  trunk_out = planVector(streams[2], concat_grid + concat_feature + embedding, "trunk");
+  const int quantiles = static_cast<int>(c.quantile_count);
   requireWeighted(streams[3], LayerType::kLinear, "value");
-  if (const int v = planVector(streams[3], trunk_out, "value"); v != 1) {
-    fail("value stream", "ends with " + std::to_string(v) + " outputs, the value head needs 1");
+  if (const int v = planVector(streams[3], trunk_out, "value"); v != quantiles) {
+    fail("value stream", "ends with " + std::to_string(v) + " outputs, the value head needs one per quantile (" +
+                             std::to_string(quantiles) + ")");
   }
   requireWeighted(streams[4], LayerType::kLinear, "advantage");
-  if (const int a = planVector(streams[4], trunk_out, "advantage"); a != kActionCount) {
-    fail("advantage stream", "ends with " + std::to_string(a) + " outputs, the advantage head needs one per action (" +
-                                 std::to_string(kActionCount) + ")");
+  if (const int a = planVector(streams[4], trunk_out, "advantage"); a != kActionCount * quantiles) {
+    fail("advantage stream", "ends with " + std::to_string(a) +
+                                 " outputs, the advantage head needs one per action and quantile (" +
+                                 std::to_string(kActionCount * quantiles) + ")");
   }
 
   // Pass 2: lay the activations out in one scratch buffer and turn layers into ops.
@@ -337,13 +415,21 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   net.grid_channels_ = static_cast<int>(c.grid_channels);
   const int grid_size = net.grid_channels_ * kGridRows * kGridCols;
   net.feature_count_ = feature_count;
-  const int state_offset = alloc(grid_size + feature_count);
-  const int concat_offset = alloc(concat_grid + concat_feature);
+  net.wall_rays_ = wall_rays;
+  net.person_tokens_ = tokens;
+  net.token_size_ = token_size;
+  net.quantiles_ = quantiles;
+  net.cvar_count_ = static_cast<int>(c.cvar_count);
+  net.token_embedding_ = embedding;
+  const int state_offset = alloc(net.stateSize());
+  net.state_offset_ = state_offset;
+  const int concat_offset = alloc(concat_grid + concat_feature + embedding);
   const int col_offset = alloc(max_col);
 
   // Runs one stream starting from region (offset, size); `final_offset` >= 0 makes its last weighted layer
   // write there (the concatenation). Returns the offset of the stream's output.
-  auto emit = [&](const std::vector<PlannedLayer>& layers, int offset, int size, int final_offset) {
+  auto emit = [&](const std::vector<PlannedLayer>& layers, int offset, int size, int final_offset,
+                  std::vector<Op>& target) {
     std::size_t last_weighted = layers.size();
     for (std::size_t i = 0; i < layers.size(); ++i)
       if (layers[i].record->type != LayerType::kRelu) last_weighted = i;
@@ -394,17 +480,25 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
       own_region = true;
       offset = op.out_offset;
       size = op.out_size;
-      net.ops_.push_back(op);
+      target.push_back(op);
       net.layer_descriptions_.push_back(desc.str());
     }
     return offset;
   };
-  emit(streams[0], state_offset, grid_size, concat_offset);
-  emit(streams[1], state_offset + grid_size, feature_count, concat_offset + concat_grid);
-  const int trunk_offset = emit(streams[2], concat_offset, concat_grid + concat_feature, -1);
+  emit(streams[0], state_offset, grid_size, concat_offset, net.ops_);
+  emit(streams[1], state_offset + grid_size, feature_count + wall_rays, concat_offset + concat_grid, net.ops_);
+  if (tokens > 0) {
+    net.token_in_offset_ = alloc(token_size);
+    net.token_out_offset_ = emit(streams[5], net.token_in_offset_, token_size, -1, net.token_ops_);
+    net.embeddings_offset_ = alloc(tokens * embedding);
+    net.attention_in_offset_ = alloc(2 * embedding);
+    net.attention_out_offset_ = emit(streams[6], net.attention_in_offset_, 2 * embedding, -1, net.attention_ops_);
+    net.pooled_offset_ = concat_offset + concat_grid + concat_feature;
+  }
+  const int trunk_offset = emit(streams[2], concat_offset, concat_grid + concat_feature + embedding, -1, net.post_ops_);
   // Both heads read the trunk output; emit() never writes in place into a region it did not create.
-  net.value_offset_ = emit(streams[3], trunk_offset, trunk_out, -1);
-  net.advantage_offset_ = emit(streams[4], trunk_offset, trunk_out, -1);
+  net.value_offset_ = emit(streams[3], trunk_offset, trunk_out, -1, net.post_ops_);
+  net.advantage_offset_ = emit(streams[4], trunk_offset, trunk_out, -1, net.post_ops_);
   net.scratch_size_ = cursor;
   return net;
 }
@@ -459,41 +553,128 @@ void QNetwork::runOp(const Op& op, float* scratch) const {
   }
 }
 
-QNetwork::QValues QNetwork::qValues(const Eigen::Ref<const Eigen::VectorXf>& state) const {
-  const int state_size = stateSize(), grid_size = state_size - feature_count_;
+const float* QNetwork::forward(const Eigen::Ref<const Eigen::VectorXf>& state) const {
+  const int state_size = stateSize(), grid_size = grid_channels_ * kGridRows * kGridCols;
   if (state.size() != state_size) {
-    throw QNetworkInputError("Q-network state has " + std::to_string(state.size()) + " elements, expected " +
-                             std::to_string(state_size) + " (" + std::to_string(grid_channels_) + " x 20 x 20 grid + " +
-                             std::to_string(feature_count_) + " features)");
+    throw QNetworkInputError(
+        "Q-network state has " + std::to_string(state.size()) + " elements, expected " + std::to_string(state_size) +
+        " (" + std::to_string(grid_channels_) + " x 20 x 20 grid + " + std::to_string(feature_count_) + " features" +
+        (wall_rays_ > 0 ? " + " + std::to_string(wall_rays_) + " wall rays" : std::string()) +
+        (person_tokens_ > 0 ? " + " + std::to_string(person_tokens_) + " person tokens" : std::string()) + ")");
   }
   for (int i = 0; i < state_size; ++i) {
     if (!std::isfinite(state[i])) {
+      const int after_grid = i - grid_size, after_features = after_grid - feature_count_,
+                after_rays = after_features - wall_rays_;
+      const std::string where = i < grid_size        ? std::string("grid")
+                                : after_features < 0 ? "feature " + std::to_string(after_grid)
+                                : after_rays < 0
+                                    ? "wall ray " + std::to_string(after_features)
+                                    : "person token " + std::to_string(after_rays / std::max(token_size_, 1));
       throw QNetworkInputError("Q-network state element " + std::to_string(i) + " is " +
-                               (std::isnan(state[i]) ? "NaN" : "infinite") + " (" +
-                               (i < grid_size ? "grid" : "feature " + std::to_string(i - grid_size)) + ")");
+                               (std::isnan(state[i]) ? "NaN" : "infinite") + " (" + where + ")");
     }
   }
   // One buffer per thread, shared by every network evaluated on it; it only grows.
   thread_local AlignedFloats scratch;
   if (static_cast<int>(scratch.size()) < scratch_size_) scratch.resize(scratch_size_);
   float* s = scratch.data();
-  std::copy(state.data(), state.data() + state_size, s);
+  std::copy(state.data(), state.data() + state_size, s + state_offset_);
   for (const Op& op : ops_) runOp(op, s);
-
-  const float value = s[value_offset_];
-  const float* adv = s + advantage_offset_;
-  float mean = 0.0f;
-  for (int a = 0; a < kActionCount; ++a) mean += adv[a];
-  mean /= static_cast<float>(kActionCount);
-  QValues q;
-  for (int a = 0; a < kActionCount; ++a) {
-    q[a] = value + adv[a] - mean;
-    if (!std::isfinite(q[a])) {
-      throw QNetworkInputError("Q-network output for action " + std::to_string(a) +
-                               " is not finite (state values far outside the training range?)");
+  if (person_tokens_ > 0) {
+    // Each present token through the encoder, then a softmax over the attention scores of the present ones; the
+    // pooled encoding is 0 when no token is present.
+    const int e = token_embedding_;
+    const float* tokens = s + state_offset_ + grid_size + feature_count_ + wall_rays_;
+    float* embeddings = s + embeddings_offset_;
+    float* pooled = s + pooled_offset_;
+    int present = 0;
+    for (int k = 0; k < person_tokens_; ++k) {
+      const float* t = tokens + k * token_size_;
+      if (!(t[0] > 0.5f)) continue;
+      std::copy(t, t + token_size_, s + token_in_offset_);
+      for (const Op& op : token_ops_) runOp(op, s);
+      std::copy(s + token_out_offset_, s + token_out_offset_ + e, embeddings + present * e);
+      ++present;
+    }
+    std::fill(pooled, pooled + e, 0.0f);
+    if (present > 0) {
+      float* attention_in = s + attention_in_offset_;
+      Eigen::Map<Eigen::VectorXf> mean(attention_in + e, e);
+      mean.setZero();
+      for (int k = 0; k < present; ++k) mean += Eigen::Map<const Eigen::VectorXf>(embeddings + k * e, e);
+      mean /= static_cast<float>(present);
+      std::array<float, kMaxPersonTokens> score{};
+      float top = -std::numeric_limits<float>::infinity();
+      for (int k = 0; k < present; ++k) {
+        std::copy(embeddings + k * e, embeddings + (k + 1) * e, attention_in);
+        for (const Op& op : attention_ops_) runOp(op, s);
+        score[static_cast<size_t>(k)] = s[attention_out_offset_];
+        top = std::max(top, score[static_cast<size_t>(k)]);
+      }
+      float total = 0.0f;
+      for (int k = 0; k < present; ++k)
+        total += (score[static_cast<size_t>(k)] = std::exp(score[static_cast<size_t>(k)] - top));
+      Eigen::Map<Eigen::VectorXf> out(pooled, e);
+      for (int k = 0; k < present; ++k)
+        out += (score[static_cast<size_t>(k)] / total) * Eigen::Map<const Eigen::VectorXf>(embeddings + k * e, e);
     }
   }
+  for (const Op& op : post_ops_) runOp(op, s);
+  return s;
+}
+
+const float* QNetwork::zValues(const Eigen::Ref<const Eigen::VectorXf>& state) const {
+  const float* s = forward(state);
+  const float* value = s + value_offset_;
+  const float* adv = s + advantage_offset_;
+  const int n = quantiles_;
+  thread_local std::vector<float> z;  // grows once per thread, like the scratch
+  if (static_cast<int>(z.size()) < kActionCount * n) z.resize(static_cast<size_t>(kActionCount * n));
+  for (int j = 0; j < n; ++j) {
+    float mean = 0.0f;
+    for (int a = 0; a < kActionCount; ++a) mean += adv[a * n + j];
+    mean /= static_cast<float>(kActionCount);
+    for (int a = 0; a < kActionCount; ++a) {
+      const float q = value[j] + adv[a * n + j] - mean;
+      if (!std::isfinite(q)) {
+        throw QNetworkInputError("Q-network output for action " + std::to_string(a) +
+                                 " is not finite (state values far outside the training range?)");
+      }
+      z[static_cast<size_t>(a * n + j)] = q;
+    }
+  }
+  return z.data();
+}
+
+std::vector<float> QNetwork::quantileValues(const Eigen::Ref<const Eigen::VectorXf>& state) const {
+  const float* z = zValues(state);
+  return std::vector<float>(z, z + kActionCount * quantiles_);
+}
+
+QNetwork::QValues QNetwork::qValues(const Eigen::Ref<const Eigen::VectorXf>& state) const {
+  const float* z = zValues(state);
+  QValues q;
+  for (int a = 0; a < kActionCount; ++a) {
+    float sum = 0.0f;
+    for (int j = 0; j < quantiles_; ++j) sum += z[a * quantiles_ + j];
+    q[static_cast<size_t>(a)] = quantiles_ == 1 ? sum : sum / static_cast<float>(quantiles_);
+  }
   return q;
+}
+
+QNetwork::QValues QNetwork::actionValues(const Eigen::Ref<const Eigen::VectorXf>& state) const {
+  if (cvar_count_ == quantiles_) return qValues(state);
+  float* z = const_cast<float*>(zValues(state));  // this thread's buffer: sorted in place
+  QValues out;
+  for (int a = 0; a < kActionCount; ++a) {
+    float* first = z + a * quantiles_;
+    std::sort(first, first + quantiles_);
+    float sum = 0.0f;
+    for (int j = 0; j < cvar_count_; ++j) sum += first[j];
+    out[static_cast<size_t>(a)] = sum / static_cast<float>(cvar_count_);
+  }
+  return out;
 }
 
 int QNetwork::maskedArgmax(const QValues& q, const ActionMask& mask) {
@@ -507,7 +688,7 @@ int QNetwork::maskedArgmax(const QValues& q, const ActionMask& mask) {
 
 int QNetwork::selectAction(const Eigen::Ref<const Eigen::VectorXf>& state, const ActionMask& mask) const {
   if (std::none_of(mask.begin(), mask.end(), [](bool b) { return b; })) return -1;
-  return maskedArgmax(qValues(state), mask);
+  return maskedArgmax(actionValues(state), mask);
 }
 
 std::string QNetwork::normalizationMismatch(const std::vector<std::pair<std::string, float>>& expected,
@@ -550,10 +731,22 @@ std::string QNetwork::previousActionMismatch(bool expected) const {
          " here (check dovs/previous_action: 1 adds the previous choice, in training and evaluation only)";
 }
 
+std::string QNetwork::tokenLayoutMismatch(int wall_rays, int person_tokens) const {
+  if (wall_rays != wall_rays_)
+    return "state layout of '" + source_ + "' differs: 'state layout: wall rays' is " + std::to_string(wall_rays_) +
+           " in the file but " + std::to_string(wall_rays) + " here (check dovs/wall_rays)";
+  if (person_tokens != person_tokens_)
+    return "state layout of '" + source_ + "' differs: 'state layout: person tokens' is " +
+           std::to_string(person_tokens_) + " in the file but " + std::to_string(person_tokens) +
+           " here (check dovs/person_tokens)";
+  return {};
+}
+
 std::string QNetwork::describe() const {
   std::ostringstream os;
   os << "Q-network '" << source_ << "': state " << grid_channels_ << "x" << kGridRows << "x" << kGridCols << " grid + "
-     << feature_count_ << " features, " << kActionCount << " actions\n";
+     << feature_count_ << " features + " << wall_rays_ << " wall rays + " << person_tokens_ << " person tokens, "
+     << kActionCount << " actions, " << quantiles_ << " quantiles (choice: mean of the lowest " << cvar_count_ << ")\n";
   for (std::size_t i = 0; i < layer_descriptions_.size(); ++i)
     os << "  " << i << ": " << layer_descriptions_[i] << "\n";
   return os.str();

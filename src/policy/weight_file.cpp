@@ -41,7 +41,7 @@ std::string layerField(std::size_t index, const LayerRecord* layer, const std::s
   return os.str();
 }
 
-bool knownStream(std::uint32_t s) { return s <= static_cast<std::uint32_t>(LayerStream::kAdvantage); }
+bool knownStream(std::uint32_t s) { return s <= static_cast<std::uint32_t>(LayerStream::kAttention); }
 bool knownType(std::uint32_t t) {
   return t >= static_cast<std::uint32_t>(LayerType::kConv2d) && t <= static_cast<std::uint32_t>(LayerType::kRelu);
 }
@@ -165,6 +165,10 @@ const char* layerStreamName(LayerStream stream) {
       return "value";
     case LayerStream::kAdvantage:
       return "advantage";
+    case LayerStream::kToken:
+      return "token";
+    case LayerStream::kAttention:
+      return "attention";
   }
   return "unknown";
 }
@@ -227,6 +231,11 @@ std::uint32_t weightFormatVersionFor(std::uint32_t grid_channels) {
   return grid_channels == 1 ? kWeightFormatVersion : kWeightFormatVersionChannels;
 }
 
+std::uint32_t weightFormatVersionFor(const WeightFileContents& c) {
+  if (c.wall_ray_count != 0 || c.person_token_count != 0 || c.quantile_count != 1) return kWeightFormatVersionTokens;
+  return weightFormatVersionFor(c.grid_channels);
+}
+
 std::vector<std::uint8_t> serializeWeightFile(const WeightFileContents& c, const std::string& path) {
   ByteWriter w;
   w.raw(kWeightFileMagic, kMagicSize);
@@ -235,6 +244,10 @@ std::vector<std::uint8_t> serializeWeightFile(const WeightFileContents& c, const
   w.u32(c.grid_cols);
   if (c.format_version >= kWeightFormatVersionChannels) w.u32(c.grid_channels);
   w.u32(c.feature_count);
+  if (c.format_version >= kWeightFormatVersionTokens) {
+    for (std::uint32_t v : {c.wall_ray_count, c.person_token_count, c.token_size, c.quantile_count, c.cvar_count})
+      w.u32(v);
+  }
   w.u32(static_cast<std::uint32_t>(c.normalization.size()));
   for (const auto& [name, value] : c.normalization) {
     if (name.size() > kMaxNameLength)
@@ -304,11 +317,11 @@ WeightFileContents parseWeightFile(const std::vector<std::uint8_t>& bytes, const
   // The version is judged before anything else is parsed: another version may lay its fields out differently.
   std::uint32_t version = 0;
   for (std::size_t i = 0; i < 4; ++i) version |= static_cast<std::uint32_t>(bytes[kMagicSize + i]) << (8 * i);
-  if (version != kWeightFormatVersion && version != kWeightFormatVersionChannels) {
+  if (version < kWeightFormatVersion || version > kWeightFormatVersionTokens) {
     throw WeightFileError(path, "format version",
                           "file has version " + std::to_string(version) + ", this reader supports versions " +
-                              std::to_string(kWeightFormatVersion) + " and " +
-                              std::to_string(kWeightFormatVersionChannels));
+                              std::to_string(kWeightFormatVersion) + " to " +
+                              std::to_string(kWeightFormatVersionTokens));
   }
   c.format_version = r.u32("format version");
   c.grid_rows = checkedRange(r.u32("state layout: grid rows"), 1, kMaxGridSide, path, "state layout: grid rows");
@@ -320,6 +333,15 @@ WeightFileContents parseWeightFile(const std::vector<std::uint8_t>& bytes, const
   }
   c.feature_count =
       checkedRange(r.u32("state layout: feature count"), 0, kMaxFeatures, path, "state layout: feature count");
+  if (version >= kWeightFormatVersionTokens) {
+    c.wall_ray_count =
+        checkedRange(r.u32("state layout: wall rays"), 0, kMaxWallRayCount, path, "state layout: wall rays");
+    c.person_token_count = checkedRange(r.u32("state layout: person tokens"), 0, kMaxPersonTokenCount, path,
+                                        "state layout: person tokens");
+    c.token_size = checkedRange(r.u32("state layout: token size"), 0, kMaxTokenSize, path, "state layout: token size");
+    c.quantile_count = checkedRange(r.u32("quantile count"), 1, kMaxQuantiles, path, "quantile count");
+    c.cvar_count = checkedRange(r.u32("cvar count"), 1, c.quantile_count, path, "cvar count");
+  }
   const std::uint32_t n_norm =
       checkedRange(r.u32("normalization count"), 0, kMaxNormalizationEntries, path, "normalization count");
   for (std::uint32_t i = 0; i < n_norm; ++i) {

@@ -77,8 +77,7 @@ class VecEnv {
     if (num_envs < 1 || num_envs > 4096) throw std::invalid_argument("num_envs must be in [1, 4096]");
     variants_.push_back(parseWorld(world_options, "world_options", 1.0));
     // Every world shares the DOVS parameters, so every state has the same grid channels and size.
-    state_size_ =
-        stateSize(variants_.front().config.dovs.grid_channels, variants_.front().config.dovs.previous_action != 0);
+    state_size_ = stateNormalization(variants_.front().config.world.robot, variants_.front().config.dovs).stateSize();
     for (int i = 0; i < num_envs; ++i) {
       envs_.push_back(std::make_unique<Env>());
       envs_.back()->built = {std::make_shared<Episode>(variants_.front().config)};

@@ -45,6 +45,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
   const StateNormalization normalization = stateNormalization(config.limits, config.dovs);
   VelocitySpace dovs;
   std::unique_ptr<PredictedArcs> predicted_arcs;
+  TrackHistory track_history;
   if (!config.people_predictor.empty()) {
     predicted_arcs = std::make_unique<PredictedArcs>(
         std::make_shared<const PeoplePredictor>(PeoplePredictor::load(config.people_predictor)));
@@ -150,7 +151,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     DovsStep step;
     const Twist2 odom_twist{odom->twist.twist.linear.x, odom->twist.twist.angular.z};
     if (!buildDovsStep(obstacles, *robot_pose, odom_twist, goal, config.limits, normalization, config.shield,
-                       config.base_frame, builder, dovs, step, predicted_arcs.get())
+                       config.base_frame, builder, dovs, step, predicted_arcs.get(), &track_history)
              .empty()) {
       continue;
     }
@@ -174,7 +175,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     }
     if (row.action >= 0 && row.action != kEscapeChoice) {
       const Eigen::Map<const Eigen::VectorXf> state(d.state.data(), static_cast<Eigen::Index>(d.state.size()));
-      const QNetwork::QValues q = network.qValues(state);
+      const QNetwork::QValues q = network.actionValues(state);
       double second = -std::numeric_limits<double>::infinity();
       for (size_t i = 0; i < q.size(); ++i) {
         if (row.valid[i] && static_cast<int>(i) != row.action) second = std::max(second, static_cast<double>(q[i]));
@@ -182,7 +183,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
       row.q_gap = std::isfinite(second) ? q[static_cast<size_t>(row.action)] - second : 1e9;
     }
     for (int i = 0; i < kStateGridCells; ++i) row.free_cells += d.state[static_cast<size_t>(i)] > 0.0f ? 1 : 0;
-    const size_t features_at = d.state.size() - static_cast<size_t>(kNumFeatures);  // after every grid channel
+    const size_t features_at = static_cast<size_t>(network.gridChannels() * kStateGridCells);  // after the grid
     for (int i = 0; i < kNumFeatures; ++i)
       row.features[static_cast<size_t>(i)] = d.state[features_at + static_cast<size_t>(i)];
     result.decisions.push_back(row);

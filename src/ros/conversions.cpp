@@ -208,6 +208,10 @@ std::string observationObstaclesFromMsg(const TrackedObstacleArray& msg, std::ve
     o.speed = m.is_static ? 0.0 : m.speed;
     o.turn_rate = m.is_static ? 0.0 : m.turn_rate;
     o.is_static = m.is_static;
+    o.id = m.id;
+    o.age_s = std::isfinite(m.age) ? m.age : -1.0;
+    const double variance = 0.5 * (m.covariance[0] + m.covariance[6]);  // x and y of the row-major 5 x 5
+    o.position_sigma_m = std::isfinite(variance) && variance >= 0.0 ? std::sqrt(variance) : -1.0;
     obstacles.push_back(o);
   }
   for (size_t i = 0; i < msg.segments.size(); ++i) {

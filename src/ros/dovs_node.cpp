@@ -170,7 +170,7 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   try {
     const std::string obstacle_error =
         buildDovsStep(*obstacles, robot_pose, odom_twist, goal_, limits_, normalization_, shield_, base_frame_,
-                      builder_, dovs_, step, predicted_arcs_.get());
+                      builder_, dovs_, step, predicted_arcs_.get(), &track_history_);
     if (!obstacle_error.empty()) {
       ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());
       return;

@@ -51,6 +51,7 @@ class DovsNode {
   ActionShieldConfig shield_;
   VelocitySpace dovs_;
   std::unique_ptr<PredictedArcs> predicted_arcs_;  ///< people_predictor: moving tracks on their predicted arcs
+  TrackHistory track_history_;  ///< where the tracks were, for the person tokens (dovs/person_tokens > 0)
 
   // The map's walls (map frame), when `use_map`: static geometry beside the scan's, for what the LIDAR cannot see.
   bool use_map_ = false;

@@ -60,7 +60,7 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
                           const StateNormalization& normalization, const ActionShieldConfig& shield,
                           const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out,
-                          PredictedArcs* predicted_arcs) {
+                          PredictedArcs* predicted_arcs, TrackHistory* history) {
   Observation& obs = out.observation;
   obs.robot_pose = robot_pose;
   obs.stamp_s = obstacles.header.stamp.toSec();
@@ -141,7 +141,8 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   }
   m.interval_begin.push_back(static_cast<uint32_t>(m.interval_lo.size()));
   m.grid_rows = m.grid_cols = static_cast<uint16_t>(dovs.gridSize());
-  const StateVector state = buildState(dovs, obs, normalization);
+  if (history != nullptr && normalization.person_tokens > 0) history->update(obs.stamp_s, obs.obstacles);
+  const StateVector state = buildState(dovs, obs, normalization, nullptr, kNoPreviousChoice, history);
   m.state.assign(state.data(), state.data() + state.size());
   for (const auto& field : normalization.fields()) m.state_normalization.push_back(field.second);
   return {};

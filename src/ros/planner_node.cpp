@@ -126,6 +126,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
   if (mismatch.empty()) mismatch = network_->gridChannelsMismatch(expected.grid_channels);
   if (mismatch.empty()) mismatch = network_->previousActionMismatch(expected.previous_action != 0);
+  if (mismatch.empty()) mismatch = network_->tokenLayoutMismatch(expected.wall_rays, expected.person_tokens);
   if (!mismatch.empty()) {
     throw ParameterError("model '" + model_path +
                          "' was trained with another state normalisation or layout: " + mismatch);

@@ -137,6 +137,8 @@ DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
   c.grid_contact_horizon_s = param<double>(pnh, "dovs/grid_contact_horizon", c.grid_contact_horizon_s);
   c.grid_channels = param<int>(pnh, "dovs/grid_channels", c.grid_channels);
   c.previous_action = param<int>(pnh, "dovs/previous_action", c.previous_action);
+  c.wall_rays = param<int>(pnh, "dovs/wall_rays", c.wall_rays);
+  c.person_tokens = param<int>(pnh, "dovs/person_tokens", c.person_tokens);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
   if (c.grid_channels == 2) {

@@ -463,11 +463,11 @@ TEST(WeightFile, BadMagicVersionChecksumTrailing) {
   bad_magic[0] = 'X';
   EXPECT_EQ(loadErrorField(bad_magic, "magic.dqnw"), "magic");
 
-  WeightFileContents v3 = defaultContents();
-  v3.format_version = 3;
+  WeightFileContents v4 = defaultContents();
+  v4.format_version = 4;
   std::string message;
-  EXPECT_EQ(loadErrorField(serializeWeightFile(v3), "version.dqnw", &message), "format version");
-  EXPECT_NE(message.find("version 3"), std::string::npos) << message;
+  EXPECT_EQ(loadErrorField(serializeWeightFile(v4), "version.dqnw", &message), "format version");
+  EXPECT_NE(message.find("version 4"), std::string::npos) << message;
 
   auto flipped = bytes;
   flipped[bytes.size() / 2] ^= 0x40;

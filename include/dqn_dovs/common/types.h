@@ -3,6 +3,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -33,6 +35,12 @@ struct MovingObstacle {
   double speed = 0.0;      ///< m/s along heading
   double turn_rate = 0.0;  ///< rad/s
   bool is_static = false;
+  /// What a tracker knows of it (the person tokens of the network state, dovs/state.h): its track id (-1: none, e.g.
+  /// a simulated disc), the track's age in s (< 0: unknown) and the standard deviation of its position in m (< 0:
+  /// unknown; sqrt of the mean of the x and y variances).
+  int id = -1;
+  double age_s = -1.0;
+  double position_sigma_m = -1.0;
 };
 
 /// One tracked obstacle as the tracker reports it (fixed frame).
@@ -57,6 +65,9 @@ struct TrackedObstacle {
     m.speed = is_static ? 0.0 : speed;
     m.turn_rate = is_static ? 0.0 : turn_rate;
     m.is_static = is_static;
+    m.id = id;
+    m.age_s = age_s;
+    m.position_sigma_m = std::sqrt(std::max(0.0, 0.5 * (covariance(0, 0) + covariance(1, 1))));
     return m;
   }
 };

@@ -67,6 +67,12 @@ struct DovsConfig {
   /// actions, or anything else: the shield's escape, another planner's command); all 0 at an episode's first
   /// decision. Training and evaluation only: the nodes refuse it. The DOVS itself does not change. 0 or 1.
   int previous_action = 0;
+  /// Wall rays and person tokens in the network state (StateNormalization::wall_rays / person_tokens, docs/dovs.md
+  /// "Person tokens"): the distance to the nearest wall along that many directions, and one token per obstacle for
+  /// the nearest ones (position, velocity, radius, 1 s of history, the predicted 2 s path, track age and
+  /// uncertainty). The DOVS itself does not change. 0..32 and 0..16.
+  int wall_rays = 0;
+  int person_tokens = 0;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -74,7 +80,7 @@ struct DovsConfig {
 
 /// Sets the DovsConfig field named as in config/dovs.yaml's `dovs/` block (obstacle_range, safety_factor,
 /// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth, grid_contact_horizon,
-/// grid_channels, previous_action)
+/// grid_channels, previous_action, wall_rays, person_tokens)
 /// from text. Returns
 /// an empty string, or a message naming the parameter and the reason (unknown name, not a number, not an
 /// integer). The value is not range-checked here: validate() does that for the whole configuration.

@@ -32,10 +32,29 @@ constexpr int kPreviousChoiceOther = 8;
 /// The previous choice at an episode's first decision: none (every previous-choice input is 0).
 constexpr int kNoPreviousChoice = -1;
 
+/// Floats of one person token (docs/dovs.md "Person tokens"), in this order: present (1, or 0 for an empty slot,
+/// whose other values are 0); position x, y in the robot frame; velocity x, y in the robot frame; radius; the
+/// position 1 s before, x, y (in the robot frame of now); the predicted position 1 s and 2 s ahead along the
+/// obstacle's motion model, x, y each; the track's age; its position's standard deviation.
+constexpr int kPersonTokenSize = 14;
+/// The most person tokens (DovsConfig::person_tokens) and wall rays (DovsConfig::wall_rays) a state carries.
+constexpr int kMaxPersonTokens = 16;
+constexpr int kMaxWallRays = 32;
+/// Fixed scales of the token entries that no StateNormalization field scales: the age (s), the position's standard
+/// deviation (m), the radius (m); and the clip of every token entry (positions beyond 2 obstacle ranges are clipped).
+constexpr float kTokenAgeScale_s = 5.0f;
+constexpr float kTokenSigmaScale_m = 1.0f;
+constexpr float kTokenRadiusScale_m = 1.0f;
+constexpr float kTokenClip = 2.0f;
+/// How far back a token's history reaches (s), and how long TrackHistory keeps a position.
+constexpr double kTokenHistory_s = 1.0;
+
 /// Floats in a state with `grid_channels` grid channels: grid_channels x 400 grid values, then the 8 features, then
-/// with `previous_action` the 9 previous-choice inputs.
-constexpr int stateSize(int grid_channels, bool previous_action = false) {
-  return grid_channels * kStateGridCells + kNumFeatures + (previous_action ? kPreviousChoiceInputs : 0);
+/// with `previous_action` the 9 previous-choice inputs, then `wall_rays` ray lengths, then `person_tokens` tokens of
+/// kPersonTokenSize floats.
+constexpr int stateSize(int grid_channels, bool previous_action = false, int wall_rays = 0, int person_tokens = 0) {
+  return grid_channels * kStateGridCells + kNumFeatures + (previous_action ? kPreviousChoiceInputs : 0) + wall_rays +
+         person_tokens * kPersonTokenSize;
 }
 
 /// The network input (stateSize(grid_channels) floats).
@@ -83,8 +102,17 @@ struct StateNormalization {
   /// 1. Part of the state's layout, not a normalisation entry: the weight file's `state layout: feature count` is 17
   /// with it (8 without), and fields() leaves it out.
   int previous_action = 0;
+  /// Wall rays after the features and the previous choice (DovsConfig::wall_rays, docs/dovs.md "Person tokens"):
+  /// the distance to the nearest wall along that many directions evenly spread from straight ahead, over the
+  /// obstacle range, clipped to 1. Layout, not normalisation: the weight file's `state layout: wall rays` (version 3).
+  int wall_rays = 0;
+  /// Person tokens after the wall rays (DovsConfig::person_tokens): one per obstacle for the nearest ones, empty
+  /// slots at the end. Layout, not normalisation: the weight file's `state layout: person tokens` (version 3).
+  int person_tokens = 0;
   /// Inputs after the grid: the 8 features, and the 9 previous-choice inputs with previous_action.
   int featureInputs() const { return kNumFeatures + (previous_action != 0 ? kPreviousChoiceInputs : 0); }
+  /// Floats in a state of this layout (stateSize()).
+  int stateSize() const { return dqn_dovs::stateSize(grid_channels, previous_action != 0, wall_rays, person_tokens); }
 
   /// The fields every normalisation has (the first 13, the paper's state).
   static constexpr int kNumFields = 13;
@@ -136,6 +164,41 @@ std::vector<float> windowGoalChannels(const VelocitySpace& dovs, const Observati
 /// The 8 normalised features of `obs` (robot twist, goal) and the DOVS's closest obstacle.
 FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm);
 
+/// Remembers where each tracked obstacle was (fixed frame, by MovingObstacle::id) over the last kTokenHistory_s and
+/// a little more, so that a person token can carry its position 1 s before. One per decision-maker: an episode, a
+/// dovs_node. Obstacles without an id (-1) are not remembered.
+class TrackHistory {
+ public:
+  /// Records the positions of `obstacles` at `stamp_s`. A stamp earlier than the last one (a time jump back, a new
+  /// episode) clears the history first. Throws StateError for a NaN/inf stamp.
+  void update(double stamp_s, const std::vector<MovingObstacle>& obstacles);
+  /// The position of track `id` closest to kTokenHistory_s before the last update, or the oldest one kept when the
+  /// track is younger; false when the track was never seen.
+  bool positionBefore(int id, Vec2& out) const;
+  void clear();
+
+ private:
+  struct Sample {
+    double stamp_s;
+    Vec2 position;
+  };
+  double last_stamp_s_ = -1e300;
+  std::vector<std::pair<int, std::vector<Sample>>> tracks_;  // by id, samples oldest first
+};
+
+/// The person tokens of `obs` (norm.person_tokens x kPersonTokenSize floats; see kPersonTokenSize): its obstacles
+/// nearest first (by centre distance minus radius), at most norm.person_tokens, then empty slots. `history` gives the
+/// positions 1 s before (null, or a track it does not know: the current position). Positions are scaled by
+/// norm.obstacle_clearance_scale_m, velocities by norm.obstacle_speed_scale_mps, the rest by the kToken* scales; every
+/// value is clipped to +-kTokenClip. Throws StateError for a NaN/inf robot pose or obstacle.
+std::vector<float> personTokens(const Observation& obs, const StateNormalization& norm,
+                                const TrackHistory* history = nullptr);
+
+/// The wall rays of `obs` (norm.wall_rays floats): along directions k * 2 pi / wall_rays (k = 0 straight ahead,
+/// counter-clockwise) from the robot's centre, the distance to the nearest of obs.segments over
+/// norm.obstacle_clearance_scale_m, 1 when none is nearer.
+std::vector<float> wallRays(const Observation& obs, const StateNormalization& norm);
+
 /// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), with
 /// norm.grid_channels = 3 followed by windowGoalChannels (800 more), with norm.grid_channels = 2 by
 /// `previous_grid` (the first 400 values of the previous decision's state; the current grid when null, i.e. at an
@@ -143,8 +206,9 @@ FeatureVector computeFeatures(const VelocitySpace& dovs, const Observation& obs,
 /// (an action 0..7 or kPreviousChoiceOther; kNoPreviousChoice leaves the 9 inputs at 0). With
 /// norm.grid_contact_horizon_s = T > 0 the DOVS grid is graded (gradedGrid). Throws StateError unless
 /// dovs.gridSize() == 20, when `previous_grid` has another size or NaN/inf values, or `previous_choice` is none of
-/// those.
+/// those. With norm.wall_rays and norm.person_tokens, wallRays and personTokens (with `history`) follow.
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
-                       const std::vector<float>* previous_grid = nullptr, int previous_choice = kNoPreviousChoice);
+                       const std::vector<float>* previous_grid = nullptr, int previous_choice = kNoPreviousChoice,
+                       const TrackHistory* history = nullptr);
 
 }  // namespace dqn_dovs

@@ -219,6 +219,7 @@ class Episode {
   Eigen::VectorXf state_;
   std::vector<float> previous_grid_;  // the last decision's first grid channel (grid_channels = 2), empty at reset
   int previous_choice_ = kNoPreviousChoice;  // what the last step ran (previous_action = 1), none at reset
+  TrackHistory track_history_;  // where the tracks were, for the person tokens' history (person_tokens > 0)
   Outcome outcome_ = Outcome::kRunning;
   int steps_ = 0;
   double path_length_m_ = 0.0;

@@ -42,6 +42,16 @@ struct DuelingArchitecture {
   /// Inputs of the feature stream: 8 (the features) or 17 (with the previous choice, docs/dovs.md "The previous
   /// action"; QNetwork::kFeatureCountWithPreviousChoice).
   std::uint32_t feature_count = 8;
+  /// Wall rays and person tokens in the state (docs/dovs.md "Person tokens"); with tokens, the token encoder's
+  /// hidden widths (its last is the encoding's width) and the attention score's hidden widths. A file with any of
+  /// them, or with quantiles > 1, is written as format version 3.
+  std::uint32_t wall_rays = 0;
+  std::uint32_t person_tokens = 0;
+  std::vector<std::uint32_t> token_hidden = {64, 64};
+  std::vector<std::uint32_t> attention_hidden = {64};
+  /// Quantiles of each action's return (1: the plain dueling head) and how many of the lowest the choice averages.
+  std::uint32_t quantiles = 1;
+  std::uint32_t cvar_count = 1;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -86,8 +96,20 @@ class QNetwork {
   /// Inputs after the grid (the file's `state layout: feature count`): kFeatureCount, or
   /// kFeatureCountWithPreviousChoice when the state carries the previous choice.
   int featureCount() const { return feature_count_; }
-  /// Floats in one state: gridChannels() x 20 x 20 grid values (channel-major, each row-major), then featureCount().
-  int stateSize() const { return grid_channels_ * kGridRows * kGridCols + feature_count_; }
+  /// Wall rays after the features (version 3's `state layout: wall rays`, 0 before).
+  int wallRays() const { return wall_rays_; }
+  /// Person tokens after the wall rays (version 3's `state layout: person tokens`, 0 before), each
+  /// kPersonTokenSize (dovs/state.h) floats.
+  int personTokens() const { return person_tokens_; }
+  /// Quantiles of each action's return (1: a plain Q-network) and how many of the lowest ones the action choice
+  /// averages (version 3's `quantile count`, `cvar count`).
+  int quantileCount() const { return quantiles_; }
+  int cvarCount() const { return cvar_count_; }
+  /// Floats in one state: gridChannels() x 20 x 20 grid values (channel-major, each row-major), then featureCount(),
+  /// then wallRays(), then personTokens() tokens.
+  int stateSize() const {
+    return grid_channels_ * kGridRows * kGridCols + feature_count_ + wall_rays_ + person_tokens_ * token_size_;
+  }
 
   /// Q-values of one state (stateSize() floats: the grid channels row-major, then the features).
   /// Throws QNetworkInputError on a wrong size or a NaN/inf element (naming the index), and when the
@@ -95,8 +117,17 @@ class QNetwork {
   /// (and when a larger network is evaluated), so steady-state calls do not allocate.
   QValues qValues(const Eigen::Ref<const Eigen::VectorXf>& state) const;
 
-  /// The valid action with the highest Q-value (lowest index on ties), or -1 when no action is valid,
-  /// in which case the network is not evaluated and the caller decelerates. Throws like qValues.
+  /// What the action choice maximises: with quantileCount() = N > 1 each action's CVaR, the mean of its cvarCount()
+  /// lowest quantiles (sorted ascending); the Q-values otherwise. Throws like qValues.
+  QValues actionValues(const Eigen::Ref<const Eigen::VectorXf>& state) const;
+
+  /// Every quantile, action-major (action a's quantile j at a * quantileCount() + j): Z = V + A - mean over actions.
+  /// Throws like qValues.
+  std::vector<float> quantileValues(const Eigen::Ref<const Eigen::VectorXf>& state) const;
+
+  /// The valid action with the highest action value (actionValues; the Q-value of a plain network) (lowest index on
+  /// ties), or -1 when no action is valid, in which case the network is not evaluated and the caller decelerates.
+  /// Throws like qValues.
   int selectAction(const Eigen::Ref<const Eigen::VectorXf>& state, const ActionMask& mask) const;
 
   /// Masked argmax on precomputed Q-values: -1 when the mask is all false; NaN values are never chosen.
@@ -118,6 +149,10 @@ class QNetwork {
   /// Empty when the network reads the previous choice exactly when `expected` says the states carry it, otherwise a
   /// message naming the file's `state layout: feature count` and the DOVS parameter (dovs/previous_action).
   std::string previousActionMismatch(bool expected) const;
+
+  /// Empty when the network reads exactly `wall_rays` wall rays and `person_tokens` person tokens, otherwise a message
+  /// naming the file's state layout field and the DOVS parameter (dovs/wall_rays, dovs/person_tokens).
+  std::string tokenLayoutMismatch(int wall_rays, int person_tokens) const;
   /// Free-text provenance (training command, date, source revision).
   std::string metadata() const { return metadata_; }
 
@@ -146,8 +181,28 @@ class QNetwork {
 
   QNetwork() = default;
   void runOp(const Op& op, float* scratch) const;
+  /// Runs the network on `state` (checked) and returns the thread's scratch with the heads' outputs in place.
+  const float* forward(const Eigen::Ref<const Eigen::VectorXf>& state) const;
+  /// forward, then every quantile action-major in a per-thread buffer (valid until the thread's next call).
+  const float* zValues(const Eigen::Ref<const Eigen::VectorXf>& state) const;
 
-  std::vector<Op> ops_;
+  std::vector<Op> ops_;            // grid and feature streams (into the concatenation)
+  std::vector<Op> post_ops_;       // trunk, value and advantage heads
+  std::vector<Op> token_ops_;      // the token encoder, run on each present token
+  std::vector<Op> attention_ops_;  // the attention score, run on each present token's [encoding, mean encoding]
+  int wall_rays_ = 0;
+  int person_tokens_ = 0;
+  int token_size_ = 0;
+  int quantiles_ = 1;
+  int cvar_count_ = 1;
+  int token_embedding_ = 0;      // width of the token encoder's output (E)
+  int token_in_offset_ = 0;      // where one token is copied for the encoder
+  int token_out_offset_ = 0;     // the encoder's output
+  int embeddings_offset_ = 0;    // every token's encoding, person_tokens_ x E
+  int attention_in_offset_ = 0;  // [encoding, mean encoding], 2E
+  int attention_out_offset_ = 0;
+  int pooled_offset_ = 0;  // the pooled encoding, inside the concatenation
+  int state_offset_ = 0;
   std::vector<RowMatrix> weights_;
   std::vector<Eigen::VectorXf> biases_;
   int scratch_size_ = 0;

@@ -21,6 +21,14 @@ inline constexpr std::uint32_t kWeightFormatVersion = 1;
 /// Version 2 adds one field, `state layout: grid channels`, after the grid's columns (docs/weight_format.md):
 /// the grid is a C x rows x cols image (the DOVS grid, then the dynamic window and the goal line).
 inline constexpr std::uint32_t kWeightFormatVersionChannels = 2;
+/// Version 3 adds, after the feature count, the wall rays, the person tokens (count and size) and the quantile head
+/// (quantile count, CVaR count) (docs/weight_format.md), and two streams: the token encoder and the attention score.
+inline constexpr std::uint32_t kWeightFormatVersionTokens = 3;
+/// Largest wall ray count, person token count, token size and quantile count a file may declare.
+inline constexpr std::uint32_t kMaxWallRayCount = 32;
+inline constexpr std::uint32_t kMaxPersonTokenCount = 16;
+inline constexpr std::uint32_t kMaxTokenSize = 256;
+inline constexpr std::uint32_t kMaxQuantiles = 256;
 /// Largest grid channel count a file may declare.
 inline constexpr std::uint32_t kMaxGridChannels = 16;
 
@@ -43,7 +51,17 @@ enum class LayerType : std::uint32_t { kConv2d = 1, kLinear = 2, kRelu = 3 };
 /// Which part of the two-stream dueling network a layer belongs to. The topology is fixed by the
 /// format: grid and feature streams run side by side, their outputs are concatenated (grid first,
 /// flattened channel-major), the trunk follows, then the value and advantage heads.
-enum class LayerStream : std::uint32_t { kGrid = 0, kFeature = 1, kTrunk = 2, kValue = 3, kAdvantage = 4 };
+/// Version 3 adds the token encoder (run on each person token) and the attention score (run on each token's encoding
+/// beside the mean encoding); their pooled encoding joins the concatenation after the feature stream's output.
+enum class LayerStream : std::uint32_t {
+  kGrid = 0,
+  kFeature = 1,
+  kTrunk = 2,
+  kValue = 3,
+  kAdvantage = 4,
+  kToken = 5,
+  kAttention = 6
+};
 
 /// Human-readable names used in error messages and descriptions.
 const char* layerTypeName(LayerType type);
@@ -86,6 +104,14 @@ struct WeightFileContents {
   /// grid_channels x grid_rows x grid_cols grid values, channel-major, then the features.
   std::uint32_t grid_channels = 1;
   std::uint32_t feature_count = 8;  ///< normalised scalar features after the grid
+  /// Version 3 only (0, 0, 0, 1, 1 in older files): wall rays after the features; person tokens after them and the
+  /// floats of each; the quantiles of each action's return (1: the plain Q-value); how many of the lowest quantiles
+  /// the action choice averages (CVaR; = quantile_count: the mean, i.e. Q).
+  std::uint32_t wall_ray_count = 0;
+  std::uint32_t person_token_count = 0;
+  std::uint32_t token_size = 0;
+  std::uint32_t quantile_count = 1;
+  std::uint32_t cvar_count = 1;
   /// The state normalisation the network was trained with, as named constants (file order kept).
   std::vector<std::pair<std::string, float>> normalization;
   std::uint32_t action_count = 8;
@@ -105,6 +131,9 @@ std::uint32_t crc32(const std::uint8_t* data, std::size_t size);
 
 /// The version a writer puts in a file for `grid_channels`: 1 for one channel, 2 otherwise.
 std::uint32_t weightFormatVersionFor(std::uint32_t grid_channels);
+/// The version a writer puts in a file of `contents`: 3 with wall rays, person tokens or quantiles, otherwise
+/// weightFormatVersionFor(grid_channels), so older networks keep their bytes.
+std::uint32_t weightFormatVersionFor(const WeightFileContents& contents);
 
 /// Serialises `contents` with its checksum. Writes the header fields as given (even a foreign version or
 /// layout, which lets tests produce such files), but throws WeightFileError when a tensor's length does
