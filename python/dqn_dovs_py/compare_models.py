@@ -109,7 +109,8 @@ def state_flags(model: str) -> list[str]:
     """dqn_dovs_eval flags that build the state the network in `model` was trained on: its graded grid's
     horizon (normalisation entry grid_contact_horizon_s, docs/dovs.md "The graded grid"), its grid channels
     (the file's `state layout: grid channels`, docs/dovs.md "Grid channels") and the previous choice (17 feature
-    inputs, docs/dovs.md "The previous action"); none for the paper's state."""
+    inputs, docs/dovs.md "The previous action"), the wall rays and the person tokens (format version 3, docs/dovs.md
+    "Person tokens"); none for the paper's state."""
     weights = load_weights(model)
     horizon = weights.normalization.get("grid_contact_horizon_s", 0.0)
     values = [f"grid_contact_horizon={horizon:.9g}"] if horizon else []
@@ -117,6 +118,10 @@ def state_flags(model: str) -> list[str]:
         values.append(f"grid_channels={weights.grid_channels}")
     if weights.feature_count == FEATURE_COUNT_WITH_PREVIOUS_CHOICE:
         values.append("previous_action=1")
+    if weights.wall_ray_count:
+        values.append(f"wall_rays={weights.wall_ray_count}")
+    if weights.person_token_count:
+        values.append(f"person_tokens={weights.person_token_count}")
     return ["--dovs", ",".join(values)] if values else []
 
 

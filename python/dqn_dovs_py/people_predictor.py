@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import provenance
+
 MAGIC = b"DQNDPPv2"
 HISTORY = 5  # steps of the past (1 s at 0.2 s)
 FUTURE = 10  # steps predicted (2 s)
@@ -344,6 +346,14 @@ def predict(model: dict, tracks: np.ndarray, walls: np.ndarray) -> np.ndarray:
     return out
 
 
+def config_text(a: argparse.Namespace) -> str:
+    """The provenance's `config` of a training run: every option but the seed and the output, the folders by their
+    repository paths."""
+    folders = {k: " ".join(provenance.repo_path(d) for d in getattr(a, k)) for k in ("train", "valid")}
+    return (f"people_predictor --inputs {a.inputs} --epochs {a.epochs} --hidden {a.hidden} --step {a.step:g} "
+            f"--train {folders['train']} --valid {folders['valid']}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--train", nargs="+", required=True, help="dqn_dovs_eval output folders (paths.json) to train on")
@@ -380,7 +390,9 @@ def main(argv=None) -> int:
         per_family[family] = {"samples": len(x), "constant_velocity": errors(c, y, a.step),
                               "learned": errors(learned, y, a.step)}
     summary = {"inputs": a.inputs, "constant_velocity": cv, "learned": history[-1], "train_samples": len(tr[0]),
-               "valid_samples": len(va[0]), "per_family": per_family, "seconds": round(time.time() - t0, 1)}
+               "valid_samples": len(va[0]), "per_family": per_family, "seconds": round(time.time() - t0, 1),
+               # The .dqnp format has no metadata: its provenance (dqn_dovs_py.provenance) is kept here.
+               "metadata": provenance.lines(provenance.make(config_text(a), a.seed))}
     Path(a.out).with_suffix(".json").write_text(json.dumps(summary, indent=2) + "\n")
     print(json.dumps(summary, indent=2))
     return 0

@@ -10,6 +10,15 @@ environments' episodes) into TRIAL/eval/results.csv, TRIAL = OUT/trials/CONFIG/s
 `s_dovs`, which needs no network) and, when asked, a reference weight file (`--reference models/dqn_dovs.dqnw`) are
 evaluated once on the same episodes (OUT/baselines/METHOD/, OUT/reference/).
 
+With --eval-worlds FAMILY,... every side is evaluated instead in each of those world families at each count of
+--eval-obstacles (a list such as 4,8,12, the default there, or A-B), one dqn_dovs_eval run per family and count
+(`--world FAMILY --obstacles N`, plus --eval-people-mix, e.g. `headline`) into EVAL/FAMILY_nN/results.csv, EVAL
+being TRIAL/eval, OUT/baselines/METHOD or OUT/reference; e.g. `--eval-worlds crowd,corridor,doorway,clutter,junction
+--eval-people-mix headline --eval-obstacles 4,8,12 --eval-episodes 34`: 510 episodes per side. A rate is then the
+mean over the family and count runs, and the tables add the robot-at-fault rate (results.csv's at_fault) and each
+family's success and robot-at-fault rate. --eval-threads sets each evaluation's --threads (default:
+--cpus-per-trial).
+
 Without --address the sweep starts Ray on this machine (`--num-cpus`, default every core); with one it joins that
 Ray cluster, whose every node must see the repository (built, with its .venv) and OUT at the same paths, e.g. on
 shared storage, and must run Ray from the project's venv (docs/training.md, "Sweeps on Ray").
@@ -17,9 +26,10 @@ shared storage, and must run Ray from the project's venv (docs/training.md, "Swe
 The sweep prints one line per finished trial and writes OUT/sweep.md, sweep.csv and sweep.json: one table of the
 configurations ranked by mean success over their seeds (ties: the lower mean collision rate), with the mean
 success, collision and timeout rates, the success of each seed, and paired comparisons of each configuration
-against the best one and against each baseline (and the reference). A pair is the same generated episode (obstacle
-count, episode number) played by both sides with the same trial seed; every seed's pairs are pooled: wins, losses
-and the exact two-sided sign test (benchmark_report.sign_test_p). A rate is the mean over the obstacle counts of the
+against the best one and against each baseline (and the reference). A pair is the same generated episode (scenario,
+which names the world family, obstacle count, episode number) played by both sides with the same trial seed
+(worlds_report.paired); every seed's pairs are pooled: wins, losses and the exact two-sided sign test
+(benchmark_report.sign_test_p). A rate is the mean over the obstacle counts of the
 per-count rates (report.summarize, the evaluation summary's mean row). A trial that fails is listed with its error,
 the others go on, and the sweep exits 1 at the end; bad input exits 2 before anything runs.
 """
@@ -41,7 +51,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
 
-from .benchmark_report import Paired, paired_comparison, sign_test_p
+from .benchmark_report import Paired, sign_test_p
 from .report import Record, read_results, summarize
 from .select_model import obstacle_counts
 
@@ -56,6 +66,10 @@ SWEEP_MD, SWEEP_CSV, SWEEP_JSON = "sweep.md", "sweep.csv", "sweep.json"
 TRIALS_DIR, BASELINES_DIR, REFERENCE_DIR = "trials", "baselines", "reference"
 TRAIN_LOG, EVAL_LOG, TRIAL_JSON, RUN_DIR, EVAL_DIR = "train.log", "eval.log", "trial.json", "run", "eval"
 REFERENCE = "reference"
+# dqn_dovs_eval's world families (--world) and the counts of people a worlds evaluation uses by default (those of
+# scripts/benchmark_worlds.sh).
+WORLD_FAMILIES = ("room", "crowd", "corridor", "doorway", "clutter", "junction")
+DEFAULT_OBSTACLES, DEFAULT_WORLD_COUNTS = "3-15", "4,8,12"
 SIGNIFICANCE = 0.05
 # Seconds the check of a cluster address waits for its port to answer.
 CONNECT_TIMEOUT_S = 5.0
@@ -73,15 +87,25 @@ class SweepError(ValueError):
 
 
 @dataclass
+class Evaluation:
+    """One dqn_dovs_eval run of a task: into `out_dir` (results.csv), its output in `log`."""
+
+    label: str  # "" for the one evaluation of the room mode, FAMILY_nN with --eval-worlds
+    command: list[str]
+    out_dir: str
+    log: str
+
+
+@dataclass
 class TrialSpec:
-    """One Ray task: a training run and its evaluation (kind "trial"), or the evaluation of a baseline method or of
-    the reference weight file (kinds "baseline", "reference"). Commands and paths are absolute."""
+    """One Ray task: a training run and its evaluations (kind "trial"), or the evaluations of a baseline method or
+    of the reference weight file (kinds "baseline", "reference"). Commands and paths are absolute."""
 
     kind: str
     name: str  # the configuration's name, the baseline method or REFERENCE
     seed: int | None  # the training seed; None for a baseline or the reference
     directory: str
-    eval_command: list[str]
+    evaluations: list[Evaluation]
     env: dict[str, str]  # added to the worker's environment
     cwd: str
     train_command: list[str] | None = None
@@ -104,6 +128,7 @@ class TrialOutcome:
     ok: bool = False
     error: str = ""
     results: str = ""  # the evaluation's results.csv
+    world_results: dict[str, str] = field(default_factory=dict)  # with --eval-worlds: FAMILY_nN -> results.csv
     model: str | None = None
     node: str = ""
     train_s: float = 0.0
@@ -156,7 +181,7 @@ def run_trial(spec: TrialSpec) -> TrialOutcome:
     t0 = time.perf_counter()
     out = TrialOutcome(spec.kind, spec.name, spec.seed, spec.directory, model=spec.model, node=socket.gethostname(),
                        train_command=_quoted(spec.train_command) if spec.train_command else "",
-                       eval_command=_quoted(spec.eval_command))
+                       eval_command="; ".join(_quoted(e.command) for e in spec.evaluations))
     env = dict(os.environ, **spec.env)
     try:
         os.makedirs(spec.directory, exist_ok=True)
@@ -169,16 +194,20 @@ def run_trial(spec: TrialSpec) -> TrialOutcome:
             if not (spec.model and os.path.isfile(spec.model)):
                 raise RuntimeError(f"training wrote no {spec.model} (log: {log})")
         t1 = time.perf_counter()
-        eval_dir = os.path.join(spec.directory, EVAL_DIR) if spec.kind == "trial" else spec.directory
-        log = os.path.join(spec.directory, EVAL_LOG)
-        status = _run_logged(spec.eval_command, log, env, spec.cwd)
-        out.eval_s = time.perf_counter() - t1
-        results = os.path.join(eval_dir, "results.csv")
-        if status != 0:
-            raise RuntimeError(f"evaluation exited with status {status}: {_log_tail(log)} (log: {log})")
-        if not os.path.isfile(results):
-            raise RuntimeError(f"evaluation wrote no {results} (log: {log})")
-        out.results = results
+        for e in spec.evaluations:
+            os.makedirs(os.path.dirname(e.log), exist_ok=True)
+            status = _run_logged(e.command, e.log, env, spec.cwd)
+            out.eval_s = time.perf_counter() - t1
+            results = os.path.join(e.out_dir, "results.csv")
+            what = f"evaluation {e.label}" if e.label else "evaluation"
+            if status != 0:
+                raise RuntimeError(f"{what} exited with status {status}: {_log_tail(e.log)} (log: {e.log})")
+            if not os.path.isfile(results):
+                raise RuntimeError(f"{what} wrote no {results} (log: {e.log})")
+            if e.label:
+                out.world_results[e.label] = results
+            else:
+                out.results = results
         out.ok = True
     except (OSError, RuntimeError) as e:
         out.error = str(e)
@@ -226,6 +255,21 @@ class Settings:
     reference: str | None
     python: str
     cwd: str
+    # With families: one evaluation per family and count of eval_obstacles ("4,8,12" or "A-B"), --world FAMILY.
+    eval_worlds: list[str] = field(default_factory=list)
+
+
+def eval_counts(s: Settings) -> list[int]:
+    """The obstacle (people) counts of the evaluation."""
+    return parse_counts(s.eval_obstacles)
+
+
+def parse_counts(text: str) -> list[int]:
+    """`A-B`, `N` or `N1,N2,...` as the sorted counts; [] when malformed (A > B, a repeated count, not numbers)."""
+    if re.fullmatch(r"\d+(,\d+)+", text):
+        counts = [int(c) for c in text.split(",")]
+        return sorted(counts) if len(set(counts)) == len(counts) else []
+    return obstacle_counts(text) if re.fullmatch(r"\d+(-\d+)?", text) else []
 
 
 def find_eval_tool() -> str:
@@ -307,9 +351,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eval-model", default=MODEL_FILES[0], choices=MODEL_FILES,
                    help="the trained file evaluated (default model.dqnw, the final network)")
     p.add_argument("--eval-generate", type=int, default=9301, help="generator seed of the held-out episodes")
-    p.add_argument("--eval-obstacles", default="3-15", help="obstacle counts A-B (default 3-15)")
+    p.add_argument("--eval-obstacles", default=None,
+                   help=f"obstacle counts A-B (default {DEFAULT_OBSTACLES}); with --eval-worlds also a list N1,N2,... "
+                        f"(default there {DEFAULT_WORLD_COUNTS})")
     p.add_argument("--eval-episodes", type=int, default=20, help="episodes per obstacle count (default 20)")
+    p.add_argument("--eval-threads", type=int, default=None,
+                   help="each evaluation's --threads (default: --cpus-per-trial, at least 1)")
     p.add_argument("--eval-world", default=None, help="dqn_dovs_eval --world (room, crowd, corridor, ...)")
+    p.add_argument("--eval-worlds", default=None, metavar="FAMILY,...",
+                   help="evaluate in each of these world families (e.g. crowd,corridor,doorway,clutter,junction), one "
+                        "dqn_dovs_eval run per family and count, instead of one world")
+    p.add_argument("--eval-people-mix", default=None, metavar="MIX",
+                   help="dqn_dovs_eval --people-mix, e.g. headline (attentive=0.7,impassive=0.2,oblivious=0.1)")
     p.add_argument("--eval-sensor", default=None, help="dqn_dovs_eval --sensor")
     p.add_argument("--eval-people-model", default=None, help="dqn_dovs_eval --people-model")
     p.add_argument("--eval-people-see-robot", action="store_true", help="dqn_dovs_eval --people-see-robot")
@@ -342,8 +395,28 @@ def settings_from(args: argparse.Namespace) -> Settings:
         raise SweepError(f"--scale must be > 0, got {args.scale}")
     if args.eval_episodes < 1:
         raise SweepError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
-    if not re.fullmatch(r"\d+(-\d+)?", args.eval_obstacles) or not obstacle_counts(args.eval_obstacles):
-        raise SweepError(f"--eval-obstacles {args.eval_obstacles}: expected A-B with A <= B, or one count")
+    worlds = [w.strip() for w in args.eval_worlds.split(",")] if args.eval_worlds is not None else []
+    if args.eval_worlds is not None:
+        if args.eval_world is not None:
+            raise SweepError("--eval-world and --eval-worlds: give one (--eval-worlds evaluates in each family)")
+        unknown = [w for w in worlds if w not in WORLD_FAMILIES]
+        if unknown or not worlds:
+            raise SweepError(f"--eval-worlds {args.eval_worlds}: {', '.join(map(repr, unknown)) or 'no family'} is "
+                             f"not a world family ({', '.join(WORLD_FAMILIES)})")
+        if len(set(worlds)) != len(worlds):
+            raise SweepError(f"--eval-worlds {args.eval_worlds}: a family is named more than once")
+    obstacles = args.eval_obstacles or (DEFAULT_WORLD_COUNTS if worlds else DEFAULT_OBSTACLES)
+    if worlds and not parse_counts(obstacles):
+        raise SweepError(f"--eval-obstacles {obstacles}: expected a list N1,N2,... of different counts, A-B with "
+                         "A <= B, or one count")
+    if not worlds and (not re.fullmatch(r"\d+(-\d+)?", obstacles) or not obstacle_counts(obstacles)):
+        hint = " (a list of counts needs --eval-worlds)" if "," in obstacles else ""
+        raise SweepError(f"--eval-obstacles {obstacles}: expected A-B with A <= B, or one count{hint}")
+    if args.eval_threads is not None and args.eval_threads < 1:
+        raise SweepError(f"--eval-threads must be >= 1, got {args.eval_threads}")
+    if args.eval_people_mix is not None and args.eval_people_see_robot:
+        raise SweepError("--eval-people-mix and --eval-people-see-robot: give one (--eval-people-see-robot is "
+                         "--eval-people-mix attentive=1)")
     for option, path in (("--init-from", args.init_from), ("--reference", args.reference)):
         if path is not None and not os.path.isfile(path):
             raise SweepError(f"{option}: {path}: no such file")
@@ -359,7 +432,8 @@ def settings_from(args: argparse.Namespace) -> Settings:
     configs = _config_entries(args.configs)
     eval_flags: list[str] = []
     for flag, value in (("--world", args.eval_world), ("--sensor", args.eval_sensor),
-                        ("--people-model", args.eval_people_model), ("--odom-noise", args.eval_odom_noise)):
+                        ("--people-model", args.eval_people_model), ("--people-mix", args.eval_people_mix),
+                        ("--odom-noise", args.eval_odom_noise)):
         if value is not None:
             eval_flags += [flag, value]
     eval_flags += ["--people-see-robot"] * args.eval_people_see_robot + ["--perfect-info"] * args.eval_perfect_info
@@ -368,10 +442,12 @@ def settings_from(args: argparse.Namespace) -> Settings:
         configs=configs, seeds=list(args.seeds), out=out, address=args.address, num_cpus=args.num_cpus,
         cpus_per_trial=args.cpus_per_trial, gpus_per_trial=args.gpus_per_trial, device=device, scale=args.scale,
         init_from=os.path.abspath(args.init_from) if args.init_from else None, model_file=args.eval_model,
-        eval_tool=find_eval_tool(), eval_generate=args.eval_generate, eval_obstacles=args.eval_obstacles,
-        eval_episodes=args.eval_episodes, eval_threads=max(1, int(args.cpus_per_trial)), eval_flags=eval_flags,
-        baselines=list(args.baseline), reference=os.path.abspath(args.reference) if args.reference else None,
-        python=sys.executable, cwd=os.getcwd())
+        eval_tool=find_eval_tool(), eval_generate=args.eval_generate, eval_obstacles=obstacles,
+        eval_episodes=args.eval_episodes,
+        eval_threads=args.eval_threads if args.eval_threads is not None else max(1, int(args.cpus_per_trial)),
+        eval_flags=eval_flags, baselines=list(args.baseline),
+        reference=os.path.abspath(args.reference) if args.reference else None, python=sys.executable,
+        cwd=os.getcwd(), eval_worlds=worlds)
 
 
 # ---- the tasks ----------------------------------------------------------------------------------------------------
@@ -385,13 +461,37 @@ def _task_env(s: Settings) -> dict[str, str]:
             "LD_LIBRARY_PATH": lib + (os.pathsep + old_ld if old_ld else ""), "MPLBACKEND": "Agg"}
 
 
-def _eval_command(s: Settings, methods: str, out_dir: str, model: str | None) -> list[str]:
+def _eval_command(s: Settings, methods: str, out_dir: str, model: str | None, world: str | None = None,
+                  count: int | None = None) -> list[str]:
+    """One dqn_dovs_eval run: every count of --eval-obstacles, or with `world` that family at `count` only."""
     command = [s.eval_tool, "--methods", methods]
     if model:
-        command += ["--model", model]
-    return command + ["--generate", str(s.eval_generate), "--obstacles", s.eval_obstacles, "--episodes",
+        from .compare_models import state_flags  # noqa: PLC0415
+        # The state the network reads (grid encoding, channels, previous choice, wall rays, person tokens).
+        command += ["--model", model, *(state_flags(model) if os.path.exists(model) else [])]
+    obstacles = s.eval_obstacles if world is None else str(count)
+    return command + ["--generate", str(s.eval_generate), "--obstacles", obstacles, "--episodes",
                       str(s.eval_episodes), "--threads", str(s.eval_threads), "--trajectories", "0", "--no-report",
-                      "--out", out_dir + os.sep] + s.eval_flags
+                      "--out", out_dir + os.sep] + (["--world", world] if world else []) + s.eval_flags
+
+
+def world_label(world: str, count: int) -> str:
+    """The folder of one worlds evaluation, as scripts/benchmark_worlds.sh names them: FAMILY_nN."""
+    return f"{world}_n{count}"
+
+
+def _evaluations(s: Settings, methods: str, eval_dir: str, log_dir: str, model: str | None) -> list[Evaluation]:
+    """The task's dqn_dovs_eval runs: one into eval_dir (log: log_dir/eval.log), or with --eval-worlds one per
+    family and count into eval_dir/FAMILY_nN/ (its log there)."""
+    if not s.eval_worlds:
+        return [Evaluation("", _eval_command(s, methods, eval_dir, model), eval_dir, os.path.join(log_dir, EVAL_LOG))]
+    out = []
+    for world in s.eval_worlds:
+        for n in eval_counts(s):
+            d = os.path.join(eval_dir, world_label(world, n))
+            out.append(Evaluation(world_label(world, n), _eval_command(s, methods, d, model, world, n), d,
+                                  os.path.join(d, EVAL_LOG)))
+    return out
 
 
 def trial_specs(s: Settings) -> list[TrialSpec]:
@@ -400,10 +500,10 @@ def trial_specs(s: Settings) -> list[TrialSpec]:
     specs = []
     for method in s.baselines:
         d = os.path.join(s.out, BASELINES_DIR, method)
-        specs.append(TrialSpec("baseline", method, None, d, _eval_command(s, method, d, None), env, s.cwd))
+        specs.append(TrialSpec("baseline", method, None, d, _evaluations(s, method, d, d, None), env, s.cwd))
     if s.reference:
         d = os.path.join(s.out, REFERENCE_DIR)
-        specs.append(TrialSpec("reference", REFERENCE, None, d, _eval_command(s, TRAINED_METHOD, d, s.reference),
+        specs.append(TrialSpec("reference", REFERENCE, None, d, _evaluations(s, TRAINED_METHOD, d, d, s.reference),
                                env, s.cwd, model=s.reference))
     for c in s.configs:
         for seed in s.seeds:
@@ -417,7 +517,7 @@ def trial_specs(s: Settings) -> list[TrialSpec]:
             if s.init_from:
                 train += ["--init-from", s.init_from]
             specs.append(TrialSpec("trial", c.name, seed, d,
-                                   _eval_command(s, TRAINED_METHOD, os.path.join(d, EVAL_DIR), model), env, s.cwd,
+                                   _evaluations(s, TRAINED_METHOD, os.path.join(d, EVAL_DIR), d, model), env, s.cwd,
                                    train_command=train, model=model))
     return specs
 
@@ -427,7 +527,8 @@ def trial_specs(s: Settings) -> list[TrialSpec]:
 
 @dataclass
 class RunFigures:
-    """One evaluation's figures (report.summarize's mean row) and its episodes."""
+    """One evaluation's figures (report.summarize's mean row; with --eval-worlds the means over the family and
+    count runs) and its episodes."""
 
     episodes: int
     successes: int
@@ -435,6 +536,17 @@ class RunFigures:
     collision: float
     timeout: float
     records: list[Record] = field(repr=False, default_factory=list)
+    at_fault: float = math.nan  # robot-at-fault collisions per episode; NaN when results.csv does not record them
+    families: dict[str, tuple[float, float]] = field(default_factory=dict)  # family -> (success, at_fault)
+
+
+def fault_rate(records: list[Record]) -> float:
+    """The share of episodes that ended in a collision the robot is at fault for (results.csv's at_fault); NaN
+    when a collision does not record it."""
+    crashes = [r for r in records if r.outcome == "collision"]
+    if not records or any(r.at_fault is None for r in crashes):
+        return math.nan
+    return sum(bool(r.at_fault) for r in crashes) / len(records)
 
 
 def figures_of(path: str) -> RunFigures:
@@ -444,7 +556,39 @@ def figures_of(path: str) -> RunFigures:
     if len(methods) != 1:
         raise ValueError(f"{path}: expected the episodes of one method, found {', '.join(methods) or 'none'}")
     o = summarize(records, methods[0]).overall[methods[0]]
-    return RunFigures(o.episodes, o.successes, o.success_rate, o.collision_rate, o.timeout_rate, records)
+    counts = sorted({r.obstacles for r in records})
+    at_fault = sum(fault_rate([r for r in records if r.obstacles == n]) for n in counts) / len(counts)
+    return RunFigures(o.episodes, o.successes, o.success_rate, o.collision_rate, o.timeout_rate, records, at_fault)
+
+
+def world_figures_of(files: dict[str, str]) -> RunFigures:
+    """The figures of a --eval-worlds task from its results.csv per FAMILY_nN: each rate the mean over the runs, and
+    per family the mean success and robot-at-fault rate over its counts; ValueError naming a file that cannot be
+    read, or one method against another."""
+    runs = {label: figures_of(path) for label, path in files.items()}
+    methods = {label: run.records[0].method for label, run in runs.items()}
+    if len(set(methods.values())) > 1:
+        raise ValueError(f"the worlds evaluations hold different methods ({', '.join(sorted(set(methods.values())))}"
+                         f": {', '.join(f'{files[k]} {m}' for k, m in methods.items())})")
+
+    def mean(values) -> float:
+        values = list(values)
+        return sum(values) / len(values) if values else math.nan
+
+    families: dict[str, list[RunFigures]] = {}
+    for label, run in runs.items():
+        families.setdefault(label.rsplit("_n", 1)[0], []).append(run)
+    all_runs = list(runs.values())
+    return RunFigures(sum(r.episodes for r in all_runs), sum(r.successes for r in all_runs),
+                      mean(r.success for r in all_runs), mean(r.collision for r in all_runs),
+                      mean(r.timeout for r in all_runs), [x for r in all_runs for x in r.records],
+                      mean(r.at_fault for r in all_runs),
+                      {f: (mean(r.success for r in rs), mean(r.at_fault for r in rs)) for f, rs in families.items()})
+
+
+def outcome_figures(o: TrialOutcome) -> RunFigures:
+    """The figures of a finished task: its results.csv, or with --eval-worlds every FAMILY_nN's."""
+    return world_figures_of(o.world_results) if o.world_results else figures_of(o.results)
 
 
 @dataclass
@@ -463,10 +607,18 @@ class Entry:
         values = [getattr(r, attr) for r in self.runs.values()]
         return sum(values) / len(values) if values else math.nan
 
+    def family_mean(self, family: str, index: int) -> float:
+        """The mean over the seeds of a family's success (index 0) or robot-at-fault rate (1)."""
+        values = [r.families[family][index] for r in self.runs.values() if family in r.families]
+        return sum(values) / len(values) if values else math.nan
+
 
 def paired_entries(a: Entry, b: Entry) -> Paired:
     """`a` against `b` on the same episodes, seed by seed (an entry without seeds pairs with each of the other's),
-    pooled: episodes, wins (a succeeded, b did not), losses, and the sign test on them."""
+    pooled: episodes, wins (a succeeded, b did not), losses, and the sign test on them. Episodes are matched by
+    scenario (which names the world family), count and episode number (worlds_report.paired)."""
+    from .worlds_report import paired  # noqa: PLC0415 - it loads matplotlib; only the table needs it
+
     if None in a.runs and None in b.runs:
         pairs = [(a.runs[None], b.runs[None])]
     elif None in b.runs:
@@ -478,11 +630,10 @@ def paired_entries(a: Entry, b: Entry) -> Paired:
     total = Paired()
     for mine, theirs in pairs:
         records = [replace(r, method="a") for r in mine.records] + [replace(r, method="b") for r in theirs.records]
-        pooled = paired_comparison(records, "a", "b").get(None)
-        if pooled is not None:
-            total.episodes += pooled.episodes
-            total.wins += pooled.wins
-            total.losses += pooled.losses
+        one = paired(records, "a", "b", lambda r: r.outcome == "success")
+        total.episodes += one.episodes
+        total.wins += one.wins
+        total.losses += one.losses
     total.p_value = sign_test_p(total.wins, total.losses)
     return total
 
@@ -498,7 +649,7 @@ def build_entries(s: Settings, outcomes: list[TrialOutcome]) -> tuple[list[Entry
         entry = configs[o.name] if o.kind == "trial" else comparators[o.name]
         if o.ok:
             try:
-                entry.runs[o.seed] = figures_of(o.results)
+                entry.runs[o.seed] = outcome_figures(o)
                 continue
             except ValueError as e:
                 o.ok, o.error = False, f"cannot read the evaluation: {e}"
@@ -522,7 +673,11 @@ def table_rows(s: Settings, configs: list[Entry], comparators: list[Entry]) -> l
                      "source": e.source,
                      "seeds": " ".join(str(k) for k in sorted(e.runs) if k is not None) if e.kind == "config" else "",
                      "episodes": sum(r.episodes for r in e.runs.values()),
-                     "success": e.mean("success"), "collision": e.mean("collision"), "timeout": e.mean("timeout")}
+                     "success": e.mean("success"), "collision": e.mean("collision"), "timeout": e.mean("timeout"),
+                     "at_fault": e.mean("at_fault")}
+        for family in s.eval_worlds:
+            row[f"success_{family}"] = e.family_mean(family, 0)
+            row[f"at_fault_{family}"] = e.family_mean(family, 1)
         for seed in s.seeds:
             run = e.runs.get(seed) if e.kind == "config" else None
             row[f"success_seed{seed}"] = run.success if run else math.nan
@@ -572,8 +727,8 @@ def _and(items: list[str]) -> str:
 
 
 def render_markdown(s: Settings, rows: list[dict], outcomes: list[TrialOutcome], info: dict) -> str:
-    counts = obstacle_counts(s.eval_obstacles)
-    per_run = s.eval_episodes * len(counts)
+    counts = eval_counts(s)
+    per_run = s.eval_episodes * len(counts) * max(1, len(s.eval_worlds))
     best = next((r for r in rows if r["rank"] == 1), None)
     rivals = (["best"] if best else []) + [r["name"] for r in rows if r["kind"] != "config"]
     flags = " ".join(f for f in s.eval_flags if f != "--perfect-info")
@@ -581,20 +736,29 @@ def render_markdown(s: Settings, rows: list[dict], outcomes: list[TrialOutcome],
     perception = "perfect information" if "--perfect-info" in s.eval_flags else "the tracker in the loop"
     shared = _and(["every trial"] + (["the baselines"] if s.baselines else []) + (["the reference"] if s.reference
                                                                                   else []))
+    if s.eval_worlds:
+        where = (f"in each of the world families {_and(s.eval_worlds)} at N = {_and([str(n) for n in counts])} "
+                 f"(`dqn_dovs_eval --generate {s.eval_generate} --world FAMILY --obstacles N --episodes "
+                 f"{s.eval_episodes}`" + (f", `{flags}`" if flags else "") + ")")
+        means = ("Rates are means over the family and count runs (robot at fault: results.csv's `at_fault`); a "
+                 "configuration's figures are the means over its seeds.")
+    else:
+        where = (f"(`dqn_dovs_eval --generate {s.eval_generate} --obstacles {s.eval_obstacles} --episodes "
+                 f"{s.eval_episodes}`, {world})")
+        means = "Rates are means over the obstacle counts; a configuration's figures are the means over its seeds."
     out = ["# Sweep", "",
            f"Written by `{info['command']}` on {info['date']} (commit `{info['commit']}`), on {info['ray']}.", "",
            f"Each trial trains one configuration with one seed, then evaluates its `{s.model_file}` as "
-           f"`{TRAINED_METHOD}` with {perception} on held-out generated episodes (`dqn_dovs_eval --generate "
-           f"{s.eval_generate} --obstacles {s.eval_obstacles} --episodes {s.eval_episodes}`, {world}): {per_run} "
-           f"episodes per trial, the same for {shared}. "
-           "Rates are means over the obstacle counts; a configuration's figures are the means over its seeds.", "",
+           f"`{TRAINED_METHOD}` with {perception} on held-out generated episodes {where}: {per_run} "
+           f"episodes per trial, the same for {shared}. " + means, "",
            "## Ranking", "",
            "Ranked by mean success (ties: the lower mean collision rate). Paired columns: episodes the row's side "
            "solved and the other did not (+), the reverse (-), and the exact two-sided sign test on them; pairs are "
            "the same episode under the same trial seed, pooled over the seeds (a baseline's or the reference's "
            f"single run pairs with every seed's). `*`: p < {SIGNIFICANCE}."
            + (f" `best`: {best['name']}." if best else " No configuration was evaluated."), ""]
-    header = (["rank", "configuration", "seeds", "success", "collision", "timeout", "success per seed"]
+    header = (["rank", "configuration", "seeds", "success", "collision", "timeout"]
+              + (["at fault"] if s.eval_worlds else []) + ["success per seed"]
               + [f"vs {r}" for r in rivals] + ["status"])
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:
@@ -604,11 +768,21 @@ def render_markdown(s: Settings, rows: list[dict], outcomes: list[TrialOutcome],
         if r["kind"] == "reference":
             name = f"reference `{os.path.relpath(r['source'], s.cwd)}`"
         cells = [str(r["rank"]) or "-", name, r["seeds"] or "-", _num(r["success"]) or "-",
-                 _num(r["collision"]) or "-", _num(r["timeout"]) or "-", per_seed]
+                 _num(r["collision"]) or "-", _num(r["timeout"]) or "-"]
+        cells += ([_num(r["at_fault"]) or "-"] if s.eval_worlds else []) + [per_seed]
         cells += [_paired_cell(r, label) for label in rivals]
         cells.append("ok" if r["status"] == "ok" else "failed (below)")
         lines.append("| " + " | ".join(c.replace("|", "/") for c in cells) + " |")
     out += lines + [""]
+    if s.eval_worlds:
+        out += ["## Per family", "", "Success / robot-at-fault rate in each family, N pooled (means over the counts, "
+                "then over the seeds).", "",
+                "| configuration | " + " | ".join(s.eval_worlds) + " |", "|" + "---|" * (len(s.eval_worlds) + 1)]
+        for r in rows:
+            name = f"`{r['name']}`" if r["kind"] == "config" else f"{r['kind']} `{r['name']}`"
+            cells = [f"{_num(r[f'success_{w}']) or '-'} / {_num(r[f'at_fault_{w}']) or '-'}" for w in s.eval_worlds]
+            out.append(f"| {name} | " + " | ".join(cells) + " |")
+        out += [""]
     out += ["## Trials", "",
             "| trial | success | collision | timeout | training (s) | evaluation (s) | wall (s) | node | folder |",
             "|---|---|---|---|---|---|---|---|---|"]
@@ -659,7 +833,7 @@ def write_outputs(s: Settings, outcomes: list[TrialOutcome], info: dict) -> list
         run = entries[(o.kind, o.name)].runs.get(o.seed) if o.ok else None
         trials.append({**asdict(o), "episodes": run.episodes if run else 0, "successes": run.successes if run else 0,
                        "success": run.success if run else math.nan, "collision": run.collision if run else math.nan,
-                       "timeout": run.timeout if run else math.nan})
+                       "timeout": run.timeout if run else math.nan, "at_fault": run.at_fault if run else math.nan})
     info = dict(info, trials=trials)
     write_csv(os.path.join(s.out, SWEEP_CSV), rows)
     with open(os.path.join(s.out, SWEEP_MD), "w") as f:
@@ -706,11 +880,12 @@ def _progress_line(done: int, total: int, o: TrialOutcome) -> str:
     if not o.ok:
         return f"{head} FAILED after {o.wall_s:.1f} s: {o.error}"
     try:
-        f = figures_of(o.results)
+        f = outcome_figures(o)
     except ValueError as e:
         return f"{head} FAILED after {o.wall_s:.1f} s: cannot read the evaluation: {e}"
     timing = f"eval {o.eval_s:.1f} s" if o.kind != "trial" else f"train {o.train_s:.1f} s, eval {o.eval_s:.1f} s"
-    return (f"{head}: success {f.success:.3f}, collision {f.collision:.3f}, timeout {f.timeout:.3f} "
+    fault = "" if math.isnan(f.at_fault) else f", at fault {f.at_fault:.3f}"
+    return (f"{head}: success {f.success:.3f}, collision {f.collision:.3f}, timeout {f.timeout:.3f}{fault} "
             f"({timing}, wall {o.wall_s:.1f} s, {o.node})")
 
 

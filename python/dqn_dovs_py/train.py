@@ -19,7 +19,7 @@ import sys
 import time
 from collections import deque
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any, Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 import torch
@@ -32,6 +32,8 @@ from .env import (OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIM
                   VecEnv, import_core)
 from .escape import one_action_masks
 from .export import FEATURE_COUNT, FEATURE_COUNT_WITH_PREVIOUS_CHOICE, WeightFileError
+from .provenance import ProvenanceError, repo_path, source_commit
+from .provenance import make as make_provenance
 from .replay import (GRID_CELLS, STATE_DIM, DemoBuffer, HorizonLabeller, LabelBuffer, NStepAccumulator,
                      PrioritizedReplay)
 
@@ -46,7 +48,7 @@ BEST_MODEL_FILE = "best.dqnw"
 SNAPSHOT_DIR = "snapshots"
 
 TRAIN_COLUMNS = ["episode", "stage", "stage_name", "steps", "env_steps", "return", "outcome", "epsilon", "loss",
-                 "mean_q", "lr", "beta", "updates", "wall_s", "world"]
+                 "mean_q", "lr", "beta", "updates", "wall_s", "world", "sp_loss"]
 EVAL_COLUMNS = ["episode", "stage", "stage_name", "episodes", "success_rate", "collision_rate", "timeout_rate",
                 "mean_return", "mean_steps", "mean_success_time_s", "wall_s"]
 
@@ -241,6 +243,30 @@ class AuxiliaryConfig(LabelBufferFields):
 
 
 @dataclass
+class ModelConfig:
+    """The network's head (docs/training.md, "A quantile head"): `quantiles` > 1 makes the dueling heads give that
+    many quantile values of each action's return (QR-DQN), and acting maximises their CVaR at `cvar_alpha`."""
+
+    # Quantile values per action (1: the plain Q-network).
+    quantiles: int = 1
+    # CVaR level: acting maximises the mean of each action's lowest ceil(cvar_alpha * quantiles) quantile values
+    # (1: their mean, Q).
+    cvar_alpha: float = 1.0
+
+    def validate(self) -> str:
+        from .model import MAX_QUANTILES  # noqa: PLC0415 - keeps config checks free of model imports until here
+
+        if not 1 <= self.quantiles <= MAX_QUANTILES:
+            return f"model.quantiles must be in [1, {MAX_QUANTILES}], got {self.quantiles}"
+        if not 0.0 < self.cvar_alpha <= 1.0:
+            return f"model.cvar_alpha must be in (0, 1], got {self.cvar_alpha}"
+        if self.quantiles == 1 and self.cvar_alpha != 1.0:
+            return (f"model.cvar_alpha is {self.cvar_alpha} but model.quantiles is 1: the CVaR of one value per action "
+                    "is that value; set model.quantiles > 1 or leave cvar_alpha at 1")
+        return ""
+
+
+@dataclass
 class TrainConfig:
     """Everything a training run depends on (config/curriculum.yaml, docs/training.md)."""
 
@@ -277,6 +303,7 @@ class TrainConfig:
     log: LogConfig = field(default_factory=LogConfig)
     teacher: TeacherConfig = field(default_factory=TeacherConfig)
     auxiliary: AuxiliaryConfig = field(default_factory=AuxiliaryConfig)
+    model: ModelConfig = field(default_factory=ModelConfig)
     # The raw `curriculum` section (parsed by Curriculum.from_dict); kept raw so that it
     # can be written back verbatim into the run directory.
     curriculum: dict = field(default_factory=dict)
@@ -300,7 +327,7 @@ class TrainConfig:
             return (f"reward: shaping_gamma {shaping} is neither 1 (the paper's progress term) nor gamma {self.gamma} "
                     "(shaping that leaves the optimal policy unchanged)")
         for part in (self.agent, self.replay, self.evaluation, self.checkpoint, self.log, self.teacher,
-                     self.auxiliary):
+                     self.auxiliary, self.model):
             error = part.validate()
             if error:
                 return error
@@ -322,7 +349,7 @@ class TrainConfig:
             raise ConfigError("configuration: expected a mapping at the top level")
         sections = {"agent": AgentConfig, "replay": ReplayConfig, "evaluation": EvalConfig,
                     "checkpoint": CheckpointConfig, "log": LogConfig, "teacher": TeacherConfig,
-                    "auxiliary": AuxiliaryConfig}
+                    "auxiliary": AuxiliaryConfig, "model": ModelConfig}
         known = {f.name for f in fields(TrainConfig)}
         unknown = set(raw) - known
         if unknown:
@@ -421,10 +448,14 @@ def resolve_device(name: str) -> torch.device:
     return torch.device(name)
 
 
-def default_model_factory(grid_channels: int = 1, feature_count: int = FEATURE_COUNT) -> torch.nn.Module:
+def default_model_factory(grid_channels: int = 1, feature_count: int = FEATURE_COUNT, quantiles: int = 1,
+                          cvar_alpha: float = 1.0, wall_rays: int = 0, person_tokens: int = 0) -> torch.nn.Module:
     from .model import DuelingQNet  # noqa: PLC0415 - keeps `--help` and config checks free of model imports
 
-    return DuelingQNet(grid_channels=grid_channels, feature_count=feature_count)
+    if quantiles == 1 and cvar_alpha == 1.0 and wall_rays == 0 and person_tokens == 0:
+        return DuelingQNet(grid_channels=grid_channels, feature_count=feature_count)  # built exactly as before
+    return DuelingQNet(grid_channels=grid_channels, feature_count=feature_count, quantiles=quantiles,
+                       cvar_alpha=cvar_alpha, wall_rays=wall_rays, person_tokens=person_tokens)
 
 
 def _dovs_choice(dovs: dict, name: str, default: int, allowed: tuple[int, ...], rule: str) -> int:
@@ -451,6 +482,12 @@ def feature_count_of(dovs: dict) -> int:
     after the features; docs/dovs.md "The previous action")."""
     on = _dovs_choice(dovs, "previous_action", 0, (0, 1), "0 or 1")
     return FEATURE_COUNT_WITH_PREVIOUS_CHOICE if on else FEATURE_COUNT
+
+
+def tokens_of(dovs: dict) -> tuple[int, int]:
+    """(wall rays, person tokens) of a `dovs` section (0, 0 by default; docs/dovs.md "Person tokens")."""
+    return (_dovs_choice(dovs, "wall_rays", 0, tuple(range(33)), "an integer in [0, 32]"),
+            _dovs_choice(dovs, "person_tokens", 0, tuple(range(17)), "an integer in [0, 16]"))
 
 
 def _atomic_torch_save(obj: Any, path: str) -> None:
@@ -562,10 +599,18 @@ class Trainer:
     def __init__(self, config: TrainConfig, out_dir: str, device: str = "auto", threads: int = 0,
                  resume: bool = False, env_factory: EnvFactory | None = None,
                  model_factory: Callable[[], torch.nn.Module] | None = None, progress: bool = True,
-                 command: str = ""):
+                 command: str = "", provenance: dict[str, str] | None = None,
+                 start_parameters: Mapping[str, torch.Tensor] | None = None):
+        """`start_parameters`: the parameters of the network the run starts from (--init-from), as the weight file
+        holds them (before any widening); with agent.l2_sp_weight > 0 the loss pulls the network towards them
+        (L2-SP), and a fresh run then needs them."""
         message = config.validate()
         if message:
             raise ConfigError(message)
+        if config.agent.l2_sp_weight > 0 and not resume and start_parameters is None:
+            raise ConfigError(f"agent.l2_sp_weight is {config.agent.l2_sp_weight} but the run does not start from a "
+                              "network (--init-from): L2-SP pulls the parameters towards the start network's; set it "
+                              "to 0 or give --init-from")
         self.config = config
         self.out_dir = out_dir
         self.curriculum = config.build_curriculum()
@@ -573,6 +618,10 @@ class Trainer:
         self.device = resolve_device(device)
         self.progress = progress
         self.command = command
+        # Written into every exported file (provenance.KEYS); a run resumed keeps the one it started with.
+        self.provenance = dict(provenance) if provenance else {
+            "config": "none (a TrainConfig built in code)", "seed": str(config.seed), "source commit": source_commit(),
+            "init from": "none" if model_factory is None else "unknown (a model factory given in code)"}
         if threads > 0:
             torch.set_num_threads(threads)
         shield = config.action_shield
@@ -596,7 +645,11 @@ class Trainer:
                                             reward_parameters=reward_parameters))
         grid_channels = grid_channels_of(config.dovs)
         feature_count = feature_count_of(config.dovs)
-        self._model_factory = model_factory or (lambda: default_model_factory(grid_channels, feature_count))
+        mc = config.model
+        wall_rays, person_tokens = tokens_of(config.dovs)
+        self._model_factory = model_factory or (
+            lambda: default_model_factory(grid_channels, feature_count, mc.quantiles, mc.cvar_alpha, wall_rays,
+                                          person_tokens))
 
         os.makedirs(out_dir, exist_ok=True)
         checkpoint_path = os.path.join(out_dir, CHECKPOINT)
@@ -616,12 +669,26 @@ class Trainer:
             raise ConfigError(f"the network reads {model.feature_count} feature inputs but dovs previous_action "
                               f"gives {feature_count} (an --init-from network of 8 is widened; one of 17 is never "
                               "narrowed)")
+        if (getattr(model, "quantiles", 1), getattr(model, "cvar_alpha", 1.0)) != (mc.quantiles, mc.cvar_alpha):
+            raise ConfigError(f"the network has {getattr(model, 'quantiles', 1)} quantile value(s) per action at "
+                              f"cvar_alpha {getattr(model, 'cvar_alpha', 1.0)} but the model section says quantiles "
+                              f"{mc.quantiles}, cvar_alpha {mc.cvar_alpha} (an --init-from network of 1 quantile is "
+                              "widened; one of more is never changed)")
+        if (getattr(model, "wall_rays", 0), getattr(model, "person_tokens", 0)) != (wall_rays, person_tokens):
+            raise ConfigError(f"the network reads {getattr(model, 'wall_rays', 0)} wall rays and "
+                              f"{getattr(model, 'person_tokens', 0)} person tokens but the dovs section gives "
+                              f"{wall_rays} and {person_tokens} (an --init-from network without them is widened)")
         state_dim = int(getattr(model, "state_size", STATE_DIM))
-        grid_values = state_dim - int(getattr(model, "feature_count", STATE_DIM - GRID_CELLS))  # every grid channel
+        grid_values = int(getattr(model, "grid_channels", 1)) * GRID_CELLS  # every grid channel
         ac = config.auxiliary
         # The auxiliary head is made after the network, so a run without one draws the same initial weights.
         aux_head = torch.nn.Linear(model.trunk_width, 1) if ac.enabled else None
         self.agent = DQNAgent(model, config.agent, device=self.device, seed=config.seed + 1, aux_head=aux_head)
+        if config.agent.l2_sp_weight > 0 and not resume:
+            try:
+                self.agent.set_anchor(start_parameters)
+            except ValueError as error:
+                raise ConfigError(f"agent.l2_sp_weight: {error}") from None
         rc = config.replay
         # A graded grid's cells are not +1 / -1: its states are stored as float32.
         compact = rc.compact_states and not config.dovs.get("grid_contact_horizon")
@@ -657,12 +724,18 @@ class Trainer:
         self._loss_sum = 0.0
         self._q_sum = 0.0
         self._loss_count = 0
+        self._sp_sum = 0.0
+        self._sp_count = 0
         self._last_loss = float("nan")
         self._timing = {"env_s": 0.0, "act_s": 0.0, "replay_s": 0.0, "learn_s": 0.0, "eval_s": 0.0}
         self._normalization: dict[str, float] | None = None
 
         if resume:
             self._load_checkpoint(checkpoint_path)
+            if config.agent.l2_sp_weight > 0 and not self.agent.has_anchor:
+                raise ConfigError(f"--resume: agent.l2_sp_weight is {config.agent.l2_sp_weight} but the run in {out_dir} "
+                                  "keeps no start network in its checkpoint (it was not started from --init-from "
+                                  "with L2-SP)")
         else:
             with open(os.path.join(out_dir, CONFIG_COPY), "w") as f:
                 yaml.safe_dump(config.to_dict(), f, sort_keys=False)
@@ -891,6 +964,9 @@ class Trainer:
             self._loss_sum += result.loss
             self._q_sum += result.mean_q
             self._loss_count += 1
+            if not math.isnan(result.sp_loss):
+                self._sp_sum += result.sp_loss
+                self._sp_count += 1
         self._timing["learn_s"] += time.perf_counter() - t0
 
     def _end_episode(self, i: int, out, ep_return: float, stage: int, epsilon: float, log: _CsvLog, bar,
@@ -904,12 +980,14 @@ class Trainer:
             self._loss_count = 0
         else:
             loss = mean_q = float("nan")
+        sp_loss = self._sp_sum / self._sp_count if self._sp_count else float("nan")
+        self._sp_sum, self._sp_count = 0.0, 0
         log.write({
             "episode": self.episodes_done, "stage": stage + 1, "stage_name": self.curriculum.stages[stage].name,
             "steps": int(out.episode_steps[i]), "env_steps": self.env_steps, "return": float(ep_return),
             "outcome": OUTCOME_NAMES.get(outcome, str(outcome)), "epsilon": float(epsilon), "loss": loss,
             "mean_q": mean_q, "lr": self.agent.learning_rate, "beta": self.beta(), "updates": self.agent.updates,
-            "wall_s": self.wall_s, "world": world,
+            "wall_s": self.wall_s, "world": world, "sp_loss": sp_loss,
         })
         self.episodes_done += 1
         bar.update(1)
@@ -981,7 +1059,8 @@ class Trainer:
             "updates": self.agent.updates, "evaluation": {k: v for k, v in evaluation.items()
                                                           if isinstance(v, (int, float, str))},
         }, sort_keys=True)
-        metadata = build_metadata(self.command, os.path.abspath(os.path.join(self.out_dir, CHECKPOINT)), note)
+        metadata = build_metadata(self.command, os.path.abspath(os.path.join(self.out_dir, CHECKPOINT)), note,
+                                  self.provenance)
         export_model(copy.deepcopy(self.agent.online).cpu().eval(), path, self._normalization or {}, metadata)
         return path
 
@@ -1007,6 +1086,7 @@ class Trainer:
             "model_class": type(self.agent.online).__name__,
             "model_config": self.agent.online.config() if hasattr(self.agent.online, "config") else {},
             "command": self.command,
+            "provenance": dict(self.provenance),
             "counters": {"episodes_done": self.episodes_done, "env_steps": self.env_steps,
                          "update_credit": self.update_credit, "wall_s": self.wall_s, "best_eval": self.best_eval},
             "timing": dict(self._timing),
@@ -1026,7 +1106,9 @@ class Trainer:
         saved = state["config"]
         mine = self.config.to_dict()
         for key in ("seed", "num_envs", "gamma", "n_step", "scale", "curriculum", "replay", "teacher", "auxiliary",
-                    "dovs", "reward"):
+                    "dovs", "reward", "model"):
+            if key == "model" and key not in saved and mine[key] == asdict(ModelConfig()):
+                continue  # a run from before the model section, resumed without one
             if key in ("teacher", "auxiliary") and key not in saved and not getattr(self.config, key).enabled:
                 continue  # a run from before teachers / auxiliary heads existed, resumed without one
             if key in ("dovs", "reward") and key not in saved and not getattr(self.config, key):
@@ -1063,6 +1145,11 @@ class Trainer:
         if "auxiliary" in state:
             self._aux_loss_sum = float(state["auxiliary"]["loss_sum"])
             self._aux_loss_count = int(state["auxiliary"]["loss_count"])
+        if state.get("provenance"):  # the run's own; a commit that changed since it started is named too
+            now = self.provenance.get("source commit")
+            self.provenance = dict(state["provenance"])
+            if now and now != self.provenance.get("source commit"):
+                self.provenance["source commit"] += f" (resumed at {now})"
         rng = state["rng"]
         random.setstate(rng["python"])
         _set_numpy_global_state(rng["numpy"])
@@ -1132,15 +1219,22 @@ def parse_dovs_option(text: str) -> dict[str, float]:
     return out
 
 
-def init_from_factory(path: str, grid_channels: int = 1,
-                      feature_count: int = FEATURE_COUNT) -> Callable[[], torch.nn.Module]:
+def init_from_factory(path: str, grid_channels: int = 1, feature_count: int = FEATURE_COUNT, quantiles: int = 1,
+                      cvar_alpha: float = 1.0, wall_rays: int = 0,
+                      person_tokens: int = 0) -> Callable[[], torch.nn.Module]:
     """A model factory returning the network stored in the weight file `path` (for --init-from). A network of one
     grid channel asked for more (`grid_channels`, dovs grid_channels) is widened: its first convolution reads the
     new channels with zero weights, so it starts as exactly the function it was (docs/training.md, "Grid
     channels"). Likewise a network of 8 features asked for the previous choice (`feature_count` 17, dovs
-    previous_action): its feature stream reads the 9 new inputs with zero weights."""
+    previous_action): its feature stream reads the 9 new inputs with zero weights. A network of one quantile asked
+    for more (`quantiles`, model.quantiles) gets a quantile head whose every quantile of action a starts at Q(a)
+    (model.widen_quantiles): the same Q and action values; `cvar_alpha` is the model section's.
+
+    The factory's `start_parameters()` gives the file's network's parameters by name, before any widening (the
+    start network of L2-SP, agent.l2_sp_weight)."""
     from .export import (load_weights, model_from_weights, widen_grid_channels,  # noqa: PLC0415
                          widen_previous_action)
+    from .model import widen_quantiles, widen_tokens  # noqa: PLC0415
 
     weights = load_weights(path)  # read (and checked) once, before any training starts
     if weights.grid_channels != grid_channels and weights.grid_channels != 1:
@@ -1149,6 +1243,10 @@ def init_from_factory(path: str, grid_channels: int = 1,
     if weights.feature_count != feature_count and weights.feature_count != FEATURE_COUNT:
         raise ConfigError(f"--init-from {path}: the network reads {weights.feature_count} feature inputs, the "
                           f"configuration's dovs previous_action gives {feature_count}")
+    stored_quantiles = int(getattr(model_from_weights(weights), "quantiles", 1))
+    if stored_quantiles not in (1, quantiles):
+        raise ConfigError(f"--init-from {path}: the network has {stored_quantiles} quantile values per action, the "
+                          f"configuration's model.quantiles is {quantiles}")
 
     def make() -> torch.nn.Module:
         model = model_from_weights(weights)
@@ -1156,8 +1254,18 @@ def init_from_factory(path: str, grid_channels: int = 1,
             model = widen_grid_channels(model, grid_channels)
         if weights.feature_count != feature_count:
             model = widen_previous_action(model)
+        if (weights.wall_ray_count, weights.person_token_count) != (wall_rays, person_tokens):
+            model = widen_tokens(model, wall_rays, person_tokens)  # new layers: the run's seeded initialisation
+        if stored_quantiles != quantiles:
+            model = widen_quantiles(model, quantiles, cvar_alpha)
+        elif quantiles > 1:
+            model.cvar_alpha = float(cvar_alpha)  # how to act on the quantiles is the configuration's choice
         return model
 
+    def start_parameters() -> dict[str, torch.Tensor]:
+        return {name: p.detach().clone() for name, p in model_from_weights(weights).named_parameters()}
+
+    make.start_parameters = start_parameters
     return make
 
 
@@ -1184,14 +1292,22 @@ def main(argv: list[str] | None = None) -> int:
         message = config.validate()
         if message:
             raise ConfigError(message)
-        model_factory = (init_from_factory(args.init_from, grid_channels_of(config.dovs), feature_count_of(config.dovs))
+        model_factory = (init_from_factory(args.init_from, grid_channels_of(config.dovs), feature_count_of(config.dovs),
+                                           config.model.quantiles, config.model.cvar_alpha, *tokens_of(config.dovs))
                          if args.init_from else None)
+        # The configuration file and the options that change it (the seed is a key of its own).
+        overrides = [f"--{name.replace('_', '-')} {getattr(args, name)}" for name in ("scale", "num_envs", "dovs")
+                     if getattr(args, name) is not None]
+        provenance = make_provenance(" ".join([repo_path(config_path)] + overrides), config.seed,
+                                     init_from=args.init_from)
         trainer = Trainer(config, args.out, device=args.device, threads=args.threads, resume=args.resume,
                           model_factory=model_factory, progress=not args.no_progress,
-                          command="python -m dqn_dovs_py.train " + " ".join(shlex.quote(a) for a in argv_list))
+                          command="python -m dqn_dovs_py.train " + " ".join(shlex.quote(a) for a in argv_list),
+                          provenance=provenance,
+                          start_parameters=model_factory.start_parameters() if model_factory is not None else None)
         summary = trainer.run()
     except (ConfigError, CurriculumError, DecisionConfigError, FileExistsError, FileNotFoundError, ImportError,
-            WeightFileError) as error:
+            WeightFileError, ProvenanceError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     final = summary["final_eval"]

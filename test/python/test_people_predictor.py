@@ -11,6 +11,7 @@ torch = pytest.importorskip("torch")
 
 from built_tools import built_tool  # noqa: E402
 from dqn_dovs_py import people_predictor as pp  # noqa: E402
+from dqn_dovs_py import provenance  # noqa: E402
 
 
 def _random_network(path, hidden=(16, 12), seed=3):
@@ -119,6 +120,13 @@ def test_a_short_training_run_exports_a_file_the_oracle_predicts_with(tmp_path):
     assert list(summary["per_family"]) == ["valid"]
     assert summary["per_family"]["valid"]["samples"] == summary["valid_samples"]
     assert summary["per_family"]["valid"]["learned"]["at_2s"] == pytest.approx(summary["learned"]["at_2s"], rel=1e-4)
+    # Its provenance, kept in the .json (the .dqnp has no metadata): the options, the seed, this tree's commit.
+    found = provenance.read(out)
+    assert provenance.problems(found) == [] and found["seed"] == "0" and found["init from"] == "none"
+    assert found["config"].startswith("people_predictor --inputs truth --epochs 2 --hidden 16 --step 0.2 --train ")
+    assert f"--valid {valid_dir.resolve()}" in found["config"]
+    assert found["source commit"].split("+")[0] == subprocess.run(
+        ["git", "-C", str(provenance.REPO_ROOT), "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
     eval_cmd = [str(built_tool("dqn_dovs_eval")), "--methods", "oracle", "--generate", "43", "--obstacles", "5",
                 "--episodes", "2", "--threads", "1", "--world", "crowd", "--no-report"]
     ran = subprocess.run(eval_cmd + ["--oracle", f"true_future_periods=0,learned_prediction={out}",

@@ -2,7 +2,8 @@
 fails, x 2 seeds, with the s_dovs baseline and the shipped model as the reference, on 4 held-out generated episodes
 (about a minute on 2 cores). The ranked table is checked against the trials' own results.csv files (rates, ranking,
 paired wins and losses, sign tests); the failing trial is listed with its error and the sweep exits 1. Bad input is
-named before Ray starts.
+named before Ray starts. --eval-worlds: the commands it builds, a baseline's task run without Ray (one real
+dqn_dovs_eval per family and count), and the table from hand-written results.csv files (pairs within each family).
 
 Needs dqn_dovs_py._core (skipped without it unless DQN_DOVS_REQUIRE_CORE=1) and dqn_dovs_eval in DQN_DOVS_BIN_DIR.
 """
@@ -339,3 +340,177 @@ def test_ranking_ties_failures_and_pairs_from_known_outcomes(tmp_path):
     data = json.loads((tmp_path / "sweep.json").read_text())
     assert data["failed"] == 2 and data["table"][0]["name"] == "b"
     assert {(t["name"], t["seed"]): t["successes"] for t in data["trials"]}[("a", 2)] == 3
+
+
+# ---- --eval-worlds: the commands built, one real worlds evaluation, the table from hand-made results -------------
+
+
+def _worlds_settings(tmp_path, *extra):
+    from dqn_dovs_py.sweep import build_parser, settings_from  # noqa: PLC0415
+
+    argv = ["--configs", str(CURRICULUM), "--seeds", "1", "2", "--out", str(tmp_path / "out"), "--reference",
+            str(MODEL), *extra]
+    return settings_from(build_parser().parse_args(argv))
+
+
+def _flag(command: list[str], flag: str) -> str:
+    return command[command.index(flag) + 1]
+
+
+def test_worlds_mode_builds_one_evaluation_per_family_and_count(tmp_path, eval_bin):
+    from dqn_dovs_py.sweep import trial_specs  # noqa: PLC0415
+
+    s = _worlds_settings(tmp_path, "--eval-worlds", "crowd,corridor", "--eval-people-mix", "headline",
+                         "--eval-obstacles", "8,4", "--eval-episodes", "34", "--eval-threads", "3",
+                         "--eval-sensor", "urg04lx")
+    assert s.eval_worlds == ["crowd", "corridor"] and s.eval_threads == 3
+    specs = {(spec.kind, spec.name, spec.seed): spec for spec in trial_specs(s)}
+    assert set(specs) == {("baseline", "s_dovs", None), ("reference", "reference", None), ("trial", "curriculum", 1),
+                          ("trial", "curriculum", 2)}
+    out = Path(s.out)
+    for (kind, name, seed), spec in specs.items():
+        eval_dir = {"baseline": out / "baselines" / "s_dovs", "reference": out / "reference",
+                    "trial": out / "trials" / "curriculum" / f"seed{seed}" / "eval"}[kind]
+        assert [e.label for e in spec.evaluations] == ["crowd_n4", "crowd_n8", "corridor_n4", "corridor_n8"]
+        for e in spec.evaluations:
+            family, n = e.label.split("_n")
+            c = e.command
+            assert e.out_dir == str(eval_dir / e.label) and e.log == str(eval_dir / e.label / "eval.log")
+            assert (_flag(c, "--world"), _flag(c, "--obstacles"), _flag(c, "--out")) == (family, n, e.out_dir + os.sep)
+            assert (_flag(c, "--generate"), _flag(c, "--episodes"), _flag(c, "--threads")) == ("9301", "34", "3")
+            assert (_flag(c, "--people-mix"), _flag(c, "--sensor")) == ("headline", "urg04lx")
+            assert c.count("--world") == 1 and "--no-report" in c
+            method, model = _flag(c, "--methods"), (_flag(c, "--model") if "--model" in c else None)
+            assert (method, model) == {"baseline": ("s_dovs", None), "reference": ("dqn_dovs", str(MODEL)),
+                                       "trial": ("dqn_dovs", spec.model)}[kind]
+    assert specs[("trial", "curriculum", 1)].model == str(out / "trials/curriculum/seed1/run/model.dqnw")
+    # The default counts of a worlds evaluation are the benchmark's; the room mode keeps its one evaluation.
+    assert _worlds_settings(tmp_path, "--eval-worlds", "junction").eval_obstacles == "4,8,12"
+    room = _worlds_settings(tmp_path)
+    (spec,) = [x for x in trial_specs(room) if x.kind == "trial" and x.seed == 1]
+    (e,) = spec.evaluations
+    assert e.label == "" and _flag(e.command, "--obstacles") == "3-15" and "--world" not in e.command
+    assert e.log == os.path.join(spec.directory, "eval.log") and e.out_dir == os.path.join(spec.directory, "eval")
+    assert _flag(e.command, "--threads") == "1"  # --cpus-per-trial's default
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--eval-worlds", "crowd,moon"], "--eval-worlds crowd,moon: 'moon' is not a world family (room, crowd,"),
+    (["--eval-worlds", "crowd,crowd"], "a family is named more than once"),
+    (["--eval-worlds", "crowd", "--eval-world", "crowd"], "--eval-world and --eval-worlds: give one"),
+    (["--eval-obstacles", "4,8"], "--eval-obstacles 4,8: expected A-B with A <= B, or one count (a list of counts "
+                                  "needs --eval-worlds)"),
+    (["--eval-worlds", "crowd", "--eval-obstacles", "4,8,4"], "--eval-obstacles 4,8,4: expected a list N1,N2,... of "
+                                                              "different counts"),
+    (["--eval-threads", "0"], "--eval-threads must be >= 1, got 0"),
+    (["--eval-people-mix", "headline", "--eval-people-see-robot"], "--eval-people-mix and --eval-people-see-robot"),
+])
+def test_bad_worlds_options_are_named(tmp_path, capsys, eval_bin, extra, message):
+    status, err = _sweep_main(capsys, "--configs", str(CURRICULUM), "--seeds", "1", "--out", str(tmp_path / "out"),
+                              *extra)
+    assert status == 2 and message in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_worlds_task_runs_every_family_and_count(tmp_path, eval_bin):
+    """The baseline's task, run here without Ray: real dqn_dovs_eval runs, one per family and count."""
+    from dqn_dovs_py.sweep import outcome_figures, run_trial, trial_specs  # noqa: PLC0415
+
+    s = _worlds_settings(tmp_path, "--eval-worlds", "crowd,doorway", "--eval-people-mix", "headline",
+                         "--eval-obstacles", "4", "--eval-episodes", "2", "--eval-generate", "9402")
+    (spec,) = [x for x in trial_specs(s) if x.kind == "baseline"]
+    o = run_trial(spec)
+    assert o.ok, o.error
+    base = Path(s.out) / "baselines" / "s_dovs"
+    assert o.world_results == {label: str(base / label / "results.csv") for label in ("crowd_n4", "doorway_n4")}
+    assert o.results == "" and json.loads((base / "trial.json").read_text())["world_results"] == o.world_results
+    for label in ("crowd_n4", "doorway_n4"):
+        run = json.loads((base / label / "run.json").read_text())
+        assert (run["world"], run["obstacles_min"], run["episodes"]) == (label.split("_n")[0], 4, 2)
+        assert run["people_mix"] == "attentive=0.7,impassive=0.2,oblivious=0.1"
+        assert (base / label / "eval.log").read_text().startswith("$ ")
+    f = outcome_figures(o)
+    assert f.episodes == 4 and set(f.families) == {"crowd", "doorway"}
+    assert {r.scenario.split("/")[0] for r in f.records} == {"crowd", "doorway"}
+    assert not math.isnan(f.at_fault)  # today's results.csv records it
+
+
+def _world_results(folder: Path, method: str, family: str, n: int, outcomes: str) -> str:
+    """A results.csv of one family and count with the at_fault column: S success, C a collision the robot is at
+    fault for, P one it is not (the person walked into it at rest), T timeout."""
+    from dqn_dovs_py.report import RESULTS_COLUMNS  # noqa: PLC0415
+
+    folder.mkdir(parents=True)
+    lines = [",".join(RESULTS_COLUMNS + ("contact", "at_fault"))]
+    for k, letter in enumerate(outcomes, 1):
+        outcome = {"S": "success", "C": "collision", "P": "collision", "T": "timeout"}[letter]
+        kind, speed = ("moving", "0.3") if outcome == "collision" else ("", "")
+        contact, fault = {"C": ("robot_on_person", "1"), "P": ("person_on_robot", "0")}.get(letter, ("", ""))
+        lines.append(f"{method},{n},{k},{family}/1/{n}/{k},{outcome},10,4,0.3,0,50,0,{kind},{speed},action 1,"
+                     f"{contact},{fault}")
+    (folder / "results.csv").write_text("\n".join(lines) + "\n")
+    return str(folder / "results.csv")
+
+
+def test_worlds_table_pairs_within_each_family_and_pools_the_seeds(tmp_path):
+    from dqn_dovs_py.sweep import ConfigEntry, Settings, TrialOutcome, write_outputs  # noqa: PLC0415
+
+    s = Settings(configs=[ConfigEntry(n, f"/configs/{n}.yaml") for n in ("a", "b")], seeds=[1, 2], out=str(tmp_path),
+                 address=None, num_cpus=2, cpus_per_trial=1, gpus_per_trial=0, device="cpu", scale=None,
+                 init_from=None, model_file="model.dqnw", eval_tool="dqn_dovs_eval", eval_generate=1,
+                 eval_obstacles="4,8", eval_episodes=2, eval_threads=1, eval_flags=["--people-mix", "headline"],
+                 baselines=["s_dovs"], reference=None, python=sys.executable, cwd=str(tmp_path),
+                 eval_worlds=["crowd", "doorway"])
+    # Each side's outcomes per (family, count), 2 episodes each: the same (count, episode) in both families, so
+    # pairs that ignored the family would mix crowd and doorway episodes.
+    plan = {
+        ("a", 1): {"crowd": {4: "SS", 8: "SC"}, "doorway": {4: "TT", 8: "CP"}},
+        ("a", 2): {"crowd": {4: "SS", 8: "SS"}, "doorway": {4: "ST", 8: "TT"}},
+        ("b", 1): {"crowd": {4: "TC", 8: "CC"}, "doorway": {4: "SS", 8: "SS"}},
+        ("b", 2): {"crowd": {4: "SP", 8: "TT"}, "doorway": {4: "SS", 8: "SS"}},
+        ("s_dovs", None): {"crowd": {4: "TT", 8: "TT"}, "doorway": {4: "SS", 8: "ST"}},
+    }
+    outcomes = []
+    for (name, seed), worlds in plan.items():
+        kind = "baseline" if seed is None else "trial"
+        d = tmp_path / ("baselines" if seed is None else f"trials/{name}/seed{seed}")
+        files = {f"{family}_n{n}": _world_results(d / "eval" / f"{family}_n{n}", "s_dovs" if seed is None else
+                                                  "dqn_dovs", family, n, letters)
+                 for family, counts in worlds.items() for n, letters in counts.items()}
+        outcomes.append(TrialOutcome(kind, name, seed, str(d), ok=True, world_results=files, node="here"))
+    rows = {r["name"]: r for r in write_outputs(s, outcomes, {"command": "test", "date": "today", "commit": "x",
+                                                               "ray": "none"})}
+    # Rates: the mean of the four family x count rates of a run, then over the seeds. a: seed 1 (1 + 0.5 + 0 + 0) / 4,
+    # seed 2 (1 + 1 + 0.5 + 0) / 4; b: (0 + 0 + 1 + 1) / 4 and (0.5 + 0 + 1 + 1) / 4.
+    assert rows["a"]["success"] == pytest.approx(0.5) and rows["b"]["success"] == pytest.approx(0.5625)
+    assert [rows["b"]["rank"], rows["a"]["rank"]] == [1, 2]
+    # Robot at fault: C only (P is a collision the robot is not at fault for). a: seed 1 (0 + 0.5 + 0 + 0.5) / 4.
+    assert rows["a"]["at_fault"] == pytest.approx(0.125) and rows["b"]["at_fault"] == pytest.approx(0.1875)
+    assert rows["s_dovs"]["at_fault"] == 0 and rows["s_dovs"]["success"] == pytest.approx(0.375)
+    # Per family: the mean over the counts, then over the seeds.
+    assert (rows["a"]["success_crowd"], rows["a"]["success_doorway"]) == pytest.approx((0.875, 0.125))
+    assert (rows["a"]["at_fault_crowd"], rows["a"]["at_fault_doorway"]) == pytest.approx((0.125, 0.125))
+    assert (rows["b"]["at_fault_crowd"], rows["b"]["at_fault_doorway"]) == pytest.approx((0.375, 0.0))
+    assert rows["a"]["episodes"] == 16 and rows["s_dovs"]["episodes"] == 8
+    # a against the best (b), episode by episode within each family, the seeds pooled: seed 1 +3 / -4 (crowd +2, +1;
+    # doorway -2, -2), seed 2 +3 / -3. Matched on (count, episode) alone, crowd and doorway would overwrite each other.
+    assert (rows["a"]["vs_best_episodes"], rows["a"]["vs_best_wins"], rows["a"]["vs_best_losses"]) == (16, 6, 7)
+    assert rows["a"]["vs_best_p"] == pytest.approx(sign_test_p(6, 7))
+    assert (rows["b"]["vs_best_wins"], rows["b"]["vs_best_episodes"]) == ("", "")
+    # Against s_dovs (crowd TT TT, doorway SS ST), its one run paired with each seed's: seed 1 +3 / -3, seed 2 +4 / -2.
+    assert (rows["a"]["vs_s_dovs_episodes"], rows["a"]["vs_s_dovs_wins"], rows["a"]["vs_s_dovs_losses"]) == (16, 7, 5)
+    assert rows["a"]["vs_s_dovs_p"] == pytest.approx(sign_test_p(7, 5))
+    assert (rows["s_dovs"]["vs_best_wins"], rows["s_dovs"]["vs_best_losses"]) == \
+        (rows["b"]["vs_s_dovs_losses"], rows["b"]["vs_s_dovs_wins"])
+    md = (tmp_path / "sweep.md").read_text()
+    assert "in each of the world families crowd and doorway at N = 4 and 8" in md
+    assert "`--people-mix headline`" in md and ": 8 episodes per trial" in md
+    assert "| rank | configuration | seeds | success | collision | timeout | at fault | success per seed |" in md
+    assert ("| 2 | `a` | 1 2 | 0.500 | 0.188 | 0.312 | 0.125 | 0.375 / 0.625 | +6 / -7 (p = 1) | +7 / -5 (p = 0.77) "
+            "| ok |") in md
+    assert "## Per family" in md and "| configuration | crowd | doorway |" in md
+    assert "| `a` | 0.875 / 0.125 | 0.125 / 0.125 |" in md
+    assert "| baseline `s_dovs` | 0.000 / 0.000 | 0.750 / 0.000 |" in md
+    with open(tmp_path / "sweep.csv", newline="") as f:
+        table = {r["name"]: r for r in csv.DictReader(f)}
+    assert table["a"]["at_fault"] == "0.1250" and table["b"]["at_fault_doorway"] == "0.0000"
