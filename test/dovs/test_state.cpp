@@ -506,5 +506,109 @@ TEST(GridChannels, TheHistoryChannelIsThePreviousGrid) {
   EXPECT_THROW(buildState(d, obs, norm, &previous), StateError);
 }
 
+// ---- person tokens and wall rays (docs/dovs.md "Person tokens") ------------------------------------------------
+
+MovingObstacle walker(int id, double x, double y, double heading, double speed) {
+  MovingObstacle o;
+  o.id = id;
+  o.center = Vec2(x, y);
+  o.radius = 0.3;
+  o.heading = heading;
+  o.speed = speed;
+  o.age_s = 2.5;
+  o.position_sigma_m = 0.1;
+  return o;
+}
+
+StateNormalization tokenLayout(int tokens, int rays) {
+  StateNormalization n;
+  n.person_tokens = tokens;
+  n.wall_rays = rays;
+  return n;  // positions over 4 m, speeds over 1.5 m/s
+}
+
+TEST(PersonTokens, NearestFirstInTheRobotFrameWithEmptySlotsLast) {
+  Observation obs;
+  obs.robot_pose = Pose2{1.0, 0.0, M_PI / 2};  // facing +y
+  obs.obstacles = {walker(7, 1.0, 3.0, 0.0, 1.5), walker(3, 2.0, 0.0, M_PI, 0.0)};
+  const std::vector<float> t = personTokens(obs, tokenLayout(3, 0));
+  ASSERT_EQ(t.size(), 3u * kPersonTokenSize);
+  // Nearest: the one 1 m to the robot's right (world +x is the robot's -y), standing.
+  EXPECT_FLOAT_EQ(t[0], 1.0f);
+  EXPECT_NEAR(t[1], 0.0, 1e-6);
+  EXPECT_NEAR(t[2], -0.25, 1e-6);
+  EXPECT_NEAR(t[3], 0.0, 1e-6);
+  EXPECT_NEAR(t[5], 0.3, 1e-6);
+  EXPECT_NEAR(t[12], 0.5, 1e-6);  // age 2.5 s over 5 s
+  EXPECT_NEAR(t[13], 0.1, 1e-6);
+  // Second: 3 m ahead, walking along world +x = the robot's right at 1.5 m/s; in 2 s it is 3 m to the right.
+  const float* u = t.data() + kPersonTokenSize;
+  EXPECT_FLOAT_EQ(u[0], 1.0f);
+  EXPECT_NEAR(u[1], 0.75, 1e-6);
+  EXPECT_NEAR(u[3], 0.0, 1e-6);
+  EXPECT_NEAR(u[4], -1.0, 1e-6);
+  EXPECT_NEAR(u[10], 0.75, 1e-6);
+  EXPECT_NEAR(u[11], -0.75, 1e-6);
+  // Without history the position 1 s before is the current one.
+  EXPECT_NEAR(u[6], u[1], 1e-6);
+  EXPECT_NEAR(u[7], u[2], 1e-6);
+  for (int i = 2 * kPersonTokenSize; i < 3 * kPersonTokenSize; ++i) EXPECT_EQ(t[static_cast<size_t>(i)], 0.0f);
+}
+
+TEST(PersonTokens, HistoryGivesThePositionOneSecondBeforeAndAJumpBackForgetsIt) {
+  TrackHistory history;
+  Observation obs;
+  for (int step = 0; step <= 5; ++step) {  // 0.2 s apart, walking +x at 1 m/s
+    obs.obstacles = {walker(4, 1.0 + 0.2 * step, 0.0, 0.0, 1.0)};
+    history.update(0.2 * step, obs.obstacles);
+  }
+  Vec2 before;
+  ASSERT_TRUE(history.positionBefore(4, before));
+  EXPECT_NEAR(before.x(), 1.0, 1e-9);  // at t = 0, 1 s before t = 1
+  EXPECT_FALSE(history.positionBefore(9, before));
+  const std::vector<float> t = personTokens(obs, tokenLayout(1, 0), &history);
+  EXPECT_NEAR(t[1], 2.0 / 4.0, 1e-6);
+  EXPECT_NEAR(t[6], 1.0 / 4.0, 1e-6);
+  history.update(0.1, obs.obstacles);  // a new episode: time went back
+  ASSERT_TRUE(history.positionBefore(4, before));
+  EXPECT_NEAR(before.x(), 2.0, 1e-9);
+  EXPECT_THROW(history.update(std::nan(""), obs.obstacles), StateError);
+}
+
+TEST(PersonTokens, ValuesAreClippedAndBadObstaclesRefused) {
+  Observation obs;
+  obs.obstacles = {walker(1, 40.0, 0.0, 0.0, 9.0)};
+  const std::vector<float> t = personTokens(obs, tokenLayout(1, 0));
+  EXPECT_FLOAT_EQ(t[1], kTokenClip);
+  EXPECT_FLOAT_EQ(t[3], kTokenClip);
+  obs.obstacles[0].speed = std::nan("");
+  try {
+    personTokens(obs, tokenLayout(1, 0));
+    FAIL() << "a NaN speed was accepted";
+  } catch (const StateError& e) {
+    EXPECT_NE(std::string(e.what()).find("obstacle 0"), std::string::npos) << e.what();
+  }
+}
+
+TEST(WallRays, DistanceToTheNearestWallAlongEachDirection) {
+  Observation obs;
+  obs.robot_pose = Pose2{0.0, 0.0, 0.0};
+  obs.segments = {Segment{Vec2(2.0, -5.0), Vec2(2.0, 5.0)}, Segment{Vec2(-5.0, 1.0), Vec2(5.0, 1.0)}};
+  const std::vector<float> r = wallRays(obs, tokenLayout(0, 4));
+  ASSERT_EQ(r.size(), 4u);
+  EXPECT_NEAR(r[0], 0.5, 1e-6);   // ahead: the wall at x = 2
+  EXPECT_NEAR(r[1], 0.25, 1e-6);  // left: the wall at y = 1
+  EXPECT_NEAR(r[2], 1.0, 1e-6);   // behind: none within 4 m
+  EXPECT_NEAR(r[3], 1.0, 1e-6);
+}
+
+TEST(PersonTokens, TheStateGrowsByTheRaysAndTokensAfterTheFeatures) {
+  StateNormalization n = tokenLayout(6, 8);
+  EXPECT_EQ(n.stateSize(), 408 + 8 + 6 * kPersonTokenSize);
+  EXPECT_TRUE(n.validate().empty()) << n.validate();
+  n.person_tokens = kMaxPersonTokens + 1;
+  EXPECT_NE(n.validate().find("person_tokens"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dqn_dovs
