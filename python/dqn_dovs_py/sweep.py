@@ -196,7 +196,7 @@ def run_trial(spec: TrialSpec) -> TrialOutcome:
         t1 = time.perf_counter()
         for e in spec.evaluations:
             os.makedirs(os.path.dirname(e.log), exist_ok=True)
-            status = _run_logged(e.command, e.log, env, spec.cwd)
+            status = _run_logged(with_state_flags(e.command), e.log, env, spec.cwd)
             out.eval_s = time.perf_counter() - t1
             results = os.path.join(e.out_dir, "results.csv")
             what = f"evaluation {e.label}" if e.label else "evaluation"
@@ -466,13 +466,22 @@ def _eval_command(s: Settings, methods: str, out_dir: str, model: str | None, wo
     """One dqn_dovs_eval run: every count of --eval-obstacles, or with `world` that family at `count` only."""
     command = [s.eval_tool, "--methods", methods]
     if model:
-        from .compare_models import state_flags  # noqa: PLC0415
-        # The state the network reads (grid encoding, channels, previous choice, wall rays, person tokens).
-        command += ["--model", model, *(state_flags(model) if os.path.exists(model) else [])]
+        command += ["--model", model]  # with the state flags of its file when it runs (with_state_flags)
     obstacles = s.eval_obstacles if world is None else str(count)
     return command + ["--generate", str(s.eval_generate), "--obstacles", obstacles, "--episodes",
                       str(s.eval_episodes), "--threads", str(s.eval_threads), "--trajectories", "0", "--no-report",
                       "--out", out_dir + os.sep] + (["--world", world] if world else []) + s.eval_flags
+
+
+def with_state_flags(command: list[str]) -> list[str]:
+    """`command` with the state flags of the network its --model names (compare_models.state_flags: the grid
+    encoding, channels, previous choice, wall rays and person tokens the file says it reads), read when the command
+    runs, after training wrote the file. Unchanged without --model or when the command already sets --dovs."""
+    if "--model" not in command or "--dovs" in command:
+        return command
+    from .compare_models import state_flags  # noqa: PLC0415
+    at = command.index("--model") + 2
+    return command[:at] + state_flags(command[at - 1]) + command[at:]
 
 
 def world_label(world: str, count: int) -> str:

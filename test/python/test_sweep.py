@@ -514,3 +514,23 @@ def test_worlds_table_pairs_within_each_family_and_pools_the_seeds(tmp_path):
     with open(tmp_path / "sweep.csv", newline="") as f:
         table = {r["name"]: r for r in csv.DictReader(f)}
     assert table["a"]["at_fault"] == "0.1250" and table["b"]["at_fault_doorway"] == "0.0000"
+
+
+def test_a_trained_network_is_evaluated_on_the_state_its_file_says_it_reads(tmp_path):
+    """The flags come from the weight file when the evaluation runs (after training wrote it): a network with wall
+    rays and person tokens gets --dovs wall_rays=8,person_tokens=6; the paper's network and a method without a
+    model get nothing; a command that sets --dovs itself is left alone."""
+    from dqn_dovs_py.export import export_model
+    from dqn_dovs_py.model import DuelingQNet
+    from dqn_dovs_py.sweep import with_state_flags
+
+    tokens = export_model(DuelingQNet(wall_rays=8, person_tokens=6), tmp_path / "tokens.dqnw", {"v_max": 0.7},
+                          "sweep flags", onnx=False)
+    plain = export_model(DuelingQNet(), tmp_path / "plain.dqnw", {"v_max": 0.7}, "sweep flags", onnx=False)
+    command = ["dqn_dovs_eval", "--methods", "dqn_dovs", "--model", str(tokens), "--generate", "5"]
+    assert with_state_flags(command) == ["dqn_dovs_eval", "--methods", "dqn_dovs", "--model", str(tokens), "--dovs",
+                                         "wall_rays=8,person_tokens=6", "--generate", "5"]
+    assert with_state_flags(command[:3] + ["--model", str(plain)]) == command[:3] + ["--model", str(plain)]
+    assert with_state_flags(["dqn_dovs_eval", "--methods", "s_dovs"]) == ["dqn_dovs_eval", "--methods", "s_dovs"]
+    own = command + ["--dovs", "previous_action=1"]
+    assert with_state_flags(own) == own
