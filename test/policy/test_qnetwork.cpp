@@ -13,6 +13,7 @@
 #include <random>
 #include <thread>
 
+#include "dqn_dovs/dovs/state.h"
 #include "dqn_dovs/policy/qnetwork.h"
 #include "dqn_dovs/policy/weight_file.h"
 
@@ -494,6 +495,64 @@ TEST(WeightFile, MismatchedStateLayoutAndActions) {
   c = defaultContents();
   c.action_count = 6;
   expectLoadError(c, "actions.dqnw", "action count");
+}
+
+TEST(WeightFile, VersionThreeLayoutsAreCheckedFieldByField) {
+  DuelingArchitecture arch;
+  arch.wall_rays = 8;
+  arch.person_tokens = 6;
+  arch.quantiles = 16;
+  arch.cvar_count = 4;
+  const std::vector<std::pair<std::string, float>> norm = {{"v_max", 0.7f}};
+  const WeightFileContents good = makeRandomWeights(arch, 5, norm);
+  EXPECT_EQ(good.format_version, kWeightFormatVersionTokens);
+  const QNetwork net = QNetwork::fromBytes(serializeWeightFile(good), "tokens.dqnw");
+  EXPECT_EQ(net.stateSize(), 408 + 8 + 6 * kPersonTokenSize);
+  EXPECT_EQ(net.quantileCount(), 16);
+  EXPECT_EQ(net.cvarCount(), 4);
+  EXPECT_TRUE(net.tokenLayoutMismatch(8, 6).empty());
+  EXPECT_NE(net.tokenLayoutMismatch(0, 6).find("'state layout: wall rays' is 8 in the file but 0"), std::string::npos);
+  EXPECT_NE(net.tokenLayoutMismatch(8, 0).find("dovs/person_tokens"), std::string::npos);
+  // The action value is the mean of the 4 lowest of each action's 16 quantiles; Q is the mean of all 16.
+  Eigen::VectorXf s = Eigen::VectorXf::Constant(net.stateSize(), 0.3f);
+  const std::vector<float> z = net.quantileValues(s);
+  const auto q = net.qValues(s), cvar = net.actionValues(s);
+  for (int a = 0; a < QNetwork::kActionCount; ++a) {
+    std::vector<float> mine(z.begin() + a * 16, z.begin() + (a + 1) * 16);
+    std::sort(mine.begin(), mine.end());
+    EXPECT_NEAR(cvar[static_cast<size_t>(a)], (mine[0] + mine[1] + mine[2] + mine[3]) / 4.0f, 1e-5f);
+    float mean = 0.0f;
+    for (float v : mine) mean += v / 16.0f;
+    EXPECT_NEAR(q[static_cast<size_t>(a)], mean, 1e-5f);
+  }
+  // A token may be absent: the state's first token entry 0 drops it, and then nothing else of it matters.
+  Eigen::VectorXf absent = s;
+  for (int k = 0; k < 6; ++k) absent[416 + k * kPersonTokenSize] = 0.0f;
+  Eigen::VectorXf noisy = absent;
+  for (int i = 417; i < noisy.size(); ++i)
+    if ((i - 416) % kPersonTokenSize != 0) noisy[i] = -1.7f;
+  EXPECT_EQ(net.qValues(absent), net.qValues(noisy));
+
+  WeightFileContents c = good;
+  c.token_size = 13;
+  expectLoadError(c, "token_size.dqnw", "state layout: token size");
+  c = good;
+  c.person_token_count = 17;
+  std::string message;
+  EXPECT_EQ(loadErrorField(serializeWeightFile(c), "many_tokens.dqnw", &message), "state layout: person tokens");
+  c = good;
+  c.cvar_count = 17;
+  EXPECT_EQ(loadErrorField(serializeWeightFile(c), "cvar.dqnw", &message), "cvar count");
+  c = good;
+  c.quantile_count = 8;  // the heads still end with 16 and 128 outputs
+  expectLoadError(c, "quantiles.dqnw", "value stream");
+  c = good;
+  c.person_token_count = 0;  // token layers without tokens
+  c.token_size = 0;
+  expectLoadError(c, "no_tokens.dqnw", "token stream");
+  c = good;
+  c.format_version = kWeightFormatVersionChannels;  // written without fields 5a-5e: the layers do not fit
+  EXPECT_FALSE(loadErrorField(serializeWeightFile(c), "v2.dqnw", &message).empty());
 }
 
 TEST(WeightFile, WrongLayerShapes) {
