@@ -2,6 +2,8 @@
 // actions, state, shield, network) and the learned people prediction's arcs (what dovs_node adds with
 // people_predictor). Prints a table; writes bench/results/dovs.json.
 //   bench_dovs [--scenarios DIR] [--out FILE] [--scenes N] [--seed S] [--model FILE] [--people-predictor FILE]
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -19,6 +21,7 @@
 #include "dqn_dovs/evaluation/people_predictor.h"
 #include "dqn_dovs/planning/dqn_dovs_planner.h"
 #include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/policy/qnetwork.h"
 #include "dqn_dovs/sim/scenario.h"
 
 namespace {
@@ -206,6 +209,54 @@ int main(int argc, char** argv) {
     if (escaped) decision_escape_ms.push_back(percentile(runs, 0.5));
   }
 
+  // The same whole decision with the version 3 network of the experiments (random weights: 8 wall rays, 6 person
+  // tokens pooled by attention, 16 quantiles acted on by their CVaR), its state's rays and tokens built from the
+  // scene and a track history included (docs/dovs.md "Person tokens").
+  std::vector<double> token_decision_ms;
+  {
+    DuelingArchitecture arch;
+    arch.wall_rays = 8;
+    arch.person_tokens = 6;
+    arch.quantiles = 16;
+    arch.cvar_count = 4;
+    StateNormalization token_norm;
+    token_norm.wall_rays = 8;
+    token_norm.person_tokens = 6;
+    const std::string token_model =
+        (std::filesystem::temp_directory_path() / ("bench_dovs_tokens_" + std::to_string(::getpid()) + ".dqnw"))
+            .string();
+    writeWeightFile(token_model, makeRandomWeights(arch, 11, token_norm.fields(), "bench tokens"));
+    DqnDovsConfig token_config = planner_config;
+    token_config.model_path = token_model;
+    token_config.normalization = token_norm;
+    DqnDovsPlanner token_planner(token_config);
+    std::filesystem::remove(token_model);
+    TrackHistory history;
+    for (Observation obs : timed) {
+      obs.robot_twist = {0.3, 0.2};
+      for (size_t k = 0; k < obs.obstacles.size(); ++k) obs.obstacles[k].id = static_cast<int>(k);
+      std::vector<double> runs;
+      for (int rep = 0; rep < 5; ++rep) {
+        const auto t0 = std::chrono::steady_clock::now();
+        builder.build(obs, dovs);
+        const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
+        history.update(0.2 * rep, obs.obstacles);
+        const Eigen::VectorXf state = buildState(dovs, obs, token_norm, nullptr, kNoPreviousChoice, &history);
+        PlannerInput input;
+        input.observation = &obs;
+        input.dovs = &dovs;
+        input.actions = &actions;
+        input.state = &state;
+        input.limits = limits;
+        const PlannerDecision d = token_planner.decide(input);
+        runs.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        if (!std::isfinite(d.command.v)) std::abort();
+      }
+      history.clear();
+      token_decision_ms.push_back(percentile(runs, 0.5));
+    }
+  }
+
   // The learned people prediction as dovs_node applies it: every moving obstacle of a scene (its id its index) on
   // the arc of its predicted path, at decisions 0.2 s apart while they move on (so the history fills), among the
   // room's walls. A scene's time is the median of its last 5 of 10 decisions.
@@ -248,6 +299,8 @@ int main(int argc, char** argv) {
   figures["decision_escape_scenes"] = static_cast<double>(decision_escape_ms.size());
   figures["decision_escape_ms_median"] = percentile(decision_escape_ms, 0.5);
   figures["decision_escape_ms_p99"] = percentile(decision_escape_ms, 0.99);
+  figures["tokens_cvar_decision_ms_median"] = percentile(token_decision_ms, 0.5);
+  figures["tokens_cvar_decision_ms_p99"] = percentile(token_decision_ms, 0.99);
   figures["escape_ms_median"] = percentile(escape_ms, 0.5);
   figures["escape_ms_p99"] = percentile(escape_ms, 0.99);
   figures["escape_ms_max"] = percentile(escape_ms, 1.0);
@@ -289,6 +342,11 @@ int main(int argc, char** argv) {
       "p99 %.3f ms, max %.3f ms; the %zu scenes where the escape ran: median %.3f ms, p99 %.3f ms\n",
       figures["decision_ms_median"], figures["decision_ms_p99"], figures["decision_ms_max"], decision_escape_ms.size(),
       figures["decision_escape_ms_median"], figures["decision_escape_ms_p99"]);
+
+  std::printf(
+      "whole decision with the version 3 network (8 wall rays, 6 person tokens, 16 quantiles, CVaR): median %.3f ms, "
+      "p99 %.3f ms\n",
+      figures["tokens_cvar_decision_ms_median"], figures["tokens_cvar_decision_ms_p99"]);
 
   std::printf(
       "learned people prediction's arcs (%s, %.1f moving obstacles per scene; median of the last 5 of 10 decisions): "
