@@ -117,7 +117,7 @@ class WeightFile:
     action_count: int
     layers: list[LayerRecord]
     metadata: str
-    grid_channels: int = 1  # version 2 only; version 1 files have one
+    grid_channels: int = 1  # versions 2 and 3; version 1 files have one
     # Version 3 only (older files: 0, 0, 0, 1, 1).
     wall_ray_count: int = 0
     person_token_count: int = 0

@@ -153,7 +153,7 @@ class QNetwork {
   /// Empty when the network reads exactly `wall_rays` wall rays and `person_tokens` person tokens, otherwise a message
   /// naming the file's state layout field and the DOVS parameter (dovs/wall_rays, dovs/person_tokens).
   std::string tokenLayoutMismatch(int wall_rays, int person_tokens) const;
-  /// Free-text provenance (training command, date, source revision).
+  /// Free-text provenance (training command, date, config, seed, source commit, init from).
   std::string metadata() const { return metadata_; }
 
   /// Where the network was loaded from.

@@ -100,7 +100,7 @@ struct WeightFileContents {
   std::uint32_t format_version = kWeightFormatVersion;
   std::uint32_t grid_rows = 20;  ///< rows of the velocity grid (v axis)
   std::uint32_t grid_cols = 20;  ///< columns of the velocity grid (w axis)
-  /// Channels of the grid image (version 2 only; a version 1 file has 1). The state holds
+  /// Channels of the grid image (versions 2 and 3; a version 1 file has 1). The state holds
   /// grid_channels x grid_rows x grid_cols grid values, channel-major, then the features.
   std::uint32_t grid_channels = 1;
   std::uint32_t feature_count = 8;  ///< normalised scalar features after the grid
@@ -116,7 +116,7 @@ struct WeightFileContents {
   std::vector<std::pair<std::string, float>> normalization;
   std::uint32_t action_count = 8;
   std::vector<LayerRecord> layers;
-  /// Free text: training command, date, source revision.
+  /// Free text: training command, date, provenance (config, seed, source commit, init from).
   std::string metadata;
 };
 
