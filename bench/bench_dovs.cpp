@@ -182,18 +182,20 @@ int main(int argc, char** argv) {
   DqnDovsConfig planner_config;
   planner_config.model_path = args.model;
   planner_config.shield = shield;
-  DqnDovsPlanner planner(planner_config);
-  const StateNormalization normalization;
-  std::vector<double> decision_ms, decision_escape_ms;
-  for (Observation obs : timed) {
+  // One scene's whole decision with `planner` on states of `norm` (with person tokens, `history` remembers the
+  // scene's obstacles by index across the repeats): the median of 5, and whether the escape ran.
+  auto time_decision = [&](DqnDovsPlanner& planner, const StateNormalization& norm, Observation obs,
+                           TrackHistory* history, bool& escaped) {
     obs.robot_twist = {0.3, 0.2};
+    for (size_t k = 0; k < obs.obstacles.size(); ++k) obs.obstacles[k].id = static_cast<int>(k);
+    if (history) history->clear();
     std::vector<double> runs;
-    bool escaped = false;
     for (int rep = 0; rep < 5; ++rep) {
       const auto t0 = std::chrono::steady_clock::now();
       builder.build(obs, dovs);
       const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
-      const Eigen::VectorXf state = buildState(dovs, obs, normalization);
+      if (history) history->update(0.2 * rep, obs.obstacles);
+      const Eigen::VectorXf state = buildState(dovs, obs, norm, nullptr, kNoPreviousChoice, history);
       PlannerInput input;
       input.observation = &obs;
       input.dovs = &dovs;
@@ -205,8 +207,14 @@ int main(int argc, char** argv) {
       if (!std::isfinite(d.command.v)) std::abort();
       escaped = d.action < 0;
     }
-    decision_ms.push_back(percentile(runs, 0.5));
-    if (escaped) decision_escape_ms.push_back(percentile(runs, 0.5));
+    return percentile(runs, 0.5);
+  };
+  DqnDovsPlanner planner(planner_config);
+  std::vector<double> decision_ms, decision_escape_ms;
+  for (const Observation& obs : timed) {
+    bool escaped = false;
+    decision_ms.push_back(time_decision(planner, StateNormalization{}, obs, nullptr, escaped));
+    if (escaped) decision_escape_ms.push_back(decision_ms.back());
   }
 
   // The same whole decision with the version 3 network of the experiments (random weights: 8 wall rays, 6 person
@@ -232,28 +240,9 @@ int main(int argc, char** argv) {
     DqnDovsPlanner token_planner(token_config);
     std::filesystem::remove(token_model);
     TrackHistory history;
-    for (Observation obs : timed) {
-      obs.robot_twist = {0.3, 0.2};
-      for (size_t k = 0; k < obs.obstacles.size(); ++k) obs.obstacles[k].id = static_cast<int>(k);
-      std::vector<double> runs;
-      for (int rep = 0; rep < 5; ++rep) {
-        const auto t0 = std::chrono::steady_clock::now();
-        builder.build(obs, dovs);
-        const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
-        history.update(0.2 * rep, obs.obstacles);
-        const Eigen::VectorXf state = buildState(dovs, obs, token_norm, nullptr, kNoPreviousChoice, &history);
-        PlannerInput input;
-        input.observation = &obs;
-        input.dovs = &dovs;
-        input.actions = &actions;
-        input.state = &state;
-        input.limits = limits;
-        const PlannerDecision d = token_planner.decide(input);
-        runs.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-        if (!std::isfinite(d.command.v)) std::abort();
-      }
-      history.clear();
-      token_decision_ms.push_back(percentile(runs, 0.5));
+    for (const Observation& obs : timed) {
+      bool escaped = false;
+      token_decision_ms.push_back(time_decision(token_planner, token_norm, obs, &history, escaped));
     }
   }
 
