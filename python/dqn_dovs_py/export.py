@@ -33,7 +33,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from .model import DuelingQNet
+from .model import DuelingQNet, widened
 
 MAGIC = b"DQNDOVSW"
 FORMAT_VERSION = 1
@@ -450,20 +450,8 @@ def widen_previous_action(model: DuelingQNet) -> DuelingQNet:
 def _widened(model: DuelingQNet, **inputs: int) -> DuelingQNet:
     """`model` with more inputs (grid channels and/or feature inputs): the tensors that read them (the first
     convolution, the feature stream's first layer) keep their weights for the old inputs and get zeros for the new
-    ones; every other tensor is copied."""
-    config = model.config()
-    config.update(inputs)
-    wide = DuelingQNet(**config)
-    source = model.state_dict()
-    with torch.no_grad():
-        for name, tensor in wide.state_dict().items():
-            old = source[name]
-            if old.shape == tensor.shape:
-                tensor.copy_(old)
-            else:  # [out, old inputs, ...] -> [out, new inputs, ...], zeros beyond the old inputs
-                tensor.zero_()
-                tensor[:, :old.shape[1]].copy_(old)
-    return wide
+    ones; every other tensor is copied (model.widened)."""
+    return widened(model, **inputs)
 
 
 # --------------------------------------------------------------------------------------------- ONNX

@@ -242,18 +242,26 @@ def widen_tokens(model: DuelingQNet, wall_rays: int, person_tokens: int, **token
     state, whatever the rays and tokens hold, until training moves those zeros."""
     if model.wall_rays != 0 or model.person_tokens != 0:
         raise ValueError("widen_tokens: widens a network without wall rays or person tokens")
+    return widened(model, wall_rays=int(wall_rays), person_tokens=int(person_tokens), **token_arch)
+
+
+def widened(model: DuelingQNet, **changes) -> DuelingQNet:
+    """`model` rebuilt with its constructor arguments updated by `changes`, for more inputs: a tensor of the same
+    shape is copied; one that reads more inputs ([out, old inputs, ...] -> [out, new inputs, ...]) keeps its weights
+    for the old inputs, which come first, and gets zeros for the new ones; a tensor `model` does not have keeps its
+    fresh initialisation. So the wider network computes what `model` did whatever the new inputs hold."""
     config = model.config()
-    config.update(wall_rays=int(wall_rays), person_tokens=int(person_tokens), **token_arch)
+    config.update(changes)
     wide = DuelingQNet(**config)
     source = model.state_dict()
     with torch.no_grad():
         for name, tensor in wide.state_dict().items():
             if name not in source:
-                continue  # the token encoder and the attention: their fresh initialisation
+                continue
             old = source[name]
             if old.shape == tensor.shape:
                 tensor.copy_(old)
-            else:  # [out, old inputs] -> [out, new inputs]: zeros for the new inputs, which come last
+            else:
                 tensor.zero_()
                 tensor[:, :old.shape[1]].copy_(old)
     return wide
