@@ -110,7 +110,7 @@ def state_flags(model: str) -> list[str]:
     horizon (normalisation entry grid_contact_horizon_s, docs/dovs.md "The graded grid"), its grid channels
     (the file's `state layout: grid channels`, docs/dovs.md "Grid channels") and the previous choice (17 feature
     inputs, docs/dovs.md "The previous action"), the wall rays and the person tokens (format version 3, docs/dovs.md
-    "Person tokens"); none for the paper's state."""
+    "Person tokens") and the route points (format version 4, "The route ahead"); none for the paper's state."""
     weights = load_weights(model)
     horizon = weights.normalization.get("grid_contact_horizon_s", 0.0)
     values = [f"grid_contact_horizon={horizon:.9g}"] if horizon else []
@@ -122,6 +122,8 @@ def state_flags(model: str) -> list[str]:
         values.append(f"wall_rays={weights.wall_ray_count}")
     if weights.person_token_count:
         values.append(f"person_tokens={weights.person_token_count}")
+    if weights.route_point_count:
+        values.append(f"route_points={weights.route_point_count}")
     return ["--dovs", ",".join(values)] if values else []
 
 

@@ -42,8 +42,11 @@ FORMAT_VERSION = 1
 FORMAT_VERSION_CHANNELS = 2
 # Version 3 adds the wall rays, the person tokens and the quantile head (docs/weight_format.md).
 FORMAT_VERSION_TOKENS = 3
-SUPPORTED_VERSIONS = (FORMAT_VERSION, FORMAT_VERSION_CHANNELS, FORMAT_VERSION_TOKENS)
+# Version 4 adds the route points (u32) after the cvar count (docs/weight_format.md).
+FORMAT_VERSION_ROUTE = 4
+SUPPORTED_VERSIONS = (FORMAT_VERSION, FORMAT_VERSION_CHANNELS, FORMAT_VERSION_TOKENS, FORMAT_VERSION_ROUTE)
 MAX_WALL_RAYS, MAX_PERSON_TOKENS, MAX_TOKEN_SIZE, MAX_QUANTILES = 32, 16, 256, 256
+MAX_ROUTE_POINTS = 16
 MAX_GRID_CHANNELS = 16
 # Inputs after the grid: the 8 features, or 17 when the state carries the previous choice after them (the file's
 # `state layout: feature count`; docs/dovs.md "The previous action").
@@ -124,6 +127,8 @@ class WeightFile:
     token_size: int = 0
     quantile_count: int = 1
     cvar_count: int = 1
+    # Version 4 only (older files: 0).
+    route_point_count: int = 0
 
 
 # --------------------------------------------------------------------------------------------- writing
@@ -189,6 +194,8 @@ def serialize(weights: WeightFile, path_for_errors: str = "<memory>") -> bytes:
     if weights.format_version >= FORMAT_VERSION_TOKENS:
         out += struct.pack("<5I", weights.wall_ray_count, weights.person_token_count, weights.token_size,
                            weights.quantile_count, weights.cvar_count)
+    if weights.format_version >= FORMAT_VERSION_ROUTE:
+        out += struct.pack("<I", weights.route_point_count)
     out += struct.pack("<I", len(weights.normalization))
     for name, value in weights.normalization.items():
         encoded = name.encode("utf-8")
@@ -242,12 +249,14 @@ def weights_from_model(model: DuelingQNet, normalization: Mapping[str, float], m
                 raise ValueError(f"layer {i} ({layer.name}) {label} contains NaN or inf: refusing to export")
     from .model import TOKEN_SIZE, cvar_quantile_count  # noqa: PLC0415
     tokens = model.wall_rays != 0 or model.person_tokens != 0 or model.quantiles != 1
-    version = FORMAT_VERSION_TOKENS if tokens else format_version_for(model.grid_channels)
+    version = (FORMAT_VERSION_ROUTE if model.route_points != 0 else FORMAT_VERSION_TOKENS if tokens
+               else format_version_for(model.grid_channels))
     return WeightFile(version, model.grid_rows, model.grid_cols, model.feature_count,
                       norm, model.action_count, records, metadata, grid_channels=model.grid_channels,
                       wall_ray_count=model.wall_rays, person_token_count=model.person_tokens,
                       token_size=TOKEN_SIZE if model.person_tokens > 0 else 0, quantile_count=model.quantiles,
-                      cvar_count=cvar_quantile_count(model.quantiles, model.cvar_alpha))
+                      cvar_count=cvar_quantile_count(model.quantiles, model.cvar_alpha),
+                      route_point_count=model.route_points)
 
 
 def onnx_path_for(path: str | os.PathLike) -> Path:
@@ -313,7 +322,7 @@ def parse(data: bytes, path: str = "<memory>") -> WeightFile:
     if version not in SUPPORTED_VERSIONS:
         raise WeightFileError(path, "format version",
                               f"file has version {version}, this reader supports versions {FORMAT_VERSION} to "
-                              f"{FORMAT_VERSION_TOKENS}")
+                              f"{FORMAT_VERSION_ROUTE}")
     r = _Reader(data, path)
     r.take(8, "magic")
     r.u32("format version")
@@ -335,6 +344,11 @@ def parse(data: bytes, path: str = "<memory>") -> WeightFile:
             v3[key] = r.u32(field_name)
             if not low <= v3[key] <= (v3["quantile_count"] if key == "cvar_count" else high):
                 raise WeightFileError(path, field_name, f"{v3[key]} outside [{low}, {high}]")
+    if version >= FORMAT_VERSION_ROUTE:
+        v3["route_point_count"] = r.u32("state layout: route points")
+        if not 0 <= v3["route_point_count"] <= MAX_ROUTE_POINTS:
+            raise WeightFileError(path, "state layout: route points",
+                                  f"{v3['route_point_count']} outside [0, {MAX_ROUTE_POINTS}]")
     normalization: dict[str, float] = {}
     for i in range(r.u32("normalization count")):
         length = r.u32(f"normalization entry {i} name length")
@@ -408,7 +422,7 @@ def model_from_weights(weights: WeightFile) -> DuelingQNet:
         feature_hidden=feature_linears[0].shape["out_features"],
         trunk_hidden=[l.shape["out_features"] for l in trunk_linears],
         quantiles=weights.quantile_count, cvar_alpha=alpha, wall_rays=weights.wall_ray_count,
-        person_tokens=weights.person_token_count,
+        person_tokens=weights.person_token_count, route_points=weights.route_point_count,
         token_hidden=[l.shape["out_features"] for l in token_linears] or (64, 64),
         attention_hidden=[l.shape["out_features"] for l in attention_linears[:-1]])
     expected = _layer_records(model)
@@ -471,6 +485,8 @@ def state_layout_name(weights: WeightFile) -> str:
     name = f"grid{channels}{weights.grid_rows}x{weights.grid_cols}+features{weights.feature_count}"
     if weights.wall_ray_count:
         name += f"+wallrays{weights.wall_ray_count}"
+    if weights.route_point_count:
+        name += f"+route{weights.route_point_count}x2"
     if weights.person_token_count:
         name += f"+tokens{weights.person_token_count}x{weights.token_size}"
     return name
@@ -502,6 +518,8 @@ def onnx_metadata_props(weights: WeightFile, data: bytes, weights_path: str) -> 
         props.update(wall_rays=str(weights.wall_ray_count), person_tokens=str(weights.person_token_count),
                      token_size=str(weights.token_size), quantile_count=str(weights.quantile_count),
                      cvar_count=str(weights.cvar_count))
+    if weights.format_version >= FORMAT_VERSION_ROUTE:
+        props["route_points"] = str(weights.route_point_count)
     return {ONNX_PROP_PREFIX + k: v for k, v in props.items()}
 
 

@@ -52,6 +52,7 @@ class DuelingQNet(nn.Module):
         person_tokens: int = 0,
         token_hidden: Sequence[int] = (64, 64),
         attention_hidden: Sequence[int] = (64,),
+        route_points: int = 0,
     ) -> None:
         super().__init__()
         if len(conv_channels) == 0 or len(conv_channels) != len(conv_strides):
@@ -71,12 +72,15 @@ class DuelingQNet(nn.Module):
             raise ValueError(f"wall_rays must be in [0, {MAX_WALL_RAYS}], got {wall_rays}")
         if not 0 <= int(person_tokens) <= MAX_PERSON_TOKENS:
             raise ValueError(f"person_tokens must be in [0, {MAX_PERSON_TOKENS}], got {person_tokens}")
+        if not 0 <= int(route_points) <= MAX_ROUTE_POINTS:
+            raise ValueError(f"route_points must be in [0, {MAX_ROUTE_POINTS}], got {route_points}")
         if int(person_tokens) > 0 and (len(token_hidden) == 0 or min(token_hidden) < 1
                                        or (len(attention_hidden) > 0 and min(attention_hidden) < 1)):
             raise ValueError(f"token_hidden {tuple(token_hidden)} must be non-empty and positive, attention_hidden "
                              f"{tuple(attention_hidden)} positive")
         self.wall_rays = int(wall_rays)
         self.person_tokens = int(person_tokens)
+        self.route_points = int(route_points)
         self.token_hidden = tuple(int(h) for h in token_hidden)
         self.attention_hidden = tuple(int(h) for h in attention_hidden)
         self.quantiles = int(quantiles)
@@ -103,7 +107,7 @@ class DuelingQNet(nn.Module):
         self.grid = nn.Sequential(*layers)
         self.grid_out = channels * h * w
 
-        self.features = nn.Sequential(nn.Linear(self.feature_count + self.wall_rays, self.feature_hidden), nn.ReLU())
+        self.features = nn.Sequential(nn.Linear(self.flat_inputs, self.feature_hidden), nn.ReLU())
 
         # Person tokens (docs/dovs.md "Person tokens"): each present token through the encoder, a score for each from
         # its encoding beside the mean encoding, and the softmax-weighted sum of the encodings joins the trunk's input.
@@ -136,8 +140,13 @@ class DuelingQNet(nn.Module):
         self.advantage = nn.Linear(width, self.action_count * self.quantiles)
 
     @property
+    def flat_inputs(self) -> int:
+        """The feature stream's inputs: the features, the wall rays and the route points' x, y."""
+        return self.feature_count + self.wall_rays + ROUTE_POINT_INPUTS * self.route_points
+
+    @property
     def state_size(self) -> int:
-        return (self.grid_channels * self.grid_rows * self.grid_cols + self.feature_count + self.wall_rays
+        return (self.grid_channels * self.grid_rows * self.grid_cols + self.flat_inputs
                 + self.person_tokens * TOKEN_SIZE)
 
     def config(self) -> dict:
@@ -157,6 +166,7 @@ class DuelingQNet(nn.Module):
             "cvar_alpha": self.cvar_alpha,
             "wall_rays": self.wall_rays,
             "person_tokens": self.person_tokens,
+            "route_points": self.route_points,
             "token_hidden": list(self.token_hidden),
             "attention_hidden": list(self.attention_hidden),
         }
@@ -169,7 +179,7 @@ class DuelingQNet(nn.Module):
         n_grid = self.grid_channels * self.grid_rows * self.grid_cols
         grid = state[:, :n_grid].reshape(-1, self.grid_channels, self.grid_rows, self.grid_cols)
         g = self.grid(grid).flatten(1)
-        n_features = self.feature_count + self.wall_rays
+        n_features = self.flat_inputs
         f = self.features(state[:, n_grid:n_grid + n_features])
         if self.person_tokens == 0:
             return self.trunk(torch.cat([g, f], dim=1))
@@ -233,6 +243,9 @@ class DuelingQNet(nn.Module):
 TOKEN_SIZE = 14
 MAX_PERSON_TOKENS = 16
 MAX_WALL_RAYS = 32
+# The most route points, and the inputs of each (x, y) (include/dqn_dovs/dovs/state.h).
+MAX_ROUTE_POINTS = 16
+ROUTE_POINT_INPUTS = 2
 
 
 def widen_tokens(model: DuelingQNet, wall_rays: int, person_tokens: int, **token_arch) -> DuelingQNet:

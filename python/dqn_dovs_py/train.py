@@ -449,13 +449,15 @@ def resolve_device(name: str) -> torch.device:
 
 
 def default_model_factory(grid_channels: int = 1, feature_count: int = FEATURE_COUNT, quantiles: int = 1,
-                          cvar_alpha: float = 1.0, wall_rays: int = 0, person_tokens: int = 0) -> torch.nn.Module:
+                          cvar_alpha: float = 1.0, wall_rays: int = 0, person_tokens: int = 0,
+                          route_points: int = 0) -> torch.nn.Module:
     from .model import DuelingQNet  # noqa: PLC0415 - keeps `--help` and config checks free of model imports
 
-    if quantiles == 1 and cvar_alpha == 1.0 and wall_rays == 0 and person_tokens == 0:
+    if quantiles == 1 and cvar_alpha == 1.0 and wall_rays == 0 and person_tokens == 0 and route_points == 0:
         return DuelingQNet(grid_channels=grid_channels, feature_count=feature_count)  # built exactly as before
     return DuelingQNet(grid_channels=grid_channels, feature_count=feature_count, quantiles=quantiles,
-                       cvar_alpha=cvar_alpha, wall_rays=wall_rays, person_tokens=person_tokens)
+                       cvar_alpha=cvar_alpha, wall_rays=wall_rays, person_tokens=person_tokens,
+                       route_points=route_points)
 
 
 def _dovs_choice(dovs: dict, name: str, default: int, allowed: tuple[int, ...], rule: str) -> int:
@@ -484,10 +486,12 @@ def feature_count_of(dovs: dict) -> int:
     return FEATURE_COUNT_WITH_PREVIOUS_CHOICE if on else FEATURE_COUNT
 
 
-def tokens_of(dovs: dict) -> tuple[int, int]:
-    """(wall rays, person tokens) of a `dovs` section (0, 0 by default; docs/dovs.md "Person tokens")."""
+def tokens_of(dovs: dict) -> tuple[int, int, int]:
+    """(wall rays, person tokens, route points) of a `dovs` section (0, 0, 0 by default; docs/dovs.md "Person
+    tokens", "The route ahead")."""
     return (_dovs_choice(dovs, "wall_rays", 0, tuple(range(33)), "an integer in [0, 32]"),
-            _dovs_choice(dovs, "person_tokens", 0, tuple(range(17)), "an integer in [0, 16]"))
+            _dovs_choice(dovs, "person_tokens", 0, tuple(range(17)), "an integer in [0, 16]"),
+            _dovs_choice(dovs, "route_points", 0, tuple(range(17)), "an integer in [0, 16]"))
 
 
 def _atomic_torch_save(obj: Any, path: str) -> None:
@@ -646,10 +650,10 @@ class Trainer:
         grid_channels = grid_channels_of(config.dovs)
         feature_count = feature_count_of(config.dovs)
         mc = config.model
-        wall_rays, person_tokens = tokens_of(config.dovs)
+        wall_rays, person_tokens, route_points = tokens_of(config.dovs)
         self._model_factory = model_factory or (
             lambda: default_model_factory(grid_channels, feature_count, mc.quantiles, mc.cvar_alpha, wall_rays,
-                                          person_tokens))
+                                          person_tokens, route_points))
 
         os.makedirs(out_dir, exist_ok=True)
         checkpoint_path = os.path.join(out_dir, CHECKPOINT)
@@ -678,6 +682,9 @@ class Trainer:
             raise ConfigError(f"the network reads {getattr(model, 'wall_rays', 0)} wall rays and "
                               f"{getattr(model, 'person_tokens', 0)} person tokens but the dovs section gives "
                               f"{wall_rays} and {person_tokens} (an --init-from network without them is widened)")
+        if getattr(model, "route_points", 0) != route_points:
+            raise ConfigError(f"the network reads {getattr(model, 'route_points', 0)} route points but dovs "
+                              f"route_points is {route_points} (an --init-from network without them is widened)")
         state_dim = int(getattr(model, "state_size", STATE_DIM))
         grid_values = int(getattr(model, "grid_channels", 1)) * GRID_CELLS  # every grid channel
         ac = config.auxiliary
@@ -1220,8 +1227,8 @@ def parse_dovs_option(text: str) -> dict[str, float]:
 
 
 def init_from_factory(path: str, grid_channels: int = 1, feature_count: int = FEATURE_COUNT, quantiles: int = 1,
-                      cvar_alpha: float = 1.0, wall_rays: int = 0,
-                      person_tokens: int = 0) -> Callable[[], torch.nn.Module]:
+                      cvar_alpha: float = 1.0, wall_rays: int = 0, person_tokens: int = 0,
+                      route_points: int = 0) -> Callable[[], torch.nn.Module]:
     """A model factory returning the network stored in the weight file `path` (for --init-from). A network of one
     grid channel asked for more (`grid_channels`, dovs grid_channels) is widened: its first convolution reads the
     new channels with zero weights, so it starts as exactly the function it was (docs/training.md, "Grid
@@ -1234,7 +1241,7 @@ def init_from_factory(path: str, grid_channels: int = 1, feature_count: int = FE
     start network of L2-SP, agent.l2_sp_weight)."""
     from .export import (load_weights, model_from_weights, widen_grid_channels,  # noqa: PLC0415
                          widen_previous_action)
-    from .model import widen_quantiles, widen_tokens  # noqa: PLC0415
+    from .model import widen_quantiles, widen_tokens, widened  # noqa: PLC0415
 
     weights = load_weights(path)  # read (and checked) once, before any training starts
     if weights.grid_channels != grid_channels and weights.grid_channels != 1:
@@ -1256,6 +1263,11 @@ def init_from_factory(path: str, grid_channels: int = 1, feature_count: int = FE
             model = widen_previous_action(model)
         if (weights.wall_ray_count, weights.person_token_count) != (wall_rays, person_tokens):
             model = widen_tokens(model, wall_rays, person_tokens)  # new layers: the run's seeded initialisation
+        if weights.route_point_count != route_points:
+            if weights.route_point_count != 0:
+                raise ConfigError(f"--init-from {path}: the network reads {weights.route_point_count} route points, "
+                                  f"the configuration's dovs route_points is {route_points}")
+            model = widened(model, route_points=route_points)  # the feature stream reads them with zero weights
         if stored_quantiles != quantiles:
             model = widen_quantiles(model, quantiles, cvar_alpha)
         elif quantiles > 1:

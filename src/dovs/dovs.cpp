@@ -76,6 +76,8 @@ std::string DovsConfig::validate() const {
   if (wall_rays < 0 || wall_rays > 32) return fieldError("wall_rays", wall_rays, "must be in [0, 32] (0: none)");
   if (person_tokens < 0 || person_tokens > 16)
     return fieldError("person_tokens", person_tokens, "must be in [0, 16] (0: none)");
+  if (route_points < 0 || route_points > 16)
+    return fieldError("route_points", route_points, "must be in [0, 16] (0: none)");
   return {};
 }
 
@@ -97,6 +99,7 @@ const std::vector<DovsField>& dovsFields() {
       {"previous_action", nullptr, &DovsConfig::previous_action},
       {"wall_rays", nullptr, &DovsConfig::wall_rays},
       {"person_tokens", nullptr, &DovsConfig::person_tokens},
+      {"route_points", nullptr, &DovsConfig::route_points},
   };
   return fields;
 }

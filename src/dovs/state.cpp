@@ -119,6 +119,9 @@ std::string StateNormalization::validate() const {
     return "state previous_action = " + std::to_string(previous_action) + ": must be 0 (off) or 1 (on)";
   if (wall_rays < 0 || wall_rays > kMaxWallRays)
     return "state wall_rays = " + std::to_string(wall_rays) + ": must be in [0, " + std::to_string(kMaxWallRays) + "]";
+  if (route_points < 0 || route_points > kMaxRoutePoints)
+    return "state route_points = " + std::to_string(route_points) + ": must be in [0, " +
+           std::to_string(kMaxRoutePoints) + "]";
   if (person_tokens < 0 || person_tokens > kMaxPersonTokens)
     return "state person_tokens = " + std::to_string(person_tokens) + ": must be in [0, " +
            std::to_string(kMaxPersonTokens) + "]";
@@ -402,6 +405,38 @@ std::vector<float> wallRays(const Observation& obs, const StateNormalization& no
   return out;
 }
 
+std::vector<float> routePoints(const Observation& obs, const StateNormalization& norm) {
+  const int n = norm.route_points;
+  std::vector<float> out(static_cast<size_t>(std::max(n, 0)) * kRoutePointInputs, 0.0f);
+  if (n <= 0) return out;
+  std::vector<Vec2> line = obs.route_ahead;
+  if (line.empty()) line = {obs.robot_pose.position(), obs.goal};
+  for (size_t i = 0; i < line.size(); ++i) {
+    if (!line[i].allFinite()) throw StateError("state: route point " + std::to_string(i) + " is NaN/inf");
+  }
+  const double scale = norm.obstacle_clearance_scale_m;
+  const double clip = kTokenClip;
+  size_t seg = 0;       // the route segment line[seg] -> line[seg + 1] being walked
+  double seg_from = 0;  // arc length at line[seg]
+  for (int k = 0; k < n; ++k) {
+    const double arc = kRoutePointSpacing_m * (k + 1);
+    while (seg + 1 < line.size() && seg_from + (line[seg + 1] - line[seg]).norm() < arc) {
+      seg_from += (line[seg + 1] - line[seg]).norm();
+      ++seg;
+    }
+    Vec2 p = line[seg];
+    if (seg + 1 < line.size()) {
+      const double len = (line[seg + 1] - line[seg]).norm();
+      if (len > 0.0) p += (line[seg + 1] - line[seg]) * ((arc - seg_from) / len);
+    }
+    const Vec2 local = obs.robot_pose.toLocal(p);
+    out[static_cast<size_t>(kRoutePointInputs * k)] = static_cast<float>(std::clamp(local.x() / scale, -clip, clip));
+    out[static_cast<size_t>(kRoutePointInputs * k + 1)] =
+        static_cast<float>(std::clamp(local.y() / scale, -clip, clip));
+  }
+  return out;
+}
+
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
                        const std::vector<float>* previous_grid, int previous_choice, const TrackHistory* history) {
   requireStateGrid(dovs);
@@ -442,6 +477,7 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
   }
   int at = grid_values + norm.featureInputs();
   for (float r : wallRays(obs, norm)) s(at++) = r;
+  for (float r : routePoints(obs, norm)) s(at++) = r;
   for (float t : personTokens(obs, norm, history)) s(at++) = t;
   return s;
 }
@@ -456,6 +492,7 @@ StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfi
   n.previous_action = dovs.previous_action;
   n.wall_rays = dovs.wall_rays;
   n.person_tokens = dovs.person_tokens;
+  n.route_points = dovs.route_points;
   return n;
 }
 

@@ -256,6 +256,7 @@ void Episode::buildContext() {
   observation_.goal = world_.goal();
   observation_.obstacles.clear();
   observation_.segments.clear();
+  observation_.route_ahead.clear();
   const Pose2 odom_from_world = world_.odomPose().compose(world_.robotPose().inverse());  // identity without drift
   // The world's walls as the robot places them: in the odom frame where odometry drifts.
   auto walls_in_odom = [&]() {
@@ -313,6 +314,8 @@ void Episode::buildContext() {
     guidance_ = route_guide_.update(route_planner_.get(), observation_.robot_pose.position(), world_.goal(),
                                     world_.time_s(), 0, [this]() { return routeScanPoints(); });
     observation_.goal = guidance_.local_goal;
+    if (normalization_.route_points > 0)  // the state's route points; the straight line to the goal without a route
+      observation_.route_ahead = route_guide_.ahead(kRoutePointSpacing_m * normalization_.route_points);
   }
   dovs_builder_.build(observation_, dovs_);
   const Vec2 goal_local = observation_.robot_pose.toLocal(observation_.goal);

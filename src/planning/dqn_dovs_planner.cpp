@@ -36,7 +36,8 @@ std::shared_ptr<const QNetwork> loadNetwork(const DqnDovsConfig& config) {
   if (mismatch.empty()) mismatch = net->gridChannelsMismatch(config.normalization.grid_channels);
   if (mismatch.empty()) mismatch = net->previousActionMismatch(config.normalization.previous_action != 0);
   if (mismatch.empty())
-    mismatch = net->tokenLayoutMismatch(config.normalization.wall_rays, config.normalization.person_tokens);
+    mismatch = net->tokenLayoutMismatch(config.normalization.wall_rays, config.normalization.person_tokens,
+                                        config.normalization.route_points);
   if (!mismatch.empty()) {
     throw PlannerError("DQN-DOVS: the Q-network '" + config.model_path +
                        "' was trained with another state normalisation or layout: " + mismatch);

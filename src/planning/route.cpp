@@ -761,6 +761,29 @@ RouteGuidance RouteGuide::update(const RoutePlanner* planner, const Vec2& robot,
   return out;
 }
 
+std::vector<Vec2> RouteGuide::ahead(double length_m) const {
+  if (!route_ || route_->points.empty()) return {};
+  const std::vector<Vec2>& pts = route_->points;
+  const std::vector<double>& arc = route_->arc_m;
+  const size_t seg = std::min(follower_.segment, pts.size() - 1);
+  const double from = std::clamp(follower_.arc_m, arc[seg], arc.back());
+  auto at = [&](size_t i, double s) {  // the point at arc length s on segment i (i + 1 < pts.size())
+    const double len = arc[i + 1] - arc[i];
+    return len > 0.0 ? Vec2(pts[i] + (pts[i + 1] - pts[i]) * ((s - arc[i]) / len)) : pts[i];
+  };
+  std::vector<Vec2> out;
+  out.push_back(seg + 1 < pts.size() ? at(seg, from) : pts[seg]);
+  const double until = from + std::max(length_m, 0.0);
+  for (size_t i = seg + 1; i < pts.size(); ++i) {
+    if (arc[i] >= until) {
+      out.push_back(at(i - 1, until));
+      return out;
+    }
+    out.push_back(pts[i]);
+  }
+  return out;
+}
+
 double RouteGuide::distanceToGo(const Vec2& p, const Vec2& goal) const {
   if (!route_) return (p - goal).norm();
   RouteFollower from = follower_;

@@ -93,6 +93,9 @@ std::string DuelingArchitecture::validate() const {
   if (person_tokens > static_cast<std::uint32_t>(kMaxPersonTokens))
     return "architecture field 'person_tokens' = " + std::to_string(person_tokens) + ": must be in [0, " +
            std::to_string(kMaxPersonTokens) + "]";
+  if (route_points > static_cast<std::uint32_t>(kMaxRoutePoints))
+    return "architecture field 'route_points' = " + std::to_string(route_points) + ": must be in [0, " +
+           std::to_string(kMaxRoutePoints) + "]";
   if (person_tokens > 0 && token_hidden.empty()) return "architecture field 'token_hidden' is empty";
   for (std::uint32_t h : token_hidden)
     if (h == 0) return "architecture field 'token_hidden' contains 0";
@@ -118,6 +121,7 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
   c.feature_count = arch.feature_count;
   c.wall_ray_count = arch.wall_rays;
   c.person_token_count = arch.person_tokens;
+  c.route_point_count = arch.route_points;
   c.token_size = arch.person_tokens > 0 ? static_cast<std::uint32_t>(kPersonTokenSize) : 0u;
   c.quantile_count = arch.quantiles;
   c.cvar_count = arch.cvar_count;
@@ -167,7 +171,8 @@ WeightFileContents makeRandomWeights(const DuelingArchitecture& arch, std::uint6
     h = (h + 2 * pad - k) / arch.conv_strides[i] + 1;
     w = (w + 2 * pad - k) / arch.conv_strides[i] + 1;
   }
-  linear(LayerStream::kFeature, arch.feature_count + arch.wall_rays, arch.feature_hidden);
+  linear(LayerStream::kFeature, arch.feature_count + arch.wall_rays + kRoutePointInputs * arch.route_points,
+         arch.feature_hidden);
   relu(LayerStream::kFeature);
   const std::uint32_t embedding = arch.person_tokens > 0 ? arch.token_hidden.back() : 0u;
   std::uint32_t width = channels * h * w + arch.feature_hidden + embedding;
@@ -212,11 +217,16 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
            "file has " + std::to_string(found) + ", this planner's network input needs " + std::to_string(expected));
     }
   };
-  if (c.format_version < kWeightFormatVersion || c.format_version > kWeightFormatVersionTokens) {
+  if (c.format_version < kWeightFormatVersion || c.format_version > kWeightFormatVersionLatest) {
     fail("format version", "version " + std::to_string(c.format_version) + " is not supported (reader versions " +
                                std::to_string(kWeightFormatVersion) + " to " +
-                               std::to_string(kWeightFormatVersionTokens) + ")");
+                               std::to_string(kWeightFormatVersionLatest) + ")");
   }
+  if (c.format_version < kWeightFormatVersionRoute && c.route_point_count != 0)
+    fail("format version", "version " + std::to_string(c.format_version) + " has no route points (version 4 does)");
+  if (c.route_point_count > static_cast<std::uint32_t>(kMaxRoutePoints))
+    fail("state layout: route points", "file has " + std::to_string(c.route_point_count) +
+                                           ", the planner's states have at most " + std::to_string(kMaxRoutePoints));
   if (c.format_version < kWeightFormatVersionTokens &&
       (c.wall_ray_count != 0 || c.person_token_count != 0 || c.token_size != 0 || c.quantile_count != 1 ||
        c.cvar_count != 1)) {
@@ -372,7 +382,9 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   requireWeighted(streams[1], LayerType::kLinear, "feature");
   const int feature_count = static_cast<int>(c.feature_count);
   const int wall_rays = static_cast<int>(c.wall_ray_count);
-  concat_feature = planVector(streams[1], feature_count + wall_rays, "feature");
+  const int route_points = static_cast<int>(c.route_point_count);
+  const int flat_inputs = feature_count + wall_rays + kRoutePointInputs * route_points;
+  concat_feature = planVector(streams[1], flat_inputs, "feature");
   const int tokens = static_cast<int>(c.person_token_count), token_size = static_cast<int>(c.token_size);
   int embedding = 0;
   if (tokens > 0) {
@@ -416,6 +428,7 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
   const int grid_size = net.grid_channels_ * kGridRows * kGridCols;
   net.feature_count_ = feature_count;
   net.wall_rays_ = wall_rays;
+  net.route_points_ = route_points;
   net.person_tokens_ = tokens;
   net.token_size_ = token_size;
   net.quantiles_ = quantiles;
@@ -486,7 +499,7 @@ QNetwork QNetwork::fromContents(const WeightFileContents& c, const std::string& 
     return offset;
   };
   emit(streams[0], state_offset, grid_size, concat_offset, net.ops_);
-  emit(streams[1], state_offset + grid_size, feature_count + wall_rays, concat_offset + concat_grid, net.ops_);
+  emit(streams[1], state_offset + grid_size, flat_inputs, concat_offset + concat_grid, net.ops_);
   if (tokens > 0) {
     net.token_in_offset_ = alloc(token_size);
     net.token_out_offset_ = emit(streams[5], net.token_in_offset_, token_size, -1, net.token_ops_);
@@ -560,17 +573,19 @@ const float* QNetwork::forward(const Eigen::Ref<const Eigen::VectorXf>& state) c
         "Q-network state has " + std::to_string(state.size()) + " elements, expected " + std::to_string(state_size) +
         " (" + std::to_string(grid_channels_) + " x 20 x 20 grid + " + std::to_string(feature_count_) + " features" +
         (wall_rays_ > 0 ? " + " + std::to_string(wall_rays_) + " wall rays" : std::string()) +
+        (route_points_ > 0 ? " + " + std::to_string(route_points_) + " route points" : std::string()) +
         (person_tokens_ > 0 ? " + " + std::to_string(person_tokens_) + " person tokens" : std::string()) + ")");
   }
   for (int i = 0; i < state_size; ++i) {
     if (!std::isfinite(state[i])) {
       const int after_grid = i - grid_size, after_features = after_grid - feature_count_,
-                after_rays = after_features - wall_rays_;
+                after_rays = after_features - wall_rays_, after_route = after_rays - kRoutePointInputs * route_points_;
       const std::string where = i < grid_size        ? std::string("grid")
                                 : after_features < 0 ? "feature " + std::to_string(after_grid)
-                                : after_rays < 0
-                                    ? "wall ray " + std::to_string(after_features)
-                                    : "person token " + std::to_string(after_rays / std::max(token_size_, 1));
+                                : after_rays < 0     ? "wall ray " + std::to_string(after_features)
+                                : after_route < 0
+                                    ? "route point " + std::to_string(after_rays / kRoutePointInputs)
+                                    : "person token " + std::to_string(after_route / std::max(token_size_, 1));
       throw QNetworkInputError("Q-network state element " + std::to_string(i) + " is " +
                                (std::isnan(state[i]) ? "NaN" : "infinite") + " (" + where + ")");
     }
@@ -585,7 +600,7 @@ const float* QNetwork::forward(const Eigen::Ref<const Eigen::VectorXf>& state) c
     // Each present token through the encoder, then a softmax over the attention scores of the present ones; the
     // pooled encoding is 0 when no token is present.
     const int e = token_embedding_;
-    const float* tokens = s + state_offset_ + grid_size + feature_count_ + wall_rays_;
+    const float* tokens = s + state_offset_ + grid_size + flatInputs();
     float* embeddings = s + embeddings_offset_;
     float* pooled = s + pooled_offset_;
     int present = 0;
@@ -731,7 +746,11 @@ std::string QNetwork::previousActionMismatch(bool expected) const {
          " here (check dovs/previous_action: 1 adds the previous choice, in training and evaluation only)";
 }
 
-std::string QNetwork::tokenLayoutMismatch(int wall_rays, int person_tokens) const {
+std::string QNetwork::tokenLayoutMismatch(int wall_rays, int person_tokens, int route_points) const {
+  if (route_points != route_points_)
+    return "state layout of '" + source_ + "' differs: 'state layout: route points' is " +
+           std::to_string(route_points_) + " in the file but " + std::to_string(route_points) +
+           " here (check dovs/route_points)";
   if (wall_rays != wall_rays_)
     return "state layout of '" + source_ + "' differs: 'state layout: wall rays' is " + std::to_string(wall_rays_) +
            " in the file but " + std::to_string(wall_rays) + " here (check dovs/wall_rays)";
@@ -745,8 +764,9 @@ std::string QNetwork::tokenLayoutMismatch(int wall_rays, int person_tokens) cons
 std::string QNetwork::describe() const {
   std::ostringstream os;
   os << "Q-network '" << source_ << "': state " << grid_channels_ << "x" << kGridRows << "x" << kGridCols << " grid + "
-     << feature_count_ << " features + " << wall_rays_ << " wall rays + " << person_tokens_ << " person tokens, "
-     << kActionCount << " actions, " << quantiles_ << " quantiles (choice: mean of the lowest " << cvar_count_ << ")\n";
+     << feature_count_ << " features + " << wall_rays_ << " wall rays + " << route_points_ << " route points + "
+     << person_tokens_ << " person tokens, " << kActionCount << " actions, " << quantiles_
+     << " quantiles (choice: mean of the lowest " << cvar_count_ << ")\n";
   for (std::size_t i = 0; i < layer_descriptions_.size(); ++i)
     os << "  " << i << ": " << layer_descriptions_[i] << "\n";
   return os.str();

@@ -232,6 +232,7 @@ std::uint32_t weightFormatVersionFor(std::uint32_t grid_channels) {
 }
 
 std::uint32_t weightFormatVersionFor(const WeightFileContents& c) {
+  if (c.route_point_count != 0) return kWeightFormatVersionRoute;
   if (c.wall_ray_count != 0 || c.person_token_count != 0 || c.quantile_count != 1) return kWeightFormatVersionTokens;
   return weightFormatVersionFor(c.grid_channels);
 }
@@ -248,6 +249,7 @@ std::vector<std::uint8_t> serializeWeightFile(const WeightFileContents& c, const
     for (std::uint32_t v : {c.wall_ray_count, c.person_token_count, c.token_size, c.quantile_count, c.cvar_count})
       w.u32(v);
   }
+  if (c.format_version >= kWeightFormatVersionRoute) w.u32(c.route_point_count);
   w.u32(static_cast<std::uint32_t>(c.normalization.size()));
   for (const auto& [name, value] : c.normalization) {
     if (name.size() > kMaxNameLength)
@@ -317,11 +319,11 @@ WeightFileContents parseWeightFile(const std::vector<std::uint8_t>& bytes, const
   // The version is judged before anything else is parsed: another version may lay its fields out differently.
   std::uint32_t version = 0;
   for (std::size_t i = 0; i < 4; ++i) version |= static_cast<std::uint32_t>(bytes[kMagicSize + i]) << (8 * i);
-  if (version < kWeightFormatVersion || version > kWeightFormatVersionTokens) {
+  if (version < kWeightFormatVersion || version > kWeightFormatVersionLatest) {
     throw WeightFileError(path, "format version",
                           "file has version " + std::to_string(version) + ", this reader supports versions " +
                               std::to_string(kWeightFormatVersion) + " to " +
-                              std::to_string(kWeightFormatVersionTokens));
+                              std::to_string(kWeightFormatVersionLatest));
   }
   c.format_version = r.u32("format version");
   c.grid_rows = checkedRange(r.u32("state layout: grid rows"), 1, kMaxGridSide, path, "state layout: grid rows");
@@ -341,6 +343,10 @@ WeightFileContents parseWeightFile(const std::vector<std::uint8_t>& bytes, const
     c.token_size = checkedRange(r.u32("state layout: token size"), 0, kMaxTokenSize, path, "state layout: token size");
     c.quantile_count = checkedRange(r.u32("quantile count"), 1, kMaxQuantiles, path, "quantile count");
     c.cvar_count = checkedRange(r.u32("cvar count"), 1, c.quantile_count, path, "cvar count");
+  }
+  if (version >= kWeightFormatVersionRoute) {
+    c.route_point_count =
+        checkedRange(r.u32("state layout: route points"), 0, kMaxRoutePointCount, path, "state layout: route points");
   }
   const std::uint32_t n_norm =
       checkedRange(r.u32("normalization count"), 0, kMaxNormalizationEntries, path, "normalization count");

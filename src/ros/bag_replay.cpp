@@ -3,6 +3,7 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/LaserScan.h>
@@ -10,6 +11,7 @@
 #include <tf2/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -76,8 +78,10 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
   std::unique_ptr<KnownStructure> tracker_structure;
   std::string tracker_map_frame, dovs_map_frame;
   std::vector<Segment> map_walls;
-  rosbag::View view(bag, rosbag::TopicQuery(std::vector<std::string>{config.scan_topic, config.odom_topic,
-                                                                     config.goal_topic, config.map_topic}));
+  std::vector<Vec2> route_ahead;  // the latest planner/route_ahead (fixed frame); empty: the straight line
+  rosbag::View view(bag,
+                    rosbag::TopicQuery(std::vector<std::string>{config.scan_topic, config.odom_topic, config.goal_topic,
+                                                                config.map_topic, config.route_ahead_topic}));
   for (const rosbag::MessageInstance& m : view) {
     if (m.getTopic() == config.map_topic) {
       const auto msg = m.instantiate<nav_msgs::OccupancyGrid>();
@@ -99,6 +103,15 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     if (m.getTopic() == config.odom_topic) {
       const auto msg = m.instantiate<nav_msgs::Odometry>();
       if (msg && std::isfinite(msg->twist.twist.linear.x) && std::isfinite(msg->twist.twist.angular.z)) odom = *msg;
+      continue;
+    }
+    if (m.getTopic() == config.route_ahead_topic) {
+      const auto msg = m.instantiate<nav_msgs::Path>();
+      if (!msg || (msg->header.frame_id != config.fixed_frame && !msg->poses.empty())) continue;
+      std::vector<Vec2> points;
+      for (const auto& p : msg->poses) points.emplace_back(p.pose.position.x, p.pose.position.y);
+      if (std::all_of(points.begin(), points.end(), [](const Vec2& p) { return p.allFinite(); }))
+        route_ahead = std::move(points);
       continue;
     }
     if (m.getTopic() == config.goal_topic) {
@@ -151,7 +164,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     DovsStep step;
     const Twist2 odom_twist{odom->twist.twist.linear.x, odom->twist.twist.angular.z};
     if (!buildDovsStep(obstacles, *robot_pose, odom_twist, goal, config.limits, normalization, config.shield,
-                       config.base_frame, builder, dovs, step, predicted_arcs.get(), &track_history)
+                       config.base_frame, builder, dovs, step, predicted_arcs.get(), &track_history, &route_ahead)
              .empty()) {
       continue;
     }

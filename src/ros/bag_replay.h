@@ -59,6 +59,9 @@ struct ReplayConfig {
   std::string scan_topic = "/scan";
   std::string odom_topic = "/odom";
   std::string goal_topic = "/move_base_simple/goal";
+  /// planner_node's route ahead (nav_msgs/Path in the fixed frame), for a network with route points
+  /// (dovs/route_points); a bag without it gives the straight line to the goal.
+  std::string route_ahead_topic = "/planner/route_ahead";
 };
 
 /// One confirmed track of one used scan.

@@ -56,6 +56,8 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   map_range_m_ = paramInRange(pnh_, "map_range", 4.0, 0.5, 50.0);
   map_unknown_is_occupied_ = param<bool>(pnh_, "map_unknown_is_occupied", false);
   if (use_map_) map_sub_ = nh_.subscribe("map", 1, &DovsNode::onMap, this);
+  if (normalization_.route_points > 0)
+    route_ahead_sub_ = nh_.subscribe("planner/route_ahead", 2, &DovsNode::onRouteAhead, this);
   ROS_INFO("dovs: robot frame '%s' in '%s', %d trajectories, horizon %.1f s", base_frame_.c_str(), fixed_frame_.c_str(),
            builder_.config().num_trajectories, builder_.config().time_horizon_s);
 }
@@ -104,6 +106,25 @@ void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
   } else {
     ROS_INFO("dovs: goal (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
   }
+}
+
+void DovsNode::onRouteAhead(const nav_msgs::Path::ConstPtr& msg) {
+  if (msg->header.frame_id != fixed_frame_ && !msg->poses.empty()) {
+    ROS_ERROR_THROTTLE(2.0, "dovs: planner/route_ahead ignored: in frame '%s', expected the fixed frame '%s'",
+                       msg->header.frame_id.c_str(), fixed_frame_.c_str());
+    return;
+  }
+  std::vector<Vec2> points;
+  for (const auto& p : msg->poses) {
+    const Vec2 v(p.pose.position.x, p.pose.position.y);
+    if (!v.allFinite()) {
+      ROS_ERROR_THROTTLE(2.0, "dovs: planner/route_ahead ignored: a point has NaN/inf");
+      return;
+    }
+    points.push_back(v);
+  }
+  route_ahead_ = std::move(points);
+  route_ahead_stamp_ = msg->header.stamp;
 }
 
 void DovsNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
@@ -168,9 +189,9 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   }
   DovsStep step;
   try {
-    const std::string obstacle_error =
-        buildDovsStep(*obstacles, robot_pose, odom_twist, goal_, limits_, normalization_, shield_, base_frame_,
-                      builder_, dovs_, step, predicted_arcs_.get(), &track_history_);
+    const std::string obstacle_error = buildDovsStep(
+        *obstacles, robot_pose, odom_twist, goal_, limits_, normalization_, shield_, base_frame_, builder_, dovs_, step,
+        predicted_arcs_.get(), &track_history_, route_ahead_stamp_ == goal_stamp_ ? &route_ahead_ : nullptr);
     if (!obstacle_error.empty()) {
       ROS_WARN_THROTTLE(2.0, "dovs: obstacles dropped: %s; not publishing", obstacle_error.c_str());
       return;

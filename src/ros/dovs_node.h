@@ -6,6 +6,7 @@
 #include <image_transport/image_transport.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <std_msgs/Int8.h>
 #include <tf2_ros/buffer.h>
@@ -37,6 +38,7 @@ class DovsNode {
   void onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg);
   void onChosenAction(const std_msgs::Int8::ConstPtr& msg);
   void onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg);
+  void onRouteAhead(const nav_msgs::Path::ConstPtr& msg);
   /// The map's walls within map_range_m of `robot` (fixed frame), in the fixed frame at `stamp`, appended to
   /// `obstacles`. No map, or no transform from it: nothing appended (the scan's own walls still count).
   void addMapWalls(TrackedObstacleArray& obstacles, const Pose2& robot, const ros::Time& stamp);
@@ -62,6 +64,10 @@ class DovsNode {
 
   std::optional<Vec2> goal_;  // in fixed_frame_
   ros::Time goal_stamp_;      // header.stamp of the goal message
+  // The route's next metres (fixed frame) for the state's route points (dovs/route_points > 0), from planner_node's
+  // planner/route_ahead: used only while its stamp is the goal's (empty: the straight line to the goal).
+  std::vector<Vec2> route_ahead_;
+  ros::Time route_ahead_stamp_;
   nav_msgs::Odometry last_odom_;
   bool have_odom_ = false;
   int chosen_action_ = -1;
@@ -70,7 +76,7 @@ class DovsNode {
   // The waiter before the listener: the listener's thread, which calls the waiter, stops first.
   TransformWaiter tf_waiter_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber obstacles_sub_, odom_sub_, goal_sub_, action_sub_, map_sub_;
+  ros::Subscriber obstacles_sub_, odom_sub_, goal_sub_, action_sub_, map_sub_, route_ahead_sub_;
   ros::Publisher dovs_pub_;
   // dovs/image through image_transport: compressed and theora transports when their plugins are installed.
   image_transport::ImageTransport image_transport_;

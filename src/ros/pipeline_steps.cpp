@@ -60,12 +60,14 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
                           const StateNormalization& normalization, const ActionShieldConfig& shield,
                           const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out,
-                          PredictedArcs* predicted_arcs, TrackHistory* history) {
+                          PredictedArcs* predicted_arcs, TrackHistory* history, const std::vector<Vec2>* route_ahead) {
   Observation& obs = out.observation;
   obs.robot_pose = robot_pose;
   obs.stamp_s = obstacles.header.stamp.toSec();
   obs.robot_twist = limits.clipToFeasible(odom_twist);
   obs.goal = goal.value_or(obs.robot_pose.position());
+  obs.route_ahead.clear();
+  if (route_ahead != nullptr && normalization.route_points > 0) obs.route_ahead = *route_ahead;
   const std::string obstacle_error = observationObstaclesFromMsg(obstacles, obs.obstacles, obs.segments);
   if (!obstacle_error.empty()) return obstacle_error;
   if (predicted_arcs) {

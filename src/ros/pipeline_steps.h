@@ -63,13 +63,15 @@ struct DovsStep {
 /// narrowed by the action shield (action_shield.h; the shield's level goes into `out.shield_level`). With
 /// `predicted_arcs`, the moving tracks move on the arcs of their learned prediction (by track id, among the message's
 /// static segments). With person tokens in `normalization`, `history` (the node's) remembers the tracks for the
-/// tokens' 1 s of history. Returns why the obstacles were dropped (NaN fields, non-positive radius), else "". Throws
+/// tokens' 1 s of history; `route_ahead` (fixed frame, null or empty: the straight line to the goal) the state's route
+/// points. Returns why the obstacles were dropped (NaN fields, non-positive radius), else "". Throws
 /// (DovsError, ActionError, StateError, PeoplePredictorError) when the core rejects the observation.
 std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& robot_pose, const Twist2& odom_twist,
                           const std::optional<Vec2>& goal, const RobotLimits& limits,
                           const StateNormalization& normalization, const ActionShieldConfig& shield,
                           const std::string& base_frame, DovsBuilder& builder, VelocitySpace& dovs, DovsStep& out,
-                          PredictedArcs* predicted_arcs = nullptr, TrackHistory* history = nullptr);
+                          PredictedArcs* predicted_arcs = nullptr, TrackHistory* history = nullptr,
+                          const std::vector<Vec2>* route_ahead = nullptr);
 
 /// planner_node's choice for one Dovs message: the core's chooseAction (policy/dovs_decision.h) on the message's
 /// decision fields.

@@ -126,7 +126,8 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
   if (mismatch.empty()) mismatch = network_->gridChannelsMismatch(expected.grid_channels);
   if (mismatch.empty()) mismatch = network_->previousActionMismatch(expected.previous_action != 0);
-  if (mismatch.empty()) mismatch = network_->tokenLayoutMismatch(expected.wall_rays, expected.person_tokens);
+  if (mismatch.empty())
+    mismatch = network_->tokenLayoutMismatch(expected.wall_rays, expected.person_tokens, expected.route_points);
   if (!mismatch.empty()) {
     throw ParameterError("model '" + model_path +
                          "' was trained with another state normalisation or layout: " + mismatch);
@@ -146,6 +147,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   cancel_sub_ = nh_.subscribe("planner/cancel", 2, &PlannerNode::onCancel, this);
   safety_sub_ = nh_.subscribe("base_safety", 10, &PlannerNode::onBaseSafety, this, ros::TransportHints().tcpNoDelay());
   local_goal_pub_ = nh_.advertise<geometry_msgs::PoseStamped>("planner/local_goal", 5);
+  if (network_->routePoints() > 0) route_ahead_pub_ = nh_.advertise<nav_msgs::Path>("planner/route_ahead", 5);
   use_goal_yaw_ = param<bool>(pnh_, "use_goal_yaw", true);
   action_server_ = std::make_unique<actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction>>(
       nh_, param<std::string>(pnh_, "action_name", "move_base"), false);
@@ -355,7 +357,22 @@ void PlannerNode::refreshGoal(bool is_new) {
     supervisor_.moveGoal(goal, yaw);
   }
   // dovs_node builds the velocity space for this point (remapped to planner/local_goal by pipeline.launch).
+  route_ahead_fixed_.clear();
   const Vec2 target = is_new ? goal : localGoal(goal);
+  if (route_ahead_pub_) {  // before the local goal: dovs_node takes the route ahead published under its stamp
+    nav_msgs::Path ahead;
+    ahead.header.stamp = goal_id_;
+    ahead.header.frame_id = fixed_frame_;
+    for (const Vec2& p : route_ahead_fixed_) {
+      geometry_msgs::PoseStamped ps;
+      ps.header = ahead.header;
+      ps.pose.position.x = p.x();
+      ps.pose.position.y = p.y();
+      ps.pose.orientation.w = 1.0;
+      ahead.poses.push_back(ps);
+    }
+    route_ahead_pub_.publish(ahead);
+  }
   geometry_msgs::PoseStamped local;
   local.header.stamp = goal_id_;
   local.header.frame_id = fixed_frame_;
@@ -555,6 +572,10 @@ Vec2 PlannerNode::localGoal(const Vec2& goal_fixed) {
       planner, robot_in_route.position(), route_in_fixed.inverse().toWorld(goal_fixed), ros::Time::now().toSec(),
       supervisor_.navigation().rounds(), [this]() { return scanPointsInRouteFrame(); });
   route_remaining_m_ = g.remaining_m;
+  if (route_ahead_pub_) {
+    for (const Vec2& p : route_guide_.ahead(kRoutePointSpacing_m * network_->routePoints()))
+      route_ahead_fixed_.push_back(route_in_fixed.toWorld(p));
+  }
   if (g.replan != RouteReplan::kNone) {
     ++route_replans_;
     if (g.replan == RouteReplan::kBlocked) {

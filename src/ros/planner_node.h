@@ -142,6 +142,10 @@ class PlannerNode {
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber dovs_sub_, odom_sub_, scan_sub_, goal_sub_, cancel_sub_, safety_sub_, map_sub_, path_sub_;
   ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, latency_pub_, local_goal_pub_, route_pub_;
+  // planner/route_ahead: the route's next metres (fixed frame) beside each local goal, for a network with route
+  // points (dovs_node puts them in the state); empty without a route.
+  ros::Publisher route_ahead_pub_;
+  std::vector<Vec2> route_ahead_fixed_;
   ros::Timer decide_timer_, ramp_timer_, diagnostics_timer_;
   ros::Publisher diagnostics_pub_;
   std::unique_ptr<dynamic_reconfigure::Server<PlannerConfig>> reconfigure_server_;

@@ -139,6 +139,7 @@ DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
   c.previous_action = param<int>(pnh, "dovs/previous_action", c.previous_action);
   c.wall_rays = param<int>(pnh, "dovs/wall_rays", c.wall_rays);
   c.person_tokens = param<int>(pnh, "dovs/person_tokens", c.person_tokens);
+  c.route_points = param<int>(pnh, "dovs/route_points", c.route_points);
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
   if (c.grid_channels == 2) {

@@ -610,5 +610,63 @@ TEST(PersonTokens, TheStateGrowsByTheRaysAndTokensAfterTheFeatures) {
   EXPECT_NE(n.validate().find("person_tokens"), std::string::npos);
 }
 
+TEST(RoutePoints, EveryHalfMetreAlongTheRouteInTheRobotFrame) {
+  Observation obs;
+  obs.robot_pose = Pose2{1.0, 1.0, M_PI / 2};  // facing +y
+  obs.goal = Vec2(9.0, 9.0);                   // the route's subgoal, not on the line below
+  // Ahead 1 m, then a left turn (towards -x in the world), ending 0.5 m after the turn.
+  obs.route_ahead = {Vec2(1.0, 1.0), Vec2(1.0, 2.0), Vec2(0.5, 2.0)};
+  StateNormalization n;
+  n.route_points = 4;
+  const std::vector<float> r = routePoints(obs, n);
+  ASSERT_EQ(r.size(), 8u);
+  const float q = 1.0f / 4.0f;        // metres over the 4 m obstacle range
+  EXPECT_NEAR(r[0], 0.5f * q, 1e-6);  // 0.5 m straight ahead
+  EXPECT_NEAR(r[1], 0.0f, 1e-6);
+  EXPECT_NEAR(r[2], 1.0f * q, 1e-6);  // 1 m: the corner
+  EXPECT_NEAR(r[3], 0.0f, 1e-6);
+  EXPECT_NEAR(r[4], 1.0f * q, 1e-6);  // 1.5 m: the end, 0.5 m to the left
+  EXPECT_NEAR(r[5], 0.5f * q, 1e-6);
+  EXPECT_NEAR(r[6], r[4], 1e-6);  // beyond the end: the end again
+  EXPECT_NEAR(r[7], r[5], 1e-6);
+
+  // Without a route: the straight line to the goal (here 45 degrees to the right of the heading).
+  obs.route_ahead.clear();
+  obs.goal = Vec2(3.0, 3.0);
+  const std::vector<float> line = routePoints(obs, n);
+  EXPECT_NEAR(line[0], 0.5f * q * std::sqrt(0.5f), 1e-6);
+  EXPECT_NEAR(line[1], -0.5f * q * std::sqrt(0.5f), 1e-6);
+
+  obs.route_ahead = {Vec2(1.0, 1.0), Vec2(std::nan(""), 2.0)};
+  EXPECT_THROW(routePoints(obs, n), StateError);
+}
+
+TEST(RoutePoints, TheStateCarriesThemBetweenTheRaysAndTheTokens) {
+  StateNormalization n = tokenLayout(2, 4);
+  n.route_points = 3;
+  EXPECT_EQ(n.stateSize(), 408 + 4 + 6 + 2 * kPersonTokenSize);
+  EXPECT_TRUE(n.validate().empty()) << n.validate();
+  Observation obs;
+  obs.robot_pose = Pose2{0.0, 0.0, 0.0};
+  obs.goal = Vec2(5.0, 0.0);
+  const VelocitySpace d = buildDovs(obs, RobotLimits{}, DovsConfig{});
+  const StateVector s = buildState(d, obs, n);
+  ASSERT_EQ(s.size(), n.stateSize());
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(s(412 + 2 * k), 0.125f * (k + 1), 1e-6);  // 0.5, 1, 1.5 m ahead over 4 m
+    EXPECT_NEAR(s(413 + 2 * k), 0.0f, 1e-6);
+  }
+  EXPECT_EQ(s(418), 0.0f);  // the first token: no obstacle, an empty slot
+  n.route_points = kMaxRoutePoints + 1;
+  EXPECT_NE(n.validate().find("route_points"), std::string::npos);
+  DovsConfig config;
+  config.route_points = 3;
+  EXPECT_EQ(stateNormalization(RobotLimits{}, config).route_points, 3);
+  EXPECT_TRUE(setDovsParameter(config, "route_points", "5").empty());
+  EXPECT_EQ(config.route_points, 5);
+  config.route_points = 17;
+  EXPECT_NE(config.validate().find("route_points"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dqn_dovs

@@ -109,6 +109,52 @@ TEST(EpisodeRoute, TheContextIsBuiltForTheRoutesSubgoalUntilTheGoalReplacesIt) {
   EXPECT_GT(finals, 3);
 }
 
+// The state's route points (dovs/route_points, docs/dovs.md "The route ahead") lie on the route, every 0.5 m along it
+// from the robot's place, in the robot frame; the rest of the state is what it is without them.
+TEST(EpisodeRoute, TheStatesRoutePointsLieOnTheRouteAhead) {
+  EvalConfig config = evalConfig("doorway", 14101, 0, 2, true);
+  const EvalScenario s = loadEvalScenarios(config).back();
+  EpisodeConfig with_points = config.episode;
+  with_points.dovs.route_points = 6;
+  Episode plain(config.episode), episode(with_points);
+  plain.reset(s.scenario, s.seed);
+  episode.reset(s.scenario, s.seed);
+  ASSERT_TRUE(episode.hasRoute()) << episode.routeError();
+  const Route& route = episode.routeGuide().route();
+  const int at = kStateGridCells + kNumFeatures;
+  ASSERT_EQ(episode.state().size(), plain.state().size() + 12);
+  std::unique_ptr<Planner> planner = makeEvalPlanner("s_dovs", config);
+  int steps = 0;
+  while (!episode.done() && steps < 40) {
+    const Observation& o = episode.observation();
+    EXPECT_EQ(episode.state().head(at), plain.state().head(at));
+    double previous_arc = -1.0;
+    for (int k = 0; k < 6; ++k) {
+      const Vec2 local(episode.state()[at + 2 * k] * episode.normalization().obstacle_clearance_scale_m,
+                       episode.state()[at + 2 * k + 1] * episode.normalization().obstacle_clearance_scale_m);
+      const Vec2 p = o.robot_pose.toWorld(local);
+      double off = 1e9, arc = 0.0;
+      for (size_t i = 1; i < route.points.size(); ++i) {
+        const double d = pointSegmentDistance(p, {route.points[i - 1], route.points[i]});
+        if (d < off) {
+          off = d;
+          arc = route.arc_m[i - 1] + (p - route.points[i - 1]).norm();
+        }
+      }
+      EXPECT_LT(off, 1e-4) << "route point " << k << " at step " << steps;
+      if (previous_arc >= 0.0 && arc < route.length_m - 1e-3) {
+        EXPECT_NEAR(arc - previous_arc, 0.5, 1e-3);
+      }
+      previous_arc = arc;
+    }
+    const PlannerDecision d = planner->decide(plain.plannerInput());
+    plain.stepDecision(d);
+    episode.stepDecision(d);
+    ++steps;
+  }
+  EXPECT_EQ(steps, 40);
+}
+
 TEST(EpisodeRoute, TheRewardCountsProgressAlongTheRouteNotTheStraightLine) {
   const EvalConfig config = evalConfig("doorway", 14101, 0, 2, true);
   const EvalScenario s = loadEvalScenarios(config).back();

@@ -464,11 +464,11 @@ TEST(WeightFile, BadMagicVersionChecksumTrailing) {
   bad_magic[0] = 'X';
   EXPECT_EQ(loadErrorField(bad_magic, "magic.dqnw"), "magic");
 
-  WeightFileContents v4 = defaultContents();
-  v4.format_version = 4;
+  WeightFileContents v5 = defaultContents();
+  v5.format_version = kWeightFormatVersionLatest + 1;
   std::string message;
-  EXPECT_EQ(loadErrorField(serializeWeightFile(v4), "version.dqnw", &message), "format version");
-  EXPECT_NE(message.find("version 4"), std::string::npos) << message;
+  EXPECT_EQ(loadErrorField(serializeWeightFile(v5), "version.dqnw", &message), "format version");
+  EXPECT_NE(message.find("version 5"), std::string::npos) << message;
 
   auto flipped = bytes;
   flipped[bytes.size() / 2] ^= 0x40;
@@ -510,9 +510,11 @@ TEST(WeightFile, VersionThreeLayoutsAreCheckedFieldByField) {
   EXPECT_EQ(net.stateSize(), 408 + 8 + 6 * kPersonTokenSize);
   EXPECT_EQ(net.quantileCount(), 16);
   EXPECT_EQ(net.cvarCount(), 4);
-  EXPECT_TRUE(net.tokenLayoutMismatch(8, 6).empty());
-  EXPECT_NE(net.tokenLayoutMismatch(0, 6).find("'state layout: wall rays' is 8 in the file but 0"), std::string::npos);
-  EXPECT_NE(net.tokenLayoutMismatch(8, 0).find("dovs/person_tokens"), std::string::npos);
+  EXPECT_TRUE(net.tokenLayoutMismatch(8, 6, 0).empty());
+  EXPECT_NE(net.tokenLayoutMismatch(0, 6, 0).find("'state layout: wall rays' is 8 in the file but 0"),
+            std::string::npos);
+  EXPECT_NE(net.tokenLayoutMismatch(8, 0, 0).find("dovs/person_tokens"), std::string::npos);
+  EXPECT_NE(net.tokenLayoutMismatch(8, 6, 4).find("dovs/route_points"), std::string::npos);
   // The action value is the mean of the 4 lowest of each action's 16 quantiles; Q is the mean of all 16.
   Eigen::VectorXf s = Eigen::VectorXf::Constant(net.stateSize(), 0.3f);
   const std::vector<float> z = net.quantileValues(s);
@@ -553,6 +555,57 @@ TEST(WeightFile, VersionThreeLayoutsAreCheckedFieldByField) {
   c = good;
   c.format_version = kWeightFormatVersionChannels;  // written without fields 5a-5e: the layers do not fit
   EXPECT_FALSE(loadErrorField(serializeWeightFile(c), "v2.dqnw", &message).empty());
+}
+
+TEST(WeightFile, VersionFourAddsTheRoutePoints) {
+  DuelingArchitecture arch;
+  arch.wall_rays = 8;
+  arch.route_points = 6;
+  arch.person_tokens = 4;
+  const std::vector<std::pair<std::string, float>> norm = {{"v_max", 0.7f}};
+  const WeightFileContents good = makeRandomWeights(arch, 7, norm);
+  EXPECT_EQ(good.format_version, kWeightFormatVersionRoute);
+  const std::vector<std::uint8_t> bytes = serializeWeightFile(good);
+  EXPECT_EQ(parseWeightFile(bytes, "route.dqnw").route_point_count, 6u);
+  const QNetwork net = QNetwork::fromBytes(bytes, "route.dqnw");
+  EXPECT_EQ(net.routePoints(), 6);
+  EXPECT_EQ(net.flatInputs(), 8 + 8 + 12);
+  EXPECT_EQ(net.stateSize(), 400 + 8 + 8 + 12 + 4 * kPersonTokenSize);
+  EXPECT_TRUE(net.tokenLayoutMismatch(8, 4, 6).empty());
+  EXPECT_NE(net.tokenLayoutMismatch(8, 4, 0).find("'state layout: route points' is 6 in the file but 0"),
+            std::string::npos);
+  // The route points feed the feature stream: changing one changes Q; the person tokens start after them.
+  Eigen::VectorXf s = Eigen::VectorXf::Constant(net.stateSize(), 0.2f);
+  Eigen::VectorXf moved = s;
+  moved[416 + 11] = -0.9f;
+  EXPECT_NE(net.qValues(s), net.qValues(moved));
+  Eigen::VectorXf absent = s;
+  for (int k = 0; k < 4; ++k) absent[428 + k * kPersonTokenSize] = 0.0f;
+  Eigen::VectorXf noisy = absent;
+  for (int k = 0; k < 4; ++k)
+    for (int i = 1; i < kPersonTokenSize; ++i) noisy[428 + k * kPersonTokenSize + i] = -1.3f;
+  EXPECT_EQ(net.qValues(absent), net.qValues(noisy));
+  s[420] = std::numeric_limits<float>::quiet_NaN();
+  try {
+    (void)net.qValues(s);
+    ADD_FAILURE() << "a NaN route point was accepted";
+  } catch (const QNetworkInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("route point 2"), std::string::npos) << e.what();
+  }
+
+  std::string message;
+  WeightFileContents c = good;
+  c.route_point_count = 17;
+  EXPECT_EQ(loadErrorField(serializeWeightFile(c), "many_route.dqnw", &message), "state layout: route points");
+  c = good;
+  c.route_point_count = 5;  // the feature stream still reads 6 points
+  EXPECT_FALSE(loadErrorField(serializeWeightFile(c), "five.dqnw", &message).empty());
+  c = good;
+  c.format_version = kWeightFormatVersionTokens;  // written without field 5f: the layers do not fit
+  EXPECT_FALSE(loadErrorField(serializeWeightFile(c), "v3.dqnw", &message).empty());
+  // A network without route points keeps version 3 and its bytes.
+  arch.route_points = 0;
+  EXPECT_EQ(makeRandomWeights(arch, 7, norm).format_version, kWeightFormatVersionTokens);
 }
 
 TEST(WeightFile, WrongLayerShapes) {

@@ -83,7 +83,7 @@ def test_reader_names_the_field(tmp_path: Path) -> None:
         return info.value.field
 
     assert error_field(b"NOTAQNET" + data[8:]) == "magic"
-    assert error_field(data[:8] + struct.pack("<I", 4) + data[12:]) == "format version"
+    assert error_field(data[:8] + struct.pack("<I", 5) + data[12:]) == "format version"
     flipped = bytearray(data)
     flipped[len(data) // 2] ^= 0x01
     assert error_field(bytes(flipped)) == "checksum"

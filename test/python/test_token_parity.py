@@ -1,4 +1,4 @@
-"""Format version 3 (wall rays, person tokens pooled by attention, a quantile head with CVaR action choice) against the
+"""Format versions 3 and 4 (wall rays, route points, person tokens pooled by attention, a quantile head with CVaR action choice) against the
 planner's Eigen inference and onnxruntime: |dQ| <= 1e-5 on every output, the same greedy actions, permutation
 invariance over the tokens and absent slots that change nothing.
 
@@ -16,9 +16,9 @@ import pytest
 import torch
 
 from built_tools import built_tool
-from dqn_dovs_py.export import (FORMAT_VERSION_TOKENS, ONNX_ACTION_VALUES, export_model, load_weights,
+from dqn_dovs_py.export import (FORMAT_VERSION_ROUTE, FORMAT_VERSION_TOKENS, ONNX_ACTION_VALUES, export_model, load_weights,
                                 model_from_weights)
-from dqn_dovs_py.model import TOKEN_SIZE, DuelingQNet, masked_argmax, widen_tokens
+from dqn_dovs_py.model import TOKEN_SIZE, DuelingQNet, masked_argmax, widen_tokens, widened
 from dqn_dovs_py.model import widen_quantiles
 
 NORMALIZATION = {"v_max": 0.7, "w_max": 3.14159265}
@@ -142,3 +142,37 @@ def test_widened_network_is_the_start_network_until_trained() -> None:
         q_start = start(states[:, :408])
         assert torch.allclose(wide(states), q_start, atol=1e-6)
         assert torch.allclose(wide.action_values(states), q_start, atol=1e-6)
+
+
+ROUTE = 5
+
+
+def test_route_points_network_matches_eigen_and_onnx(tmp_path: Path) -> None:
+    """Format version 4: the route points after the wall rays feed the feature stream; the tokens come after them."""
+    torch.manual_seed(21)
+    net = DuelingQNet(wall_rays=RAYS, person_tokens=TOKENS, route_points=ROUTE).eval()
+    path = export_model(net, tmp_path / "route.dqnw", NORMALIZATION, "route parity")
+    weights = load_weights(path)
+    assert weights.format_version == FORMAT_VERSION_ROUTE
+    assert weights.route_point_count == ROUTE
+    base = _states(300, 4)
+    route = np.random.default_rng(6).uniform(-1.0, 2.0, size=(300, 2 * ROUTE)).astype(np.float32)
+    at = 400 + 8 + RAYS
+    states = np.concatenate([base[:, :at], route, base[:, at:]], axis=1)
+    assert states.shape[1] == net.state_size
+    with torch.no_grad():
+        x = torch.from_numpy(states)
+        q_torch = net(x).numpy()
+    q_eigen = _eigen(path, states, tmp_path, "q", 8)
+    assert np.abs(q_eigen - q_torch).max() <= TOLERANCE
+    assert np.abs(_onnx(path.with_suffix(".onnx"), states)["q_values"] - q_torch).max() <= TOLERANCE
+    # The route points matter, and a network widened to read them starts as the network it was.
+    moved = states.copy()
+    moved[:, at:at + 2 * ROUTE] = 0.0
+    assert np.abs(_eigen(path, moved, tmp_path, "q", 8) - q_eigen).max() > 1e-4
+    torch.manual_seed(0)
+    start = DuelingQNet(wall_rays=RAYS, person_tokens=TOKENS).eval()
+    wide = widened(start, route_points=ROUTE).eval()
+    with torch.no_grad():
+        assert torch.allclose(wide(x), start(torch.from_numpy(np.concatenate([states[:, :at], states[:, at + 2 * ROUTE:]],
+                                                                          axis=1))), atol=1e-6)

@@ -209,6 +209,32 @@ TEST(PipelineSteps, GridChannelsAreCarriedAndAModelOfOtherChannelsIsNotRun) {
   EXPECT_NE(why.find("dovs_node builds 1 grid channels"), std::string::npos) << why;
 }
 
+TEST(PipelineSteps, TheRouteAheadFromThePlannerJoinsTheState) {
+  // dovs_node with dovs/route_points = 2 puts the points 0.5 m and 1 m along planner/route_ahead into the state,
+  // after the features; without a route ahead, the points along the straight line to the goal.
+  const RobotLimits limits;
+  DovsConfig config;
+  config.route_points = 2;
+  DovsBuilder builder(limits, config);
+  TrackedObstacleArray msg = movingObstaclesToMsg({}, {});
+  msg.header.stamp = ros::Time(10.0);
+  msg.header.frame_id = "odom";
+  const std::vector<Vec2> route = {Vec2(0.0, 0.0), Vec2(0.0, 2.0)};  // to the left of the robot
+  Step with, without;
+  ASSERT_EQ(
+      buildDovsStep(msg, Pose2{}, {0.0, 0.0}, Vec2(4.0, 0.0), limits, stateNormalization(limits, config),
+                    ActionShieldConfig{}, "base_footprint", builder, with.space, with.step, nullptr, nullptr, &route),
+      "");
+  ASSERT_EQ(buildDovsStep(msg, Pose2{}, {0.0, 0.0}, Vec2(4.0, 0.0), limits, stateNormalization(limits, config),
+                          ActionShieldConfig{}, "base_footprint", builder, without.space, without.step),
+            "");
+  ASSERT_EQ(with.step.msg.state.size(), 412u);
+  const std::vector<float> left(with.step.msg.state.begin() + 408, with.step.msg.state.end());
+  const std::vector<float> ahead(without.step.msg.state.begin() + 408, without.step.msg.state.end());
+  EXPECT_EQ(left, (std::vector<float>{0.0f, 0.125f, 0.0f, 0.25f}));
+  EXPECT_EQ(ahead, (std::vector<float>{0.125f, 0.0f, 0.25f, 0.0f}));
+}
+
 // The decision step through the robot's path (the Dovs message dovs_node builds, then the planner's choice on it)
 // and through the evaluation's (DqnDovsPlanner on the Episode's context) makes the same choices, step by step, on
 // the same inputs: whole episodes with the LIDAR and the tracker in the loop, driven by the evaluation's choices.

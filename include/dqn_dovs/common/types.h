@@ -87,6 +87,9 @@ struct Observation {
   Vec2 goal = Vec2::Zero();
   std::vector<MovingObstacle> obstacles;
   std::vector<Segment> segments;
+  /// The route ahead (fixed frame), from the robot's place on it to its end, for the network state's route points
+  /// (DovsConfig::route_points); empty: the straight line from the robot to `goal`.
+  std::vector<Vec2> route_ahead;
 };
 
 }  // namespace dqn_dovs

@@ -73,6 +73,10 @@ struct DovsConfig {
   /// uncertainty). The DOVS itself does not change. 0..32 and 0..16.
   int wall_rays = 0;
   int person_tokens = 0;
+  /// The route's next metres in the network state (StateNormalization::route_points, docs/dovs.md "The route
+  /// ahead"): that many points every 0.5 m along the route from the robot's place on it (the straight line to the
+  /// goal without a route), in the robot frame. The DOVS itself does not change. 0..16.
+  int route_points = 0;
 
   /// Empty when consistent, otherwise a message naming the offending field and why.
   std::string validate() const;
@@ -80,7 +84,7 @@ struct DovsConfig {
 
 /// Sets the DovsConfig field named as in config/dovs.yaml's `dovs/` block (obstacle_range, safety_factor,
 /// num_trajectories, time_horizon, static_reaction_time, static_margin, prediction_growth, grid_contact_horizon,
-/// grid_channels, previous_action, wall_rays, person_tokens)
+/// grid_channels, previous_action, wall_rays, person_tokens, route_points)
 /// from text. Returns
 /// an empty string, or a message naming the parameter and the reason (unknown name, not a number, not an
 /// integer). The value is not range-checked here: validate() does that for the whole configuration.

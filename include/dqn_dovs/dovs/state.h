@@ -40,6 +40,10 @@ constexpr int kPersonTokenSize = 14;
 /// The most person tokens (DovsConfig::person_tokens) and wall rays (DovsConfig::wall_rays) a state carries.
 constexpr int kMaxPersonTokens = 16;
 constexpr int kMaxWallRays = 32;
+/// The most route points (DovsConfig::route_points), their spacing along the route (m), and the inputs of each (x, y).
+constexpr int kMaxRoutePoints = 16;
+constexpr double kRoutePointSpacing_m = 0.5;
+constexpr int kRoutePointInputs = 2;
 /// Fixed scales of the token entries that no StateNormalization field scales: the age (s), the position's standard
 /// deviation (m), the radius (m); and the clip of every token entry (positions beyond 2 obstacle ranges are clipped).
 constexpr float kTokenAgeScale_s = 5.0f;
@@ -50,11 +54,12 @@ constexpr float kTokenClip = 2.0f;
 constexpr double kTokenHistory_s = 1.0;
 
 /// Floats in a state with `grid_channels` grid channels: grid_channels x 400 grid values, then the 8 features, then
-/// with `previous_action` the 9 previous-choice inputs, then `wall_rays` ray lengths, then `person_tokens` tokens of
-/// kPersonTokenSize floats.
-constexpr int stateSize(int grid_channels, bool previous_action = false, int wall_rays = 0, int person_tokens = 0) {
+/// with `previous_action` the 9 previous-choice inputs, then `wall_rays` ray lengths, then `route_points` x 2 route
+/// coordinates, then `person_tokens` tokens of kPersonTokenSize floats.
+constexpr int stateSize(int grid_channels, bool previous_action = false, int wall_rays = 0, int person_tokens = 0,
+                        int route_points = 0) {
   return grid_channels * kStateGridCells + kNumFeatures + (previous_action ? kPreviousChoiceInputs : 0) + wall_rays +
-         person_tokens * kPersonTokenSize;
+         route_points * kRoutePointInputs + person_tokens * kPersonTokenSize;
 }
 
 /// The network input (stateSize(grid_channels) floats).
@@ -106,13 +111,20 @@ struct StateNormalization {
   /// the distance to the nearest wall along that many directions evenly spread from straight ahead, over the
   /// obstacle range, clipped to 1. Layout, not normalisation: the weight file's `state layout: wall rays` (version 3).
   int wall_rays = 0;
-  /// Person tokens after the wall rays (DovsConfig::person_tokens): one per obstacle for the nearest ones, empty
-  /// slots at the end. Layout, not normalisation: the weight file's `state layout: person tokens` (version 3).
+  /// Person tokens after the wall rays and the route points (DovsConfig::person_tokens): one per obstacle for the
+  /// nearest ones, empty slots at the end. Layout, not normalisation: the weight file's `state layout: person
+  /// tokens` (version 3).
   int person_tokens = 0;
+  /// Route points after the wall rays (DovsConfig::route_points, docs/dovs.md "The route ahead"): x, y of each in
+  /// the robot frame over the obstacle range. Layout, not normalisation: the weight file's `state layout: route
+  /// points` (version 4).
+  int route_points = 0;
   /// Inputs after the grid: the 8 features, and the 9 previous-choice inputs with previous_action.
   int featureInputs() const { return kNumFeatures + (previous_action != 0 ? kPreviousChoiceInputs : 0); }
   /// Floats in a state of this layout (stateSize()).
-  int stateSize() const { return dqn_dovs::stateSize(grid_channels, previous_action != 0, wall_rays, person_tokens); }
+  int stateSize() const {
+    return dqn_dovs::stateSize(grid_channels, previous_action != 0, wall_rays, person_tokens, route_points);
+  }
 
   /// The fields every normalisation has (the first 13, the paper's state).
   static constexpr int kNumFields = 13;
@@ -199,6 +211,12 @@ std::vector<float> personTokens(const Observation& obs, const StateNormalization
 /// norm.obstacle_clearance_scale_m, 1 when none is nearer.
 std::vector<float> wallRays(const Observation& obs, const StateNormalization& norm);
 
+/// The route points of `obs` (norm.route_points x 2 floats): the points kRoutePointSpacing_m, 2 x kRoutePointSpacing_m,
+/// ... along obs.route_ahead from its first point (along the straight line from the robot to obs.goal when it is
+/// empty), the route's end for every point beyond it; x, y in the robot frame over norm.obstacle_clearance_scale_m,
+/// clipped to +-kTokenClip. Throws StateError for a NaN/inf route point.
+std::vector<float> routePoints(const Observation& obs, const StateNormalization& norm);
+
 /// The network input: the DOVS grid row-major (first 400, row 0 = highest v, see VelocitySpace::grid()), with
 /// norm.grid_channels = 3 followed by windowGoalChannels (800 more), with norm.grid_channels = 2 by
 /// `previous_grid` (the first 400 values of the previous decision's state; the current grid when null, i.e. at an
@@ -206,7 +224,8 @@ std::vector<float> wallRays(const Observation& obs, const StateNormalization& no
 /// (an action 0..7 or kPreviousChoiceOther; kNoPreviousChoice leaves the 9 inputs at 0). With
 /// norm.grid_contact_horizon_s = T > 0 the DOVS grid is graded (gradedGrid). Throws StateError unless
 /// dovs.gridSize() == 20, when `previous_grid` has another size or NaN/inf values, or `previous_choice` is none of
-/// those. With norm.wall_rays and norm.person_tokens, wallRays and personTokens (with `history`) follow.
+/// those. With norm.wall_rays, norm.route_points and norm.person_tokens, wallRays, routePoints and personTokens (with
+/// `history`) follow.
 StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const StateNormalization& norm,
                        const std::vector<float>* previous_grid = nullptr, int previous_choice = kNoPreviousChoice,
                        const TrackHistory* history = nullptr);

@@ -311,6 +311,11 @@ class RouteGuide {
   /// distance without a route. The training reward's distance term (docs/simulator.md, "Routes in episodes").
   double distanceToGo(const Vec2& p, const Vec2& goal) const;
 
+  /// The route's next `length_m` metres from the robot's place on it (the last update's projection), as a polyline in
+  /// the route's frame: the projection, the route's points after it, and the point `length_m` along (or the route's
+  /// end when nearer). Empty without a route. The network state's route points (docs/dovs.md "The route ahead").
+  std::vector<Vec2> ahead(double length_m) const;
+
  private:
   RouteGuideConfig config_;
   std::optional<Route> route_;

@@ -47,6 +47,9 @@ struct DuelingArchitecture {
   /// them, or with quantiles > 1, is written as format version 3.
   std::uint32_t wall_rays = 0;
   std::uint32_t person_tokens = 0;
+  /// Route points in the state after the wall rays (docs/dovs.md "The route ahead"), 2 feature-stream inputs each.
+  /// A file with any is written as format version 4.
+  std::uint32_t route_points = 0;
   std::vector<std::uint32_t> token_hidden = {64, 64};
   std::vector<std::uint32_t> attention_hidden = {64};
   /// Quantiles of each action's return (1: the plain dueling head) and how many of the lowest the choice averages.
@@ -98,7 +101,9 @@ class QNetwork {
   int featureCount() const { return feature_count_; }
   /// Wall rays after the features (version 3's `state layout: wall rays`, 0 before).
   int wallRays() const { return wall_rays_; }
-  /// Person tokens after the wall rays (version 3's `state layout: person tokens`, 0 before), each
+  /// Route points after the wall rays (version 4's `state layout: route points`, 0 before), 2 floats each.
+  int routePoints() const { return route_points_; }
+  /// Person tokens after the wall rays and the route points (version 3's `state layout: person tokens`, 0 before), each
   /// kPersonTokenSize (dovs/state.h) floats.
   int personTokens() const { return person_tokens_; }
   /// Quantiles of each action's return (1: a plain Q-network) and how many of the lowest ones the action choice
@@ -106,10 +111,10 @@ class QNetwork {
   int quantileCount() const { return quantiles_; }
   int cvarCount() const { return cvar_count_; }
   /// Floats in one state: gridChannels() x 20 x 20 grid values (channel-major, each row-major), then featureCount(),
-  /// then wallRays(), then personTokens() tokens.
-  int stateSize() const {
-    return grid_channels_ * kGridRows * kGridCols + feature_count_ + wall_rays_ + person_tokens_ * token_size_;
-  }
+  /// then wallRays(), then routePoints() x 2, then personTokens() tokens.
+  int stateSize() const { return grid_channels_ * kGridRows * kGridCols + flatInputs() + person_tokens_ * token_size_; }
+  /// The feature stream's inputs: featureCount() + wallRays() + 2 x routePoints().
+  int flatInputs() const { return feature_count_ + wall_rays_ + 2 * route_points_; }
 
   /// Q-values of one state (stateSize() floats: the grid channels row-major, then the features).
   /// Throws QNetworkInputError on a wrong size or a NaN/inf element (naming the index), and when the
@@ -150,9 +155,10 @@ class QNetwork {
   /// message naming the file's `state layout: feature count` and the DOVS parameter (dovs/previous_action).
   std::string previousActionMismatch(bool expected) const;
 
-  /// Empty when the network reads exactly `wall_rays` wall rays and `person_tokens` person tokens, otherwise a message
-  /// naming the file's state layout field and the DOVS parameter (dovs/wall_rays, dovs/person_tokens).
-  std::string tokenLayoutMismatch(int wall_rays, int person_tokens) const;
+  /// Empty when the network reads exactly `wall_rays` wall rays, `person_tokens` person tokens and `route_points`
+  /// route points, otherwise a message naming the file's state layout field and the DOVS parameter (dovs/wall_rays,
+  /// dovs/person_tokens, dovs/route_points).
+  std::string tokenLayoutMismatch(int wall_rays, int person_tokens, int route_points) const;
   /// Free-text provenance (training command, date, config, seed, source commit, init from).
   std::string metadata() const { return metadata_; }
 
@@ -191,6 +197,7 @@ class QNetwork {
   std::vector<Op> token_ops_;      // the token encoder, run on each present token
   std::vector<Op> attention_ops_;  // the attention score, run on each present token's [encoding, mean encoding]
   int wall_rays_ = 0;
+  int route_points_ = 0;
   int person_tokens_ = 0;
   int token_size_ = 0;
   int quantiles_ = 1;

@@ -24,9 +24,15 @@ inline constexpr std::uint32_t kWeightFormatVersionChannels = 2;
 /// Version 3 adds, after the feature count, the wall rays, the person tokens (count and size) and the quantile head
 /// (quantile count, CVaR count) (docs/weight_format.md), and two streams: the token encoder and the attention score.
 inline constexpr std::uint32_t kWeightFormatVersionTokens = 3;
+/// Version 4 adds, after the cvar count, the route points (docs/weight_format.md): x, y of that many points along
+/// the route ahead follow the wall rays in the state and join the feature stream's input.
+inline constexpr std::uint32_t kWeightFormatVersionRoute = 4;
+/// The newest version the readers read.
+inline constexpr std::uint32_t kWeightFormatVersionLatest = kWeightFormatVersionRoute;
 /// Largest wall ray count, person token count, token size and quantile count a file may declare.
 inline constexpr std::uint32_t kMaxWallRayCount = 32;
 inline constexpr std::uint32_t kMaxPersonTokenCount = 16;
+inline constexpr std::uint32_t kMaxRoutePointCount = 16;
 inline constexpr std::uint32_t kMaxTokenSize = 256;
 inline constexpr std::uint32_t kMaxQuantiles = 256;
 /// Largest grid channel count a file may declare.
@@ -112,6 +118,8 @@ struct WeightFileContents {
   std::uint32_t token_size = 0;
   std::uint32_t quantile_count = 1;
   std::uint32_t cvar_count = 1;
+  /// Version 4 only (0 in older files): route points after the wall rays, 2 floats each.
+  std::uint32_t route_point_count = 0;
   /// The state normalisation the network was trained with, as named constants (file order kept).
   std::vector<std::pair<std::string, float>> normalization;
   std::uint32_t action_count = 8;
