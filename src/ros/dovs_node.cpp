@@ -55,6 +55,8 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   use_map_ = param<bool>(pnh_, "use_map", false);
   map_range_m_ = paramInRange(pnh_, "map_range", 4.0, 0.5, 50.0);
   map_unknown_is_occupied_ = param<bool>(pnh_, "map_unknown_is_occupied", false);
+  // Every parameter is read above: a key under this node that none of them names is a typo (ParameterError).
+  refuseUnknownParameters(pnh_);
   if (use_map_) map_sub_ = nh_.subscribe("map", 1, &DovsNode::onMap, this);
   if (normalization_.route_points > 0)
     route_ahead_sub_ = nh_.subscribe("planner/route_ahead", 2, &DovsNode::onRouteAhead, this);

@@ -40,6 +40,8 @@ ObstacleTrackerNode::ObstacleTrackerNode(ros::NodeHandle nh, ros::NodeHandle pnh
   use_map_ = param<bool>(pnh_, "use_map", false);
   map_unknown_is_occupied_ = param<bool>(pnh_, "map_unknown_is_occupied", false);
   tracker_ = std::make_unique<ObstacleTracker>(loadTrackerConfig(pnh_));
+  // Every parameter is read above: a key under this node that none of them names is a typo (ParameterError).
+  refuseUnknownParameters(pnh_);
 
   obstacles_pub_ = nh_.advertise<TrackedObstacleArray>("obstacles", 5);
   markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("obstacles/markers", 5);

@@ -162,8 +162,15 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   guide.obstacle_memory_s = paramInRange(pnh_, "route/obstacle_memory", guide.obstacle_memory_s, 0.0, 3600.0);
   route_guide_.setConfig(guide);
   route_pub_ = nh_.advertise<nav_msgs::Path>("planner/route", 1, true);
-  if (param<bool>(pnh_, "route/enabled", true)) {
-    const std::string map_file = param<std::string>(pnh_, "route/map_file", "");
+  route_config_ = routeConfig();
+  const bool route_enabled = param<bool>(pnh_, "route/enabled", true);
+  const std::string map_file = param<std::string>(pnh_, "route/map_file", "");
+  const std::string map_file_frame = param<std::string>(pnh_, "route/map_frame", "map");
+  // dovs.yaml's action shield is dovs_node's; read here too, so that a bad value is refused by both nodes alike.
+  (void)loadActionShieldConfig(pnh_);
+  // Every parameter is read above: a key under this node that none of them names is a typo (ParameterError).
+  refuseUnknownParameters(pnh_);
+  if (route_enabled) {
     if (!map_file.empty()) {
       sim::OccupancyMap map;
       try {
@@ -171,8 +178,8 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
       } catch (const std::exception& e) {
         throw ParameterError("route/map_file: " + std::string(e.what()));
       }
-      map_frame_ = param<std::string>(pnh_, "route/map_frame", "map");
-      route_planner_ = std::make_unique<RoutePlanner>(routeGridFromMap(map), routeConfig());
+      map_frame_ = map_file_frame;
+      route_planner_ = std::make_unique<RoutePlanner>(routeGridFromMap(map), route_config_);
       ROS_INFO("planner: routes on '%s' (%d x %d cells of %.3f m) in '%s'", map_file.c_str(), map.width, map.height,
                map.resolution_m, map_frame_.c_str());
     } else {
@@ -186,6 +193,11 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<PlannerConfig>>(pnh_);
   reconfigure_server_->updateConfig(reconfigurable());
   reconfigure_server_->setCallback([this](PlannerConfig& c, uint32_t level) { onReconfigure(c, level); });
+  reconfigure_route_server_ =
+      std::make_unique<dynamic_reconfigure::Server<PlannerRouteConfig>>(ros::NodeHandle(pnh_, "route"));
+  reconfigure_route_server_->updateConfig(reconfigurableRoute());
+  reconfigure_route_server_->setCallback(
+      [this](PlannerRouteConfig& c, uint32_t level) { onReconfigureRoute(c, level); });
   ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz", model_path.c_str(),
            network_->metadata().c_str(), limits_.dt, supervisor_.config().ramp_rate_hz);
   publishStatus(ros::Time::now(), 0.0);
@@ -437,7 +449,7 @@ void PlannerNode::onMap(const nav_msgs::OccupancyGrid::ConstPtr& msg) {
     return;
   }
   try {
-    route_planner_ = std::make_unique<RoutePlanner>(routeGridFromMap(map), routeConfig());
+    route_planner_ = std::make_unique<RoutePlanner>(routeGridFromMap(map), route_config_);
   } catch (const std::exception& e) {
     ROS_ERROR("planner: map ignored (the previous one, if any, is kept): %s", e.what());
     return;
@@ -775,9 +787,27 @@ PlannerConfig PlannerNode::reconfigurable() const {
   c.recovery_rotate_angle = n.recovery_rotate_rad;
   c.recovery_rotate_speed = n.recovery_rotate_speed;
   c.max_recovery_rounds = n.max_recovery_rounds;
-  c.route_lookahead = route_guide_.config().lookahead_m;
-  c.route_replan_off_route = route_guide_.config().replan_off_route_m;
   return c;
+}
+
+PlannerRouteConfig PlannerNode::reconfigurableRoute() const {
+  PlannerRouteConfig c;
+  c.lookahead = route_guide_.config().lookahead_m;
+  c.replan_off_route = route_guide_.config().replan_off_route_m;
+  return c;
+}
+
+void PlannerNode::onReconfigureRoute(PlannerRouteConfig& c, uint32_t) {
+  RouteGuideConfig guide = route_guide_.config();
+  guide.lookahead_m = c.lookahead;
+  guide.replan_off_route_m = c.replan_off_route;
+  if (const std::string refused = guide.validate(); !refused.empty()) {
+    ROS_ERROR("planner: route reconfiguration refused, the settings stay as they were: %s", refused.c_str());
+    c = reconfigurableRoute();
+    return;
+  }
+  route_guide_.setConfig(guide);
+  ROS_INFO("planner: route reconfigured");
 }
 
 void PlannerNode::onReconfigure(PlannerConfig& c, uint32_t) {
@@ -799,18 +829,13 @@ void PlannerNode::onReconfigure(PlannerConfig& c, uint32_t) {
   n.recovery_rotate_rad = c.recovery_rotate_angle;
   n.recovery_rotate_speed = c.recovery_rotate_speed;
   n.max_recovery_rounds = c.max_recovery_rounds;
-  RouteGuideConfig guide = route_guide_.config();
-  guide.lookahead_m = c.route_lookahead;
-  guide.replan_off_route_m = c.route_replan_off_route;
-  std::string refused = guide.validate();
-  if (refused.empty()) refused = supervisor_.reconfigure(s);
+  const std::string refused = supervisor_.reconfigure(s);
   if (!refused.empty()) {
     ROS_ERROR("planner: reconfiguration refused, the settings stay as they were: %s", refused.c_str());
     c = reconfigurable();
     return;
   }
   use_goal_yaw_ = c.use_goal_yaw;
-  route_guide_.setConfig(guide);
   ROS_INFO("planner: reconfigured");
 }
 

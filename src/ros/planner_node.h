@@ -26,6 +26,7 @@
 #include "dqn_dovs/BaseSafety.h"
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerConfig.h"
+#include "dqn_dovs/PlannerRouteConfig.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/common/robot_model.h"
 #include "dqn_dovs/planning/route.h"
@@ -64,6 +65,7 @@ class PlannerNode {
   Vec2 localGoal(const Vec2& goal_fixed);
   /// The route planner's settings: robot/radius and route/* parameters.
   RouteConfig routeConfig() const;
+  RouteConfig route_config_;  ///< route/inflation, route/allow_unknown and the robot radius, read once at start
   /// The last scan's returns in the route's frame (obstacles the map does not have), empty when tf cannot place it.
   std::vector<Vec2> scanPointsInRouteFrame();
   /// Accepts `goal` (any frame tf knows) as the goal; `source` names where it came from for the log. Returns why
@@ -100,6 +102,9 @@ class PlannerNode {
   void onReconfigure(PlannerConfig& config, uint32_t level);
   /// The settings in force, as cfg/Planner.cfg names them.
   PlannerConfig reconfigurable() const;
+  /// The same for route/* (cfg/PlannerRoute.cfg, on the `route` namespace: route/lookahead, route/replan_off_route).
+  void onReconfigureRoute(PlannerRouteConfig& config, uint32_t level);
+  PlannerRouteConfig reconfigurableRoute() const;
 
   ros::NodeHandle nh_, pnh_;
   std::string fixed_frame_, base_frame_;
@@ -149,6 +154,7 @@ class PlannerNode {
   ros::Timer decide_timer_, ramp_timer_, diagnostics_timer_;
   ros::Publisher diagnostics_pub_;
   std::unique_ptr<dynamic_reconfigure::Server<PlannerConfig>> reconfigure_server_;
+  std::unique_ptr<dynamic_reconfigure::Server<PlannerRouteConfig>> reconfigure_route_server_;
   PlannerStatus last_status_, last_reported_;
 };
 

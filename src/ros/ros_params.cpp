@@ -1,6 +1,12 @@
 #include "ros_params.h"
 
+#include <algorithm>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <set>
 #include <sstream>
+#include <vector>
 
 namespace dqn_dovs {
 
@@ -74,7 +80,83 @@ bool checkRobotDescription(const ros::NodeHandle& nh, const RobotLimits& limits,
   return loadRobotDescription(nh, limits, base_frame, laser_frame).has_value();
 }
 
+namespace {
+
+std::mutex& ledgerMutex() {
+  static std::mutex m;
+  return m;
+}
+
+// Resolved names of every parameter read, by the namespace of the handle that read it.
+std::map<std::string, std::set<std::string>>& ledger() {
+  static std::map<std::string, std::set<std::string>> read;
+  return read;
+}
+
+size_t editDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
+
+void noteParameter(const ros::NodeHandle& pnh, const std::string& name) {
+  const std::lock_guard<std::mutex> lock(ledgerMutex());
+  ledger()[pnh.getNamespace()].insert(pnh.resolveName(name));
+}
+
+void refuseUnknownParameters(const ros::NodeHandle& pnh, const std::vector<std::string>& also_known) {
+  const std::string ns = pnh.getNamespace();
+  const std::string prefix = ns == "/" ? "/" : ns + "/";
+  std::set<std::string> known;
+  {
+    const std::lock_guard<std::mutex> lock(ledgerMutex());
+    known = ledger()[ns];
+  }
+  std::vector<std::string> under;  // prefixes of also_known's blocks
+  for (const std::string& name : also_known) {
+    if (!name.empty() && name.back() == '/') {
+      under.push_back(prefix + name);
+    } else {
+      known.insert(pnh.resolveName(name));
+    }
+  }
+  std::vector<std::string> all;
+  if (!ros::param::getParamNames(all)) return;  // no parameter server to ask: nothing to refuse
+  std::string message;
+  for (const std::string& name : all) {
+    if (name.rfind(prefix, 0) != 0 || known.count(name) != 0) continue;
+    if (std::any_of(under.begin(), under.end(), [&](const std::string& u) { return name.rfind(u, 0) == 0; })) continue;
+    std::string nearest;
+    size_t best = std::numeric_limits<size_t>::max();
+    for (const std::string& k : known) {
+      if (const size_t d = editDistance(name, k); d < best) {
+        best = d;
+        nearest = k;
+      }
+    }
+    message += (message.empty() ? "" : "; ") + std::string("'") + name + "'";
+    if (!nearest.empty() && best <= std::max<size_t>(3, name.size() / 4))
+      message += " (did you mean '" + nearest + "'?)";
+  }
+  if (!message.empty()) {
+    throw ParameterError("unknown parameter(s), which this node does not read: " + message +
+                         " (a misspelt key would otherwise be ignored)");
+  }
+}
+
 bool paramText(const ros::NodeHandle& pnh, const std::string& name, std::string& out) {
+  noteParameter(pnh, name);
   XmlRpc::XmlRpcValue v;
   if (!pnh.getParam(name, v)) return false;
   std::ostringstream os;

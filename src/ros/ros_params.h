@@ -20,9 +20,20 @@ class ParameterError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Notes `name` (relative to `pnh`) as a parameter the node reads. Every reader below notes what it reads, so that
+/// refuseUnknownParameters can tell a misspelt key from a real one.
+void noteParameter(const ros::NodeHandle& pnh, const std::string& name);
+
+/// Throws ParameterError naming every parameter set under `pnh`'s namespace that the node has not read (noted by
+/// noteParameter) - a misspelt or unknown key that would otherwise be silently ignored - with the nearest name the
+/// node reads. `also_known` names parameters the node owns but reads only later or elsewhere (relative names; a name
+/// ending in '/' stands for every parameter under it). Nodes call it once their parameters are read.
+void refuseUnknownParameters(const ros::NodeHandle& pnh, const std::vector<std::string>& also_known = {});
+
 /// Reads `name` from the private handle, falling back to `fallback`; numbers must be finite.
 template <typename T>
 T param(const ros::NodeHandle& pnh, const std::string& name, const T& fallback) {
+  noteParameter(pnh, name);
   T value = fallback;
   if (pnh.hasParam(name) && !pnh.getParam(name, value)) {
     throw ParameterError("parameter '" + pnh.resolveName(name) + "' has the wrong type");

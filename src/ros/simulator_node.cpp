@@ -70,6 +70,7 @@ void loadLaserMount(const ros::NodeHandle& pnh, const std::optional<RobotGeometr
        {MountField{"lidar/mount_x", "m", &c.lidar.mount.x}, MountField{"lidar/mount_y", "m", &c.lidar.mount.y},
         MountField{"lidar/mount_yaw", "rad", &c.lidar.mount.theta},
         MountField{"lidar/mount_height", "m", &c.people.scan_height_m}}) {
+    noteParameter(pnh, f.name);
     if (!pnh.hasParam(f.name)) continue;
     const double value = f.value == &c.people.scan_height_m ? paramInRange(pnh, f.name, *f.value, 0.0, 10.0)
                                                             : param<double>(pnh, f.name, *f.value);
@@ -188,6 +189,8 @@ SimulatorNode::SimulatorNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh),
   truth_markers_pub_ = nh_.advertise<visualization_msgs::MarkerArray>("ground_truth/markers", 5);
   // Latched: the scenario's goal, for the planner when publish_goal is set (sim.launch), else for tools.
   const bool publish_goal = param<bool>(pnh_, "publish_goal", false);
+  // Every parameter is read above: a key under this node that none of them names is a typo (ParameterError).
+  refuseUnknownParameters(pnh_);
   goal_pub_ = nh_.advertise<geometry_msgs::PoseStamped>(publish_goal ? "move_base_simple/goal" : "sim/goal", 1, true);
   status_pub_ = nh_.advertise<SimStatus>("sim/status", 10);
   if (publish_clock_) clock_pub_ = nh_.advertise<rosgraph_msgs::Clock>("/clock", 10);

@@ -37,6 +37,7 @@
 
 #include "dqn_dovs/BaseSafety.h"
 #include "dqn_dovs/PlannerConfig.h"
+#include "dqn_dovs/PlannerRouteConfig.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "fake_robot.h"
 
@@ -301,6 +302,22 @@ TEST_F(Navigation, ReconfigurationRefusesBadSettingsAndAppliesGoodOnesAtOnce) {
   EXPECT_NE(client_->getState().getText().find("gave up after 0 recovery rounds"), std::string::npos)
       << client_->getState().getText();
   ASSERT_TRUE(reconfigure.setConfiguration(config));  // as it was, for the tests after this one
+
+  // The route's settings under the names of config/planner.yaml's route block (/planner/route/lookahead).
+  dynamic_reconfigure::Client<dqn_dovs::PlannerRouteConfig> route("/planner/route");
+  dqn_dovs::PlannerRouteConfig r;
+  ASSERT_TRUE(route.getCurrentConfiguration(r, ros::Duration(5.0))) << "no route configuration from the planner";
+  double loaded = 0.0;
+  ASSERT_TRUE(ros::param::get("/planner/route/lookahead", loaded));
+  EXPECT_DOUBLE_EQ(r.lookahead, loaded) << "the server must start from the node's parameters";
+  dqn_dovs::PlannerRouteConfig shorter = r;
+  shorter.lookahead = 2.5;
+  ASSERT_TRUE(route.setConfiguration(shorter));
+  EXPECT_DOUBLE_EQ(shorter.lookahead, 2.5);
+  double now_in_force = 0.0;
+  ASSERT_TRUE(ros::param::get("/planner/route/lookahead", now_in_force));
+  EXPECT_DOUBLE_EQ(now_in_force, 2.5);
+  ASSERT_TRUE(route.setConfiguration(r));
 }
 
 TEST_F(Navigation, BumperStopsAtOnceAndACliffAborts) {

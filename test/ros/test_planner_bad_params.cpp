@@ -218,6 +218,32 @@ TEST(PlannerBadParams, OtherNodesRefuseOutOfRangeParameters) {
   }
 }
 
+TEST(PlannerBadParams, MisspeltKeysAreRefusedByEveryNodeWithTheNearestName) {
+  // A key no reader of the node names is a typo: without the refusal it would be ignored and its default used.
+  struct Case {
+    const char *exe, *culprit;
+    std::string args;
+  };
+  const std::string model = "_model_path:=" + modelPath() + " ";
+  const std::array<Case, 7> cases = {{
+      {"planner_node", "goal_tolerence' (did you mean '/typo_node_0/goal_tolerance'?)", model + "_goal_tolerence:=0.2"},
+      {"planner_node", "route/lookahed' (did you mean '/typo_node_1/route/lookahead'?)",
+       model + "_route/lookahed:=2.0"},
+      {"planner_node", "dovs/safty_factor' (did you mean '/typo_node_2/dovs/safety_factor'?)",
+       model + "_dovs/safty_factor:=1.2"},
+      {"dovs_node", "map_rang' (did you mean '/typo_node_3/map_range'?)", "_map_rang:=3.0"},
+      {"dovs_node", "robot/vmax' (did you mean '/typo_node_4/robot/v_max'?)", "_robot/vmax:=0.5"},
+      {"obstacle_tracker_node", "publish_marker' (did you mean '/typo_node_5/publish_markers'?)",
+       "_publish_marker:=false"},
+      {"simulator_node", "lidar/profil' (did you mean '/typo_node_6/lidar/profile'?)", "_lidar/profil:=hokuyo"},
+  }};
+  int k = 0;
+  for (const Case& c : cases) {
+    expectFatal(runNode(c.exe, "typo_node_" + std::to_string(k++), c.args), c.culprit,
+                std::string(c.exe) + " " + c.args);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
