@@ -2,13 +2,13 @@
 # Regenerates docs/benchmark.md: every method on a folder of room scenarios (SCENARIOS, default the package's own
 # data/scenarios/room; an external set such as the authors' RUMOR test scenarios by SCENARIOS=DIR,
 # docs/external_benchmark.md) with the evaluation CLI, once with the
-# LIDAR + tracker in the loop (docs/benchmark/tracker/) and once with perfect information
-# (docs/benchmark/perfect/), then python/dqn_dovs_py/benchmark_report.py writes the tables, plots and verdicts.
+# LIDAR + tracker in the loop (results/benchmark/tracker/) and once with perfect information
+# (results/benchmark/perfect/), then python/dqn_dovs_py/benchmark_report.py writes the tables, plots and verdicts.
 # `oracle` (docs/planners.md section 9: the physical limit, a search that reads the simulator's future) runs on the
 # same episodes in both runs; the report gives its column, each method's share of its successes and the episodes it
 # did not solve. It is a ceiling, never a baseline. ORACLE=0 leaves it out. `bound` (the limit from above: the
 # episodes no robot within the limits can solve; it does not depend on the perception) runs once on the same
-# episodes into docs/benchmark/bound/ (about 1 min); BOUND=0 leaves it out.
+# episodes into results/benchmark/bound/ (about 1 min); BOUND=0 leaves it out.
 # Run from anywhere (make benchmark-table does). With the defaults (2 x 13500 episodes) about 20 min on a 2-core
 # machine (1188 s measured, 2347 CPU-s). The eight planners: 1000 CPU-s measured from a 2-episode run (tracker 0.065,
 # perfect information 0.042 CPU-s per episode); the oracle: the rest, about 0.45 CPU-s per episode in either run, its
@@ -19,7 +19,7 @@
 # Table 1, whose columns are then drawn beside ours), EPISODES (100 per obstacle count), OBSTACLES (1-15), THREADS (2), MODEL (models/dqn_dovs.dqnw),
 # METHODS (all eight), ORACLE (1: add oracle to METHODS unless it is there; 0: leave it out), BOUND (1: the bound's
 # run; 0: none), DQN_DOVS_EVAL (default
-# install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md), OUT_DIR (docs/benchmark).
+# install/lib/dqn_dovs/dqn_dovs_eval), OUT_DOC (docs/benchmark.md), OUT_DIR (results/benchmark).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # shellcheck source=scripts/env.sh
@@ -40,7 +40,7 @@ paper="${PAPER:-}"
 [ -z "$paper" ] || [ -f "$paper" ] || { echo "benchmark_table: PAPER=$paper is not a file" >&2; exit 2; }
 exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
 out_doc="${OUT_DOC:-docs/benchmark.md}"
-out_dir="${OUT_DIR:-docs/benchmark}"
+out_dir="${OUT_DIR:-results/benchmark}"
 # The installed tools find the core library through the install tree.
 export LD_LIBRARY_PATH="$root/install/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 

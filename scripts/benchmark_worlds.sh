@@ -7,16 +7,16 @@
 # - headline: --people-mix headline (attentive=0.7,impassive=0.2,oblivious=0.1), the main table;
 # - oblivious: --people-mix oblivious=1, the stress test (nobody sees the robot), judged on robot-at-fault contacts;
 # - attentive: --people-mix attentive=1, everybody gives way.
-# One run folder per protocol, family and N (docs/benchmark_worlds/PROTOCOL/FAMILY_nN/) keeps results.csv, run.json,
+# One run folder per protocol, family and N (results/benchmark_worlds/PROTOCOL/FAMILY_nN/) keeps results.csv, run.json,
 # summary.json and summary.md. Then python/dqn_dovs_py/worlds_report.py writes the tables, the paired tests and
-# docs/benchmark_worlds/success_and_fault.png, including docs/benchmark_worlds_discussion.md (hand-written).
+# results/benchmark_worlds/success_and_fault.png, including docs/benchmark_worlds_discussion.md (hand-written).
 # A run the tool stops (a world it cannot generate) keeps only failed.txt, its error; the others go on, the report
 # shows it as not run and the script exits 1 at the end.
 # Run from anywhere (make benchmark-worlds does); one progress line per run with its wall time.
 # Environment: EPISODES (30 per run and method), THREADS (2), ORACLE (1: with the oracle; 0: the planners only),
 # PROTOCOLS (headline oblivious attentive), MODEL (models/dqn_dovs.dqnw), PEOPLE_PREDICTOR
 # (models/people_predictor_tracks.dqnp; empty: none), DQN_DOVS_EVAL (default install/lib/dqn_dovs/dqn_dovs_eval),
-# OUT_DIR (docs/benchmark_worlds), OUT_DOC (docs/benchmark_worlds.md).
+# OUT_DIR (results/benchmark_worlds), OUT_DOC (docs/benchmark_worlds.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # shellcheck source=scripts/env.sh
@@ -28,7 +28,7 @@ threads="${THREADS:-2}"
 model="${MODEL:-models/dqn_dovs.dqnw}"
 predictor="${PEOPLE_PREDICTOR-models/people_predictor_tracks.dqnp}"
 exe="${DQN_DOVS_EVAL:-install/lib/dqn_dovs/dqn_dovs_eval}"
-out_dir="${OUT_DIR:-docs/benchmark_worlds}"
+out_dir="${OUT_DIR:-results/benchmark_worlds}"
 out_doc="${OUT_DOC:-docs/benchmark_worlds.md}"
 families=(crowd corridor doorway clutter junction)
 counts=(4 8 12)

@@ -1,9 +1,9 @@
 """docs/benchmark.md from two evaluation runs (tracker in the loop, perfect information) and the paper's table.
 
-    python -m dqn_dovs_py.benchmark_report --tracker docs/benchmark/tracker/results.csv \
-        --perfect docs/benchmark/perfect/results.csv [--paper PAPER_TABLE1.csv] \
-        --discussion docs/benchmark_discussion.md --run-info docs/benchmark/run_info.json \
-        --plots docs/benchmark --out docs/benchmark.md
+    python -m dqn_dovs_py.benchmark_report --tracker results/benchmark/tracker/results.csv \
+        --perfect results/benchmark/perfect/results.csv [--paper PAPER_TABLE1.csv] \
+        --discussion docs/benchmark_discussion.md --run-info results/benchmark/run_info.json \
+        --plots results/benchmark --out docs/benchmark.md
 
 Reads the per-episode results.csv files written by dqn_dovs_eval (method, obstacles, episode, scenario,
 outcome, time_s, path_length_m, min_clearance_m, danger_steps, steps, planner_errors, collision_kind,
@@ -683,14 +683,14 @@ def render(tracker: Summary | None, perfect: Summary | None, paper, run_info: di
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--tracker", default="docs/benchmark/tracker/results.csv")
-    p.add_argument("--perfect", default="docs/benchmark/perfect/results.csv")
+    p.add_argument("--tracker", default="results/benchmark/tracker/results.csv")
+    p.add_argument("--perfect", default="results/benchmark/perfect/results.csv")
     p.add_argument("--paper", default="", help="CSV of the paper's Table 1 (optional: its columns beside ours)")
     p.add_argument("--discussion", default="docs/benchmark_discussion.md")
-    p.add_argument("--run-info", default="docs/benchmark/run_info.json")
-    p.add_argument("--plots", default="docs/benchmark", help="folder of the PNGs")
+    p.add_argument("--run-info", default="results/benchmark/run_info.json")
+    p.add_argument("--plots", default="results/benchmark", help="folder of the PNGs")
     p.add_argument("--out", default="docs/benchmark.md")
-    p.add_argument("--bound", default="docs/benchmark/bound/results.csv",
+    p.add_argument("--bound", default="results/benchmark/bound/results.csv",
                    help="results.csv of the reachability bound's run (method bound); missing: not run")
     a = p.parse_args(argv)
 

@@ -1,7 +1,7 @@
-"""docs/benchmark/run_info.json: how a `make benchmark-table` run was made (scripts/benchmark_table.sh writes it
+"""results/benchmark/run_info.json: how a `make benchmark-table` run was made (scripts/benchmark_table.sh writes it
 through this module; python/dqn_dovs_py/benchmark_report.py prints it in docs/benchmark.md).
 
-    python -m dqn_dovs_py.run_info --out docs/benchmark/run_info.json --commit abc1234 --model models/dqn_dovs.dqnw \
+    python -m dqn_dovs_py.run_info --out results/benchmark/run_info.json --commit abc1234 --model models/dqn_dovs.dqnw \
         --tracker-command "dqn_dovs_eval ..." --tracker-wall 180.2 --perfect-command "..." --perfect-wall 116.5 \
         --total-wall 301.0
 """

@@ -1,7 +1,7 @@
 """docs/benchmark_worlds.md: every planner and the oracle across the building families under three protocols of how
 people treat the robot, from the run folders scripts/benchmark_worlds.sh (make benchmark-worlds) writes.
 
-    python -m dqn_dovs_py.worlds_report --runs docs/benchmark_worlds --out docs/benchmark_worlds.md
+    python -m dqn_dovs_py.worlds_report --runs results/benchmark_worlds --out docs/benchmark_worlds.md
 
 The runs folder holds one folder per protocol (PROTOCOLS: headline, oblivious, attentive) and in it one folder per
 family and N (FAMILY_nN, FAMILIES x COUNTS), each one dqn_dovs_eval run of the planners (PLANNERS) and, unless the
@@ -414,7 +414,7 @@ def write_report(runs_dir: str, out: str, discussion_path: str) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m dqn_dovs_py.worlds_report", description=__doc__.splitlines()[0])
-    p.add_argument("--runs", default="docs/benchmark_worlds", help="folder of the protocol folders")
+    p.add_argument("--runs", default="results/benchmark_worlds", help="folder of the protocol folders")
     p.add_argument("--out", default="docs/benchmark_worlds.md")
     p.add_argument("--discussion", default="docs/benchmark_worlds_discussion.md")
     p.add_argument("--commit", help="with --model and --total-wall: write RUNS/run_info.json first")

@@ -156,8 +156,10 @@ def test_report_end_to_end(tmp_path):
                      "6,0.80,0.71,1.06,0.65\n")
     discussion = tmp_path / "discussion.md"
     discussion.write_text("Hand-written *prose*, kept verbatim.\n\n- a point\n")
+    # The repository's layout: the report in docs/, its data and plots in results/benchmark/.
     out = tmp_path / "docs" / "benchmark.md"
-    plots = tmp_path / "docs" / "benchmark"
+    out.parent.mkdir()
+    plots = tmp_path / "results" / "benchmark"
     rc = br.main(["--tracker", str(tracker), "--perfect", str(perfect), "--paper", str(paper),
                   "--discussion", str(discussion), "--run-info", str(tmp_path / "missing.json"),
                   "--plots", str(plots), "--out", str(out)])
@@ -169,7 +171,7 @@ def test_report_end_to_end(tmp_path):
     assert "| 5 | 1.00 | 0.50 (1.50) | 0.00 (-) | 1.00 (1.00) | not run | 0.82 | 0.73 (1.07) | 0.76 |" in text
     for png in ("success_vs_n_tracker.png", "success_vs_n_perfect.png", "collision_vs_n.png"):
         assert os.path.getsize(plots / png) > 1000
-        assert f"(benchmark/{png})" in text
+        assert f"(../results/benchmark/{png})" in text
     assert "not recorded" in text
 
 

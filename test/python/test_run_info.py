@@ -1,5 +1,5 @@
-"""docs/benchmark/run_info.json (python -m dqn_dovs_py.run_info) and scripts/benchmark_table.sh end to end on a tiny
-run (one method, one obstacle count, one episode) written outside docs/."""
+"""results/benchmark/run_info.json (python -m dqn_dovs_py.run_info) and scripts/benchmark_table.sh end to end on a tiny
+run (one method, one obstacle count, one episode) written outside results/ and docs/."""
 
 import hashlib
 import json
@@ -33,13 +33,14 @@ def test_run_info_records_the_run(tmp_path):
 
 def test_benchmark_table_script_end_to_end(tmp_path):
     env = dict(os.environ, EPISODES="1", OBSTACLES="2", METHODS="dqn_dovs,s_dovs", THREADS="1",
-               DQN_DOVS_EVAL=str(built_tool("dqn_dovs_eval")), OUT_DOC=str(tmp_path / "benchmark.md"),
-               OUT_DIR=str(tmp_path / "benchmark"))
+               DQN_DOVS_EVAL=str(built_tool("dqn_dovs_eval")), OUT_DOC=str(tmp_path / "docs" / "benchmark.md"),
+               OUT_DIR=str(tmp_path / "results" / "benchmark"))
+    (tmp_path / "docs").mkdir()
     proc = subprocess.run(["bash", str(REPO / "scripts" / "benchmark_table.sh")], capture_output=True, text=True,
                           timeout=600, env=env, cwd=REPO)
     assert proc.returncode == 0, proc.stderr
-    info = json.loads((tmp_path / "benchmark" / "run_info.json").read_text())
+    info = json.loads((tmp_path / "results" / "benchmark" / "run_info.json").read_text())
     assert "--episodes 1" in info["tracker"]["command"] and "--perfect-info" in info["perfect"]["command"]
-    assert (tmp_path / "benchmark" / "tracker" / "results.csv").exists()
-    text = (tmp_path / "benchmark.md").read_text()
+    assert (tmp_path / "results" / "benchmark" / "tracker" / "results.csv").exists()
+    text = (tmp_path / "docs" / "benchmark.md").read_text()
     assert "## Tracker in the loop" in text and "## Perfect information" in text

@@ -64,7 +64,7 @@ def write_run(root: Path, protocol: str, family: str, n: int) -> Path:
 @pytest.fixture
 def runs(tmp_path: Path) -> Path:
     """The headline and oblivious protocols; attentive not run."""
-    root = tmp_path / "benchmark_worlds"
+    root = tmp_path / "results" / "benchmark_worlds"
     for protocol in ("headline", "oblivious"):
         for family in wr.FAMILIES:
             for n in wr.COUNTS:
@@ -73,7 +73,8 @@ def runs(tmp_path: Path) -> Path:
 
 
 def make_report(runs: Path, tmp_path: Path, discussion: Path | None = None) -> str:
-    out = tmp_path / "benchmark_worlds.md"
+    out = tmp_path / "docs" / "benchmark_worlds.md"  # the repository's layout: the report in docs/, data in results/
+    out.parent.mkdir(exist_ok=True)
     wr.write_report(str(runs), str(out), str(discussion or tmp_path / "no_discussion.md"))
     return out.read_text()
 
@@ -110,7 +111,8 @@ def test_protocol_tables_and_oracle_target(runs: Path, tmp_path: Path):
     # Cost figures: means per episode (delay not recorded in the oblivious protocol).
     assert "| DQN-DOVS | 1.00 | 4.00 | 0.50 | 2.0 | 2.50 | 0.75 |" in text
     assert "| DQN-DOVS | 1.00 | 4.00 | 0.50 | - | 2.50 | 0.75 |" in text
-    assert (tmp_path / "benchmark_worlds" / wr.PLOT).stat().st_size > 10_000
+    assert (tmp_path / "results" / "benchmark_worlds" / wr.PLOT).stat().st_size > 10_000
+    assert f"](../results/benchmark_worlds/{wr.PLOT})" in text
 
 
 def test_a_stopped_run_is_shown_with_its_error(runs: Path, tmp_path: Path):
