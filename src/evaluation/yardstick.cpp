@@ -6,20 +6,6 @@
 
 namespace dqn_dovs {
 
-const char* collisionKindName(CollisionKind kind) {
-  switch (kind) {
-    case CollisionKind::kNone:
-      return "";
-    case CollisionKind::kStatic:
-      return "static";
-    case CollisionKind::kRest:
-      return "rest";
-    case CollisionKind::kMoving:
-      return "moving";
-  }
-  return "";
-}
-
 const char* contactClassName(ContactClass contact) {
   switch (contact) {
     case ContactClass::kNone:
@@ -144,12 +130,6 @@ void PlanProgress::update(const sim::Crowd& crowd) {
     const Vec2& to = p.spec.destinations[p.destination];
     metres_[i] = done_[i] + (to - leg_start_[i]).norm() - (to - p.position).norm();
   }
-}
-
-CollisionKind classifyCollision(const sim::CollisionInfo& collision) {
-  if (collision.kind == sim::CollisionInfo::Kind::kNone) return CollisionKind::kNone;
-  if (collision.static_contact) return CollisionKind::kStatic;
-  return collision.robot_speed_mps < kRestSpeedMps ? CollisionKind::kRest : CollisionKind::kMoving;
 }
 
 }  // namespace dqn_dovs

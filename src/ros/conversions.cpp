@@ -61,7 +61,7 @@ void laserScanToMsg(const LaserScan2& scan, sensor_msgs::LaserScan& msg) {
   msg.intensities.clear();
 }
 
-std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::OccupancyMap& out) {
+std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, OccupancyMap& out) {
   std::ostringstream os;
   const auto& info = msg.info;
   geometry_msgs::Transform origin;
@@ -81,7 +81,7 @@ std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::Occupan
     os << "map origin is not finite";
   }
   if (!os.str().empty()) return os.str();
-  out = sim::OccupancyMap{};
+  out = OccupancyMap{};
   out.name = "map in frame '" + msg.header.frame_id + "'";
   out.resolution_m = info.resolution;
   out.origin = origin_pose;
@@ -90,8 +90,7 @@ std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::Occupan
   out.cells.resize(msg.data.size());
   for (size_t i = 0; i < msg.data.size(); ++i) {
     const int v = msg.data[i];
-    out.cells[i] =
-        v >= 65 ? sim::MapCell::kOccupied : (v >= 0 && v < 20 ? sim::MapCell::kFree : sim::MapCell::kUnknown);
+    out.cells[i] = v >= 65 ? MapCell::kOccupied : (v >= 0 && v < 20 ? MapCell::kFree : MapCell::kUnknown);
   }
   return {};
 }

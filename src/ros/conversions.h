@@ -14,8 +14,8 @@
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
 #include "dqn_dovs/common/types.h"
+#include "dqn_dovs/maps/occupancy_map.h"
 #include "dqn_dovs/planning/route.h"
-#include "dqn_dovs/sim/map.h"
 
 namespace dqn_dovs {
 
@@ -30,7 +30,7 @@ void laserScanToMsg(const LaserScan2& scan, sensor_msgs::LaserScan& msg);
 /// An occupancy grid message as the core's map (values >= 65 occupied, 0..19 free, the rest and -1 unknown, as
 /// map_server thresholds them). Returns why the message is unusable (empty or unknown frame, a resolution that
 /// is not a positive number, no cells, a data size other than width x height, a non-finite origin), else "".
-std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, sim::OccupancyMap& out);
+std::string occupancyMapFromMsg(const nav_msgs::OccupancyGrid& msg, OccupancyMap& out);
 
 /// An occupancy grid of known geometry as a message (frame, stamps set by the caller): occupied 100, free 0,
 /// unknown -1, rows bottom first, as map_server publishes a map.

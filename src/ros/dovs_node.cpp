@@ -12,8 +12,8 @@
 
 #include "conversions.h"
 #include "dqn_dovs/Dovs.h"
+#include "dqn_dovs/maps/occupancy_map.h"
 #include "dqn_dovs/render/dovs_render.h"
-#include "dqn_dovs/sim/map.h"
 #include "pipeline_steps.h"
 #include "ros_params.h"
 

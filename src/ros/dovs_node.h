@@ -21,7 +21,7 @@
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
-#include "dqn_dovs/evaluation/people_predictor.h"
+#include "dqn_dovs/perception/people_predictor.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "transform_wait.h"
 

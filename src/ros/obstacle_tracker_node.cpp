@@ -5,7 +5,7 @@
 
 #include "conversions.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
-#include "dqn_dovs/sim/map.h"
+#include "dqn_dovs/maps/occupancy_map.h"
 #include "pipeline_steps.h"
 #include "ros_params.h"
 

@@ -5,17 +5,16 @@
 #include <stdexcept>
 
 #include "conversions.h"
-#include "dqn_dovs/sim/map.h"
+#include "dqn_dovs/maps/occupancy_map.h"
 
 namespace dqn_dovs {
 
 std::string trackerMapFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_is_occupied, double tolerance_m,
                               std::unique_ptr<KnownStructure>& out) {
-  sim::OccupancyMap grid;
+  OccupancyMap grid;
   if (std::string error = occupancyMapFromMsg(msg, grid); !error.empty()) return error;
   try {
-    out = std::make_unique<KnownStructure>(sim::mapSegments(grid, unknown_is_occupied), std::vector<Circle>{},
-                                           tolerance_m);
+    out = std::make_unique<KnownStructure>(mapSegments(grid, unknown_is_occupied), std::vector<Circle>{}, tolerance_m);
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -23,9 +22,9 @@ std::string trackerMapFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_i
 }
 
 std::string mapWallsFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_is_occupied, std::vector<Segment>& out) {
-  sim::OccupancyMap grid;
+  OccupancyMap grid;
   if (std::string error = occupancyMapFromMsg(msg, grid); !error.empty()) return error;
-  out = sim::mapSegments(grid, unknown_is_occupied);
+  out = mapSegments(grid, unknown_is_occupied);
   return {};
 }
 

@@ -208,20 +208,15 @@ StaticSafetyConfig loadStaticSafetyConfig(const ros::NodeHandle& pnh) {
 }
 
 DovsConfig loadDovsConfig(const ros::NodeHandle& pnh) {
+  // Every DovsConfig field by its config/dovs.yaml name (dovsParameterNames, the table the evaluation and the
+  // trainer set them by); a key under dovs/ that names none is refused by refuseUnknownParameters.
   DovsConfig c;
-  c.obstacle_range_m = param<double>(pnh, "dovs/obstacle_range", c.obstacle_range_m);
-  c.safety_factor = param<double>(pnh, "dovs/safety_factor", c.safety_factor);
-  c.num_trajectories = param<int>(pnh, "dovs/num_trajectories", c.num_trajectories);
-  c.time_horizon_s = param<double>(pnh, "dovs/time_horizon", c.time_horizon_s);
-  c.static_reaction_time_s = param<double>(pnh, "dovs/static_reaction_time", c.static_reaction_time_s);
-  c.static_margin_m = param<double>(pnh, "dovs/static_margin", c.static_margin_m);
-  c.prediction_growth_mps = param<double>(pnh, "dovs/prediction_growth", c.prediction_growth_mps);
-  c.grid_contact_horizon_s = param<double>(pnh, "dovs/grid_contact_horizon", c.grid_contact_horizon_s);
-  c.grid_channels = param<int>(pnh, "dovs/grid_channels", c.grid_channels);
-  c.previous_action = param<int>(pnh, "dovs/previous_action", c.previous_action);
-  c.wall_rays = param<int>(pnh, "dovs/wall_rays", c.wall_rays);
-  c.person_tokens = param<int>(pnh, "dovs/person_tokens", c.person_tokens);
-  c.route_points = param<int>(pnh, "dovs/route_points", c.route_points);
+  for (const std::string& name : dovsParameterNames()) {
+    std::string text;
+    if (!paramText(pnh, "dovs/" + name, text)) continue;
+    const std::string why = setDovsParameter(c, name, text);
+    if (!why.empty()) throw ParameterError("parameter '" + pnh.resolveName("dovs/" + name) + "': " + why);
+  }
   const std::string error = c.validate();
   if (!error.empty()) throw ParameterError(pnh.resolveName("dovs") + ": " + error);
   if (c.grid_channels == 2) {

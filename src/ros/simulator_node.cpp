@@ -15,8 +15,8 @@
 #include "conversions.h"
 #include "dqn_dovs/SimStatus.h"
 #include "dqn_dovs/TrackedObstacleArray.h"
-#include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/planning/route.h"
+#include "dqn_dovs/sim/collision_kind.h"
 #include "dqn_dovs/sim/worlds.h"
 #include "ros_params.h"
 

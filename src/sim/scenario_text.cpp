@@ -8,7 +8,7 @@
 #include <sstream>
 
 #include "dqn_dovs/common/parse.h"
-#include "dqn_dovs/sim/map.h"
+#include "dqn_dovs/maps/occupancy_map.h"
 #include "dqn_dovs/sim/scenario.h"
 
 namespace dqn_dovs::sim {

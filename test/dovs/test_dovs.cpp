@@ -66,7 +66,7 @@ TEST(DovsConfig, ParametersAreSetByTheirConfigFileNames) {
   const std::string unknown = setDovsParameter(c, "horizon", "3");
   EXPECT_NE(unknown.find("unknown DOVS parameter 'horizon'"), std::string::npos);
   EXPECT_NE(unknown.find("prediction_growth"), std::string::npos);  // the known names are listed
-  EXPECT_EQ(dovsParameterNames().size(), 12u);
+  EXPECT_EQ(dovsParameterNames().size(), 13u);
   for (const std::string& name : dovsParameterNames()) EXPECT_EQ(setDovsParameter(c, name, "1"), "") << name;
   c = DovsConfig{};
   c.prediction_growth_mps = -0.1;

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/maps/occupancy_map.h"
 #include "dqn_dovs/planning/route.h"
 #include "dqn_dovs/planning/route_map.h"
-#include "dqn_dovs/sim/map.h"
 #include "source_paths.h"
 
 namespace dqn_dovs {
@@ -366,7 +366,7 @@ TEST(Route, ExtraObstaclePointsAreAvoided) {
 }
 
 TEST(Route, PlansOnAMapLoadedFromTestData) {
-  const sim::OccupancyMap map = sim::loadOccupancyMap(std::string(DQN_DOVS_TEST_DATA_DIR) + "/route_rooms.yaml");
+  const OccupancyMap map = loadOccupancyMap(std::string(DQN_DOVS_TEST_DATA_DIR) + "/route_rooms.yaml");
   const RouteGrid grid = routeGridFromMap(map);
   ASSERT_EQ(grid.width, 80);
   ASSERT_EQ(grid.height, 40);

@@ -22,14 +22,14 @@ TEST(MapConversion, AKnownWorldsGridReadsBackCellForCell) {
   EXPECT_DOUBLE_EQ(msg.info.origin.position.y, grid.origin.y);
   EXPECT_DOUBLE_EQ(msg.info.origin.orientation.w, 1.0);
 
-  sim::OccupancyMap map;
+  OccupancyMap map;
   ASSERT_EQ(occupancyMapFromMsg(msg, map), "");
   ASSERT_EQ(map.cells.size(), grid.cells.size());
   size_t occupied = 0;
   for (size_t i = 0; i < grid.cells.size(); ++i) {
     const bool wall = grid.cells[i] == 100;
     occupied += wall;
-    EXPECT_EQ(map.cells[i], wall ? sim::MapCell::kOccupied : sim::MapCell::kFree) << "cell " << i;
+    EXPECT_EQ(map.cells[i], wall ? MapCell::kOccupied : MapCell::kFree) << "cell " << i;
   }
   EXPECT_GT(occupied, 100u);
   // Unknown cells stay unknown.

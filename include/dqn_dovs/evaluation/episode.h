@@ -16,7 +16,7 @@
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
-#include "dqn_dovs/evaluation/people_predictor.h"
+#include "dqn_dovs/perception/people_predictor.h"
 #include "dqn_dovs/perception/tracker.h"
 #include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/planning/route.h"

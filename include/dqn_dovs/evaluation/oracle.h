@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "dqn_dovs/common/geometry.h"
-#include "dqn_dovs/evaluation/people_predictor.h"
+#include "dqn_dovs/perception/people_predictor.h"
 #include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/sim/world.h"
 

@@ -8,21 +8,11 @@
 
 #include "dqn_dovs/common/geometry.h"
 #include "dqn_dovs/common/types.h"
+#include "dqn_dovs/sim/collision_kind.h"
 #include "dqn_dovs/sim/people.h"
 #include "dqn_dovs/sim/world.h"
 
 namespace dqn_dovs {
-
-/// Collisions split by who could have avoided them (passive safety): hitting static geometry (walls, furniture,
-/// static obstacles) is never necessary; a robot at rest (speed below kRestSpeedMps) was walked into; a moving
-/// robot drove into a moving obstacle.
-enum class CollisionKind { kNone = 0, kStatic = 1, kRest = 2, kMoving = 3 };
-/// "", "static", "rest", "moving".
-const char* collisionKindName(CollisionKind kind);
-/// The robot counts as at rest at a contact below this linear speed, m/s.
-constexpr double kRestSpeedMps = sim::kRobotRestSpeedMps;
-/// The kind of a simulator collision.
-CollisionKind classifyCollision(const sim::CollisionInfo& collision);
 
 /// Who hit whom, by the motion of both at the contact (as social-navigation evaluators judge it): static geometry
 /// (walls, furniture, static discs, a person standing); the robot on a person (the robot closing the gap along the

@@ -5,7 +5,7 @@
 // as a sequence of subgoals a lookahead ahead on the route, then as the goal itself. ROS-free.
 //
 // The grid has its own small type (the encoding of nav_msgs/OccupancyGrid) so that planning links nothing of the
-// simulator; planning/route_map.h converts a sim::OccupancyMap, routeGridFromGeometry rasterises known walls and
+// simulator; planning/route_map.h converts a OccupancyMap, routeGridFromGeometry rasterises known walls and
 // furniture. RouteGuide is the route-following state every user shares (planner_node, the evaluation's Episode and
 // with it the training environment): the subgoal of each control period, when the goal itself replaces it, and
 // when to plan again.
@@ -39,7 +39,7 @@ struct RouteGrid {
   int width = 0;               ///< cells per row
   int height = 0;              ///< rows
   /// Row-major, bottom row first: a negative value is unknown, otherwise the occupancy probability in percent
-  /// (sim::MapCell's -1 / 0 / 100 fit as they are).
+  /// (MapCell's -1 / 0 / 100 fit as they are).
   std::vector<int8_t> cells;
 };
 

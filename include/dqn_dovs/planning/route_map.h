@@ -5,20 +5,20 @@
 
 #include <cstdint>
 
+#include "dqn_dovs/maps/occupancy_map.h"
 #include "dqn_dovs/planning/route.h"
-#include "dqn_dovs/sim/map.h"
 
 namespace dqn_dovs {
 
 /// The same cells (free 0, occupied 100, unknown -1), resolution, origin and size.
-inline RouteGrid routeGridFromMap(const sim::OccupancyMap& map) {
+inline RouteGrid routeGridFromMap(const OccupancyMap& map) {
   RouteGrid grid;
   grid.resolution_m = map.resolution_m;
   grid.origin = map.origin;
   grid.width = map.width;
   grid.height = map.height;
   grid.cells.reserve(map.cells.size());
-  for (sim::MapCell c : map.cells) grid.cells.push_back(static_cast<int8_t>(c));
+  for (MapCell c : map.cells) grid.cells.push_back(static_cast<int8_t>(c));
   return grid;
 }
 

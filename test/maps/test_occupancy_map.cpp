@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/sim/map.h"
+#include "dqn_dovs/maps/occupancy_map.h"
 #include "sim_test_helpers.h"
 
-namespace dqn_dovs::sim {
+namespace dqn_dovs {
 namespace {
 
 /// A binary PGM of `rows` (top row first; '#' occupied = 0, '.' free = 254, '?' unknown = 205).
@@ -150,4 +150,4 @@ TEST(Map, MalformedMapsAreNamedWithTheReason) {
 }
 
 }  // namespace
-}  // namespace dqn_dovs::sim
+}  // namespace dqn_dovs

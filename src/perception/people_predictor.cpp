@@ -1,4 +1,4 @@
-#include "dqn_dovs/evaluation/people_predictor.h"
+#include "dqn_dovs/perception/people_predictor.h"
 
 #include <algorithm>
 #include <cmath>

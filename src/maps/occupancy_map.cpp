@@ -1,4 +1,4 @@
-#include "dqn_dovs/sim/map.h"
+#include "dqn_dovs/maps/occupancy_map.h"
 
 #include <cctype>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <map>
 #include <sstream>
 
-namespace dqn_dovs::sim {
+namespace dqn_dovs {
 
 namespace {
 
@@ -272,4 +272,4 @@ std::vector<Segment> mapSegments(const OccupancyMap& map, bool unknown_is_occupi
   return out;
 }
 
-}  // namespace dqn_dovs::sim
+}  // namespace dqn_dovs

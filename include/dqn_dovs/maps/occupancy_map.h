@@ -10,18 +10,18 @@
 #pragma once
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "dqn_dovs/common/geometry.h"
-#include "dqn_dovs/sim/errors.h"
 
-namespace dqn_dovs::sim {
+namespace dqn_dovs {
 
 /// A map that cannot be read: the message names the file (YAML or image) and the reason.
-class MapError : public SimError {
+class MapError : public std::runtime_error {
  public:
-  using SimError::SimError;
+  using std::runtime_error::runtime_error;
 };
 
 /// One cell's state.
@@ -60,4 +60,4 @@ OccupancyMap parseOccupancyMap(const std::string& yaml_text, const std::string& 
 /// unknown_is_occupied (the robot never enters what it does not know).
 std::vector<Segment> mapSegments(const OccupancyMap& map, bool unknown_is_occupied = true);
 
-}  // namespace dqn_dovs::sim
+}  // namespace dqn_dovs

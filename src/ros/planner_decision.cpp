@@ -1,0 +1,131 @@
+#include "planner_decision.h"
+
+#include <std_msgs/Float64.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <sstream>
+
+#include "dqn_dovs/dovs/state.h"
+#include "pipeline_steps.h"
+#include "ros_params.h"
+
+namespace dqn_dovs {
+
+PlannerDecision::PlannerDecision(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& fixed_frame,
+                                 const RobotLimits& limits, Supervisor& supervisor)
+    : fixed_frame_(fixed_frame), limits_(limits), nh_(nh), supervisor_(supervisor) {
+  const std::string model_path = param<std::string>(pnh, "model_path", "");
+  if (model_path.empty()) throw ParameterError("parameter '" + pnh.resolveName("model_path") + "' is not set");
+  {
+    // The loader names the field that is wrong inside a weight file; what is wrong with the path itself is
+    // said here (a directory, for one, would otherwise surface as a bare stream error).
+    std::error_code ec;
+    const auto status = std::filesystem::status(model_path, ec);
+    const std::string culprit = "model file '" + model_path + "' (parameter '" + pnh.resolveName("model_path") + "')";
+    if (!std::filesystem::exists(status)) throw ParameterError(culprit + " does not exist");
+    if (std::filesystem::is_directory(status)) throw ParameterError(culprit + " is a directory, not a weight file");
+    if (!std::filesystem::is_regular_file(status)) throw ParameterError(culprit + " is not a regular file");
+    if (access(model_path.c_str(), R_OK) != 0) throw ParameterError(culprit + " is not readable");
+  }
+  statics_ = loadStaticSafetyConfig(pnh);
+  network_ = std::make_unique<QNetwork>(QNetwork::load(model_path));  // throws WeightFileError naming the field
+  // At start, against the robot's limits (and any dovs/* given to the planner); each Dovs message carries the
+  // normalisation dovs_node really used, checked again before the network runs (chooseAction).
+  const StateNormalization expected = stateNormalization(limits_, loadDovsConfig(pnh));
+  std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
+  if (mismatch.empty()) mismatch = network_->gridChannelsMismatch(expected.grid_channels);
+  if (mismatch.empty()) mismatch = network_->previousActionMismatch(expected.previous_action != 0);
+  if (mismatch.empty())
+    mismatch = network_->tokenLayoutMismatch(expected.wall_rays, expected.person_tokens, expected.route_points);
+  if (!mismatch.empty()) {
+    throw ParameterError("model '" + model_path +
+                         "' was trained with another state normalisation or layout: " + mismatch);
+  }
+  // dovs.yaml's action shield is dovs_node's; read here too, so that a bad value is refused by both nodes alike.
+  (void)loadActionShieldConfig(pnh);
+  latency_pub_ = nh_.advertise<std_msgs::Float64>("planner/latency", 20);
+}
+
+void PlannerDecision::start(const PlannerNavigation& navigation) {
+  navigation_ = &navigation;
+  dovs_sub_ = nh_.subscribe("dovs", 2, &PlannerDecision::onDovs, this, ros::TransportHints().tcpNoDelay());
+}
+
+std::string PlannerDecision::spaceFault() const {
+  if (navigation_ == nullptr) return "the planner is starting";
+  if (!navigation_->goalFault().empty()) return navigation_->goalFault();
+  if (!last_dovs_) return "dovs is stale or missing";
+  if (const std::string other = navigation_->localGoalFault(*last_dovs_); !other.empty()) return other;
+  if (last_dovs_->state.size() != static_cast<size_t>(network_->stateSize())) return "dovs state has the wrong size";
+  return {};
+}
+
+void PlannerDecision::forget() {
+  last_dovs_.reset();
+  chosen_for_.reset();
+}
+
+void PlannerDecision::onDovs(const Dovs::ConstPtr& msg) {
+  last_dovs_ = msg;
+  // Choose the action as soon as the velocity space arrives: the control timer then applies it without
+  // running the network, and planner/latency reports how old the scan behind the choice is.
+  supervisor_.space(msg->header.stamp.toSec());
+  if (supervisor_.hasGoal() && supervisor_.state() != GoalState::kReached &&
+      navigation_->localGoalFault(*msg).empty()) {
+    std::string why;
+    actionForLastDovs(why);
+    if (latency_pub_.getNumSubscribers() > 0) {
+      std_msgs::Float64 latency;
+      latency.data = (ros::Time::now() - msg->header.stamp).toSec();
+      latency_pub_.publish(latency);
+    }
+  }
+}
+
+int PlannerDecision::actionForLastDovs(std::string& why) {
+  if (chosen_for_ != last_dovs_) {
+    // The message's decision fields, copied once per message; every control period until the next one reads them.
+    chosen_decision_ = dovsDecisionFromMessage(*last_dovs_);
+    chosen_action_ = chooseAction(*network_, chosen_decision_, chosen_why_);
+    chosen_for_ = last_dovs_;
+  }
+  why = chosen_why_;
+  return chosen_action_;
+}
+
+Choice PlannerDecision::choose(const Pose2& pose) {
+  Choice c;
+  const Dovs& d = *last_dovs_;
+  const int a = actionForLastDovs(c.why);
+  if (a < 0) return c;
+  c.action = a;
+  c.target = limits_.clipToFeasible(choiceVelocity(chosen_decision_, a));
+  if (statics_.enabled) {
+    // The last line: the target's braking trajectory, from where the robot is now at the speed last sent, must
+    // keep clear of the static geometry the Dovs carries; otherwise the nearest velocity whose does.
+    const Twist2 current = supervisor_.command();
+    Observation now_seen;
+    std::string bad = staticFrameFault(d, fixed_frame_);
+    if (bad.empty()) bad = staticObservation(chosen_decision_, pose, current, now_seen);
+    if (!bad.empty()) {
+      c.why = bad;
+      return c;
+    }
+    const StaticScene scene(now_seen, limits_, statics_);
+    const Twist2 safe = staticSafeCommand(scene, current, c.target, limits_, statics_);
+    if (safe.v != c.target.v || safe.w != c.target.w) {
+      ++static_corrections_;
+      std::ostringstream os;
+      os.precision(3);
+      os << "choice " << a << " (" << c.target.v << " m/s, " << c.target.w
+         << " rad/s) would brake into static geometry; sent (" << safe.v << ", " << safe.w << ")";
+      static_last_ = os.str();
+      ROS_WARN_THROTTLE(1.0, "planner: static safety: %s (%u so far)", static_last_.c_str(), static_corrections_);
+      c.target = safe;
+    }
+  }
+  return c;
+}
+
+}  // namespace dqn_dovs
