@@ -18,7 +18,7 @@
 #include "dovs_bruteforce.h"
 #include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/state.h"
-#include "dqn_dovs/evaluation/people_predictor.h"
+#include "dqn_dovs/perception/people_predictor.h"
 #include "dqn_dovs/planning/dqn_dovs_planner.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/policy/qnetwork.h"

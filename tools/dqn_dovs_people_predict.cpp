@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "dqn_dovs/evaluation/people_predictor.h"
+#include "dqn_dovs/perception/people_predictor.h"
 
 int main(int argc, char** argv) {
   if (argc != 4) {
