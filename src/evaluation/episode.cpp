@@ -8,6 +8,7 @@
 #include "dqn_dovs/common/named_fields.h"
 #include "dqn_dovs/evaluation/yardstick.h"
 #include "dqn_dovs/perception/hungarian.h"
+#include "dqn_dovs/perception/observation.h"
 
 namespace dqn_dovs {
 
@@ -285,29 +286,21 @@ void Episode::buildContext() {
     if (config_.track_truth != TrackTruth::kNone) giveTracksTruth(truth_in_odom(), config_.track_truth);
     observation_.segments = tracker_.scene().segments;
     // The map's walls near the robot join the scan's, as dovs_node adds them with use_map.
-    for (const Segment& w : map_segments_) {
-      const Segment s =
-          config_.world.odometry.enabled() ? Segment{odom_from_world.toWorld(w.a), odom_from_world.toWorld(w.b)} : w;
-      if (pointSegmentDistance(observation_.robot_pose.position(), s) <= config_.map_range_m) {
-        observation_.segments.push_back(s);
-      }
-    }
+    appendMapWalls(map_segments_, config_.world.odometry.enabled() ? odom_from_world : Pose2{},
+                   observation_.robot_pose.position(), config_.map_range_m, observation_.segments);
   }
   // The learned prediction is of people: with perfect information the world's people (not the room's discs, whose
   // constant (v, w) it only blurs), with the tracker its tracks when it pairs legs into people (every track is one).
   if (predicted_arcs_ && (config_.perfect_info || config_.tracker.pair_legs)) {
-    std::vector<MovingObstacle> people;
     std::vector<int> ids;
     const size_t first = config_.perfect_info ? world_.obstacles().size() : 0;  // truth: the discs, then the people
     for (size_t k = first; k < observation_.obstacles.size(); ++k) {
-      people.push_back(observation_.obstacles[k]);
       ids.push_back(config_.perfect_info ? static_cast<int>(k) : tracker_.scene().obstacles[k].id);
     }
     // The walls as a map gives them (the world's, as the route planner knows them; with perfect information they
     // are the observation's). dovs_node gives the scan's segments and, with use_map, the map's near the robot.
-    predicted_arcs_->apply(people, ids, world_.time_s(),
-                           config_.perfect_info ? observation_.segments : walls_in_odom());
-    std::copy(people.begin(), people.end(), observation_.obstacles.begin() + static_cast<std::ptrdiff_t>(first));
+    predictArcs(*predicted_arcs_, observation_.obstacles, first, ids, world_.time_s(),
+                config_.perfect_info ? observation_.segments : walls_in_odom());
   }
   if (route_planner_) {
     // The robot's decision step: the route's subgoal, once per control period, as planner_node gives it.

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "dqn_dovs/policy/dovs_decision.h"
+
 namespace dqn_dovs {
 
 // The network's feature inputs and the state's layout agree (docs/dovs.md "The previous action").
@@ -53,7 +55,8 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
   if (input.observation == nullptr) throw PlannerError("DQN-DOVS: the planner input has no observation");
   if (input.actions == nullptr) throw PlannerError("DQN-DOVS: the planner input has no action set");
   PlannerDecision decision;
-  const Twist2 current = input.observation->robot_twist;
+  const Observation& obs = *input.observation;
+  const Twist2 current = obs.robot_twist;
   auto decelerate = [&](const std::string& why) {
     decision.command = decelerationCommand(current, input.limits);
     decision.action = -1;
@@ -61,39 +64,38 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
     return decision;
   };
   if (input.state == nullptr) return decelerate("no network state");
-  QNetwork::ActionMask mask;
-  for (size_t i = 0; i < mask.size(); ++i) mask[i] = input.actions->valid[i];
-  ShieldLevel shield_level = ShieldLevel::kDisabled;
+  // The robot's decision path (policy/dovs_decision.h): the shield's mask and escape and the static geometry as
+  // dovs_node puts them in a Dovs message, the choice planner_node makes on it, and its static last line.
+  ShieldedMask shielded;  // without the shield: the validity mask
+  shielded.mask = input.actions->valid;
   if (config_.shield.enabled) {
     if (input.dovs == nullptr) return decelerate("the action shield has no DOVS");
-    const ShieldedMask shielded = shieldActions(*input.actions, *input.dovs, *input.observation, config_.shield);
-    mask = shielded.mask;
-    shield_level = shielded.level;
-    if (shielded.has_escape) {
-      // Boxed in: the shield's escape velocity, not an action.
-      if (!std::isfinite(shielded.escape.v) || !std::isfinite(shielded.escape.w))
-        return decelerate("escape is not finite");
-      decision.command = shielded.escape;
-      decision.action = -1;
-      decision.note = std::string("escape (shield: ") + shieldLevelName(shielded.level) + ", " +
-                      escapeTierName(shielded.escape_tier) + ")";
-      return decision;
-    }
+    shielded = shieldActions(*input.actions, *input.dovs, obs, config_.shield);
   }
-  int a = -1;
-  try {
-    a = network_->selectAction(*input.state, mask);
-  } catch (const std::exception& e) {
-    return decelerate(e.what());
+  const DovsDecision fields = decisionFields(*input.state, config_.normalization, *input.actions, shielded, obs,
+                                             input.limits, config_.shield.statics);
+  std::string why;
+  const int choice = chooseAction(*network_, fields, why);
+  if (choice < 0) {
+    const std::string robot_prefix = "planner error: ";  // planner_node's status names the planner; a note need not
+    return decelerate(why.rfind(robot_prefix, 0) == 0 ? why.substr(robot_prefix.size()) : why);
   }
-  if (a < 0) return decelerate("every action is masked");
-  const Twist2 u = input.actions->velocities[static_cast<size_t>(a)];
-  if (!std::isfinite(u.v) || !std::isfinite(u.w)) return decelerate("action " + std::to_string(a) + " is not finite");
-  decision.command = u;
-  decision.action = a;
-  decision.note = "action " + std::to_string(a);
-  if (shield_level != ShieldLevel::kDisabled)
-    decision.note += std::string(" (shield: ") + shieldLevelName(shield_level) + ")";
+  const Twist2 target = input.limits.clipToFeasible(choiceVelocity(fields, choice));
+  const LastLine last = staticLastLine(fields, target, obs.robot_pose, current, input.limits, config_.shield.statics);
+  if (!last.fault.empty()) return decelerate(last.fault);
+  decision.command = last.command;
+  if (choice == kEscapeChoice) {
+    // Boxed in: the shield's escape velocity, not an action.
+    decision.action = -1;
+    decision.note = std::string("escape (shield: ") + shieldLevelName(shielded.level) + ", " +
+                    escapeTierName(shielded.escape_tier) + ")";
+  } else {
+    decision.action = choice;
+    decision.note = "action " + std::to_string(choice);
+    if (shielded.level != ShieldLevel::kDisabled)
+      decision.note += std::string(" (shield: ") + shieldLevelName(shielded.level) + ")";
+  }
+  if (last.corrected) decision.note += " (static last line)";
   return decision;
 }
 

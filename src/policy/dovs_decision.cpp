@@ -37,6 +37,43 @@ std::string staticObservation(const DovsDecision& dovs, const Pose2& robot_pose,
   return {};
 }
 
+DovsDecision decisionFields(const StateVector& state, const StateNormalization& normalization, const ActionSet& actions,
+                            const ShieldedMask& shielded, const Observation& observation, const RobotLimits& limits,
+                            const StaticSafetyConfig& statics) {
+  DovsDecision d;
+  d.state.assign(state.data(), state.data() + state.size());
+  for (const auto& field : normalization.fields()) d.state_normalization.push_back(field.second);
+  for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
+    d.action_v[i] = actions.velocities[i].v;
+    d.action_w[i] = actions.velocities[i].w;
+    d.action_valid[i] = shielded.mask[i];
+  }
+  d.escape = shielded.has_escape;
+  d.escape_v = shielded.has_escape ? shielded.escape.v : 0.0;
+  d.escape_w = shielded.has_escape ? shielded.escape.w : 0.0;
+  if (statics.enabled) {
+    const StaticScene scene(observation, limits, statics);
+    d.static_segments = scene.flatSegments(observation.robot_pose);
+    d.static_discs = scene.flatDiscs(observation.robot_pose);
+  }
+  return d;
+}
+
+LastLine staticLastLine(const DovsDecision& decision, const Twist2& target, const Pose2& robot_pose,
+                        const Twist2& current, const RobotLimits& limits, const StaticSafetyConfig& statics) {
+  LastLine out;
+  out.command = target;
+  if (!statics.enabled) return out;
+  Observation now_seen;
+  out.fault = staticObservation(decision, robot_pose, current, now_seen);
+  if (!out.fault.empty()) return out;
+  const StaticScene scene(now_seen, limits, statics);
+  const Twist2 safe = staticSafeCommand(scene, current, target, limits, statics);
+  out.corrected = safe.v != target.v || safe.w != target.w;
+  out.command = safe;
+  return out;
+}
+
 Twist2 choiceVelocity(const DovsDecision& dovs, int choice) {
   if (choice == kEscapeChoice) return {dovs.escape_v, dovs.escape_w};
   if (choice < 0 || choice >= kNumActions) throw std::out_of_range("choiceVelocity: choice " + std::to_string(choice));

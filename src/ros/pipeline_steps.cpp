@@ -6,6 +6,7 @@
 
 #include "conversions.h"
 #include "dqn_dovs/maps/occupancy_map.h"
+#include "dqn_dovs/perception/observation.h"
 
 namespace dqn_dovs {
 
@@ -30,9 +31,9 @@ std::string mapWallsFromMsg(const nav_msgs::OccupancyGrid& msg, bool unknown_is_
 
 void addMapWalls(const std::vector<Segment>& map_walls, const Pose2& map_in_fixed, const Pose2& robot, double range_m,
                  TrackedObstacleArray& obstacles) {
-  for (const Segment& wall : map_walls) {
-    const Segment s{map_in_fixed.toWorld(wall.a), map_in_fixed.toWorld(wall.b)};
-    if (pointSegmentDistance(robot.position(), s) > range_m) continue;
+  std::vector<Segment> near;  // the core's choice (perception/observation.h), as the evaluation's Episode makes it
+  appendMapWalls(map_walls, map_in_fixed, robot.position(), range_m, near);
+  for (const Segment& s : near) {
     ObstacleSegment m;
     m.first_point.x = s.a.x();
     m.first_point.y = s.a.y();
@@ -72,7 +73,7 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   if (predicted_arcs) {
     std::vector<int> ids;
     for (const ObstacleTrack& t : obstacles.obstacles) ids.push_back(t.id);
-    predicted_arcs->apply(obs.obstacles, ids, obs.stamp_s, obs.segments);
+    predictArcs(*predicted_arcs, obs.obstacles, 0, ids, obs.stamp_s, obs.segments);
   }
 
   builder.build(obs, dovs);
@@ -85,6 +86,10 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   }
   const ShieldedMask shielded = shieldActions(choosable, dovs, obs, shield);
   out.shield_level = shielded.level;
+  if (history != nullptr && normalization.person_tokens > 0) history->update(obs.stamp_s, obs.obstacles);
+  const StateVector state = buildState(dovs, obs, normalization, nullptr, kNoPreviousChoice, history);
+  // The decision fields, as the evaluation's DQN-DOVS planner makes them (policy/dovs_decision.h).
+  const DovsDecision fields = decisionFields(state, normalization, actions, shielded, obs, limits, shield.statics);
 
   Dovs& m = out.msg;
   m = Dovs();
@@ -111,19 +116,18 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   m.goal_curvature = actions.goal_line.curvature_1pm;
   m.goal_turn_sign = actions.goal_line.turn_sign;
   for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
-    m.action_v[i] = actions.velocities[i].v;
-    m.action_w[i] = actions.velocities[i].w;
-    m.action_valid[i] = shielded.mask[i];
+    m.action_v[i] = fields.action_v[i];
+    m.action_w[i] = fields.action_w[i];
+    m.action_valid[i] = fields.action_valid[i];
   }
-  m.escape = shielded.has_escape;
-  m.escape_v = shielded.has_escape ? shielded.escape.v : 0.0;
-  m.escape_w = shielded.has_escape ? shielded.escape.w : 0.0;
+  m.escape = fields.escape;
+  m.escape_v = fields.escape_v;
+  m.escape_w = fields.escape_w;
   m.escape_tier = static_cast<uint8_t>(shielded.has_escape ? shielded.escape_tier : EscapeTier::kFree);
   if (shield.statics.enabled) {
-    const StaticScene statics(obs, limits, shield.statics);
     m.static_frame = obstacles.header.frame_id;
-    m.static_segments = statics.flatSegments(obs.robot_pose);
-    m.static_discs = statics.flatDiscs(obs.robot_pose);
+    m.static_segments = fields.static_segments;
+    m.static_discs = fields.static_discs;
   }
   const int n = dovs.numTrajectories();
   m.trajectory_curvature.reserve(static_cast<size_t>(n));
@@ -142,10 +146,8 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   }
   m.interval_begin.push_back(static_cast<uint32_t>(m.interval_lo.size()));
   m.grid_rows = m.grid_cols = static_cast<uint16_t>(dovs.gridSize());
-  if (history != nullptr && normalization.person_tokens > 0) history->update(obs.stamp_s, obs.obstacles);
-  const StateVector state = buildState(dovs, obs, normalization, nullptr, kNoPreviousChoice, history);
-  m.state.assign(state.data(), state.data() + state.size());
-  for (const auto& field : normalization.fields()) m.state_normalization.push_back(field.second);
+  m.state = fields.state;
+  m.state_normalization = fields.state_normalization;
   return {};
 }
 

@@ -96,33 +96,32 @@ int PlannerDecision::actionForLastDovs(std::string& why) {
 
 Choice PlannerDecision::choose(const Pose2& pose) {
   Choice c;
-  const Dovs& d = *last_dovs_;
   const int a = actionForLastDovs(c.why);
   if (a < 0) return c;
   c.action = a;
   c.target = limits_.clipToFeasible(choiceVelocity(chosen_decision_, a));
   if (statics_.enabled) {
-    // The last line: the target's braking trajectory, from where the robot is now at the speed last sent, must
-    // keep clear of the static geometry the Dovs carries; otherwise the nearest velocity whose does.
-    const Twist2 current = supervisor_.command();
-    Observation now_seen;
-    std::string bad = staticFrameFault(d, fixed_frame_);
-    if (bad.empty()) bad = staticObservation(chosen_decision_, pose, current, now_seen);
-    if (!bad.empty()) {
+    // The last line (the core's, as the evaluation runs it): the target's braking trajectory, from where the robot
+    // is now at the speed last sent, must keep clear of the static geometry the Dovs carries; otherwise the nearest
+    // velocity whose does.
+    if (const std::string bad = staticFrameFault(*last_dovs_, fixed_frame_); !bad.empty()) {
       c.why = bad;
       return c;
     }
-    const StaticScene scene(now_seen, limits_, statics_);
-    const Twist2 safe = staticSafeCommand(scene, current, c.target, limits_, statics_);
-    if (safe.v != c.target.v || safe.w != c.target.w) {
+    const LastLine last = staticLastLine(chosen_decision_, c.target, pose, supervisor_.command(), limits_, statics_);
+    if (!last.fault.empty()) {
+      c.why = last.fault;
+      return c;
+    }
+    if (last.corrected) {
       ++static_corrections_;
       std::ostringstream os;
       os.precision(3);
       os << "choice " << a << " (" << c.target.v << " m/s, " << c.target.w
-         << " rad/s) would brake into static geometry; sent (" << safe.v << ", " << safe.w << ")";
+         << " rad/s) would brake into static geometry; sent (" << last.command.v << ", " << last.command.w << ")";
       static_last_ = os.str();
       ROS_WARN_THROTTLE(1.0, "planner: static safety: %s (%u so far)", static_last_.c_str(), static_corrections_);
-      c.target = safe;
+      c.target = last.command;
     }
   }
   return c;

@@ -10,7 +10,10 @@
 
 #include "dqn_dovs/common/types.h"
 #include "dqn_dovs/dovs/actions.h"
+#include "dqn_dovs/dovs/state.h"
+#include "dqn_dovs/policy/action_shield.h"
 #include "dqn_dovs/policy/qnetwork.h"
+#include "dqn_dovs/policy/static_safety.h"
 
 namespace dqn_dovs {
 
@@ -50,6 +53,14 @@ DovsDecision dovsDecisionFromMessage(const Message& m) {
   return d;
 }
 
+/// The decision fields of one velocity space, as dovs_node sends them in its Dovs message and the evaluation's
+/// DQN-DOVS planner hands them on: `state` and the normalisation it was built with, the 8 actions' velocities under
+/// the shield's mask (`shielded`), its escape, and with statics.enabled the static geometry of `observation` (the one
+/// the velocity space was built from) as StaticScene keeps it, in the fixed frame.
+DovsDecision decisionFields(const StateVector& state, const StateNormalization& normalization, const ActionSet& actions,
+                            const ShieldedMask& shielded, const Observation& observation, const RobotLimits& limits,
+                            const StaticSafetyConfig& statics);
+
 /// The planner's choice: kEscapeChoice when the decision carries the shield's escape, else the network's best valid
 /// action (masked by action_valid; an action with a NaN/inf velocity is never chosen). Returns the choice, or -1
 /// with `why` naming the problem (wrong state size, a normalisation other than the network's training, every
@@ -58,6 +69,17 @@ int chooseAction(const QNetwork& network, const DovsDecision& decision, std::str
 
 /// The velocity a choice of chooseAction commands. Throws std::out_of_range for -1 or other non-choices.
 Twist2 choiceVelocity(const DovsDecision& decision, int choice);
+
+/// The static last line on a choice: with statics.enabled, `target`'s braking trajectory from `robot_pose` (in the
+/// decision's fixed frame) at the velocity last commanded (`current`) must keep clear of the decision's static
+/// geometry, or else the nearest velocity whose does is commanded (staticSafeCommand).
+struct LastLine {
+  Twist2 command;          ///< what to command: `target`, or the correction
+  bool corrected = false;  ///< the correction replaced `target`
+  std::string fault;       ///< the static geometry cannot be used (nothing to command then); "" when fine
+};
+LastLine staticLastLine(const DovsDecision& decision, const Twist2& target, const Pose2& robot_pose,
+                        const Twist2& current, const RobotLimits& limits, const StaticSafetyConfig& statics);
 
 /// The decision's static geometry as an observation seen from `robot_pose` (the robot now, in the geometry's frame)
 /// moving at `twist`. Returns why it cannot be used ("" when fine): a length that is not a multiple of 4 / 3,
