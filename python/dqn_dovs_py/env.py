@@ -242,6 +242,11 @@ class VecEnv:
                                    "by its mask")
         return out
 
+    def state_parameters(self) -> str:
+        """The `state parameters:` metadata line's text: the dovs/* and robot/* values the states are built with
+        (beyond the normalisation), which planner_node holds its own against."""
+        return str(self._core.state_parameters())
+
     def normalization(self) -> dict[str, float]:
         norm = self._core.normalization()
         try:

@@ -51,6 +51,8 @@ MAX_GRID_CHANNELS = 16
 # Inputs after the grid: the 8 features, or 17 when the state carries the previous choice after them (the file's
 # `state layout: feature count`; docs/dovs.md "The previous action").
 FEATURE_COUNT = 8
+# The metadata key of the parameters a network's state depends on beyond its normalisation (C++ kStateParametersKey).
+STATE_PARAMETERS_KEY = "state parameters"
 FEATURE_COUNT_WITH_PREVIOUS_CHOICE = 17
 
 
@@ -621,9 +623,11 @@ def read_onnx_metadata(path: str | os.PathLike) -> dict[str, str]:
 # --------------------------------------------------------------------------------------------- CLI
 
 def build_metadata(training_command: str | None, checkpoint: str | None, note: str | None = None,
-                   provenance: Mapping[str, str] | None = None) -> str:
+                   provenance: Mapping[str, str] | None = None, state_parameters: str | None = None) -> str:
     """The metadata text: the training command, the export date, the provenance keys (provenance.KEYS: config,
-    seed, source commit, init from; a key `provenance` lacks reads `unknown`), the checkpoint and the note."""
+    seed, source commit, init from; a key `provenance` lacks reads `unknown`), the state parameters the environments
+    built their states with (`state parameters:`, which planner_node holds its own dovs/* and robot/* against), the
+    checkpoint and the note."""
     from . import provenance as prov  # noqa: PLC0415 - provenance imports this module
 
     lines = [
@@ -631,6 +635,8 @@ def build_metadata(training_command: str | None, checkpoint: str | None, note: s
         f"exported: {datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}",
         *prov.lines(provenance or {}).splitlines(),
     ]
+    if state_parameters:
+        lines.append(f"{STATE_PARAMETERS_KEY}: {state_parameters}")
     if checkpoint:
         lines.append(f"checkpoint: {checkpoint}")
     if note:
@@ -688,7 +694,7 @@ def main(argv: list[str] | None = None) -> int:
         if not normalization:
             raise ValueError(f"{args.checkpoint} has no 'normalization' entry: pass --normalization FILE")
         metadata = build_metadata(ckpt.get("command"), os.path.abspath(args.checkpoint), args.note,
-                                  ckpt.get("provenance"))
+                                  ckpt.get("provenance"), ckpt.get("state_parameters"))
         path = export_model(model.eval(), args.out, normalization, metadata, onnx=not args.no_onnx)
     except (OSError, ValueError, RuntimeError, KeyError, TypeError) as exc:
         print(f"export failed: {exc}", file=sys.stderr)

@@ -247,6 +247,23 @@ def set_provenance(path: str | os.PathLike, provenance: Mapping[str, str], note:
     raise ProvenanceError(f"{path}: no provenance in a '{path.suffix}' file (.dqnw or .dqnp)")
 
 
+def set_state_parameters(path: str | os.PathLike, text: str) -> str:
+    """Writes a `state parameters:` line (NAME=VALUE words: the dovs/* and robot/* values the network's states were
+    built with, which planner_node holds its own parameters against) into a `.dqnw`'s metadata, replacing one it has
+    and keeping every other line; returns the new metadata text."""
+    path = Path(path)
+    if path.suffix != ".dqnw":
+        raise ProvenanceError(f"{path}: state parameters belong to a .dqnw")
+    from .export import STATE_PARAMETERS_KEY, atomic_write, parse as parse_weights  # noqa: PLC0415
+
+    data = path.read_bytes()
+    kept = [line for line in parse_weights(data, str(path)).metadata.splitlines()
+            if not line.startswith(STATE_PARAMETERS_KEY + ":")]
+    new = "\n".join(kept + [f"{STATE_PARAMETERS_KEY}: {' '.join(text.split())}"])
+    atomic_write(path, rewrite_weight_metadata(data, new, str(path)))
+    return new
+
+
 # ---- command line -------------------------------------------------------------------------------------------------
 
 
@@ -265,8 +282,20 @@ def main(argv: list[str] | None = None) -> int:
     put.add_argument("--init-from", required=True, metavar="PATH|none",
                      help="the weight file it started from (its sha256 is read now), or none")
     put.add_argument("--note", default=None, help=f"a '{NOTE_KEY}:' line, e.g. how a value was established")
+    state = sub.add_parser("state", help="write a .dqnw's 'state parameters:' line (the dovs/* and robot/* values its "
+                                         "states were built with)")
+    state.add_argument("file")
+    state.add_argument("--dovs", default="", metavar="NAME=VALUE,...",
+                       help="DOVS parameters the training set over the defaults (the config's dovs section)")
     a = ap.parse_args(argv)
     try:
+        if a.command == "state":
+            from . import _core  # noqa: PLC0415 - the C++ core writes the line the planner reads
+
+            dovs = dict(item.split("=", 1) for item in a.dovs.split(",") if item.strip())
+            text = set_state_parameters(a.file, _core.state_parameters({k.strip(): v.strip() for k, v in dovs.items()}))
+            print(f"{a.file}: {text.splitlines()[-1]}")
+            return 0
         if a.command == "set":
             commit = subprocess.run(["git", "-C", str(REPO_ROOT), "rev-parse", "--verify", "--quiet",
                                      f"{a.source_commit}^{{commit}}"], capture_output=True, text=True, timeout=30)

@@ -736,6 +736,7 @@ class Trainer:
         self._last_loss = float("nan")
         self._timing = {"env_s": 0.0, "act_s": 0.0, "replay_s": 0.0, "learn_s": 0.0, "eval_s": 0.0}
         self._normalization: dict[str, float] | None = None
+        self._state_parameters: str | None = None
 
         if resume:
             self._load_checkpoint(checkpoint_path)
@@ -770,6 +771,8 @@ class Trainer:
         limit = self.total_episodes if stop_at is None else min(int(stop_at), self.total_episodes)
         env = self._env_factory(cfg.num_envs, env_seed(cfg.seed, self.episodes_done), cfg.perfect_info)
         self._normalization = env.normalization()
+        # What the states depend on beyond the normalisation (dovs/*, robot/*): every export names it.
+        self._state_parameters = env.state_parameters() if hasattr(env, "state_parameters") else None
         e = cfg.num_envs
         env.set_stage(self.curriculum.settings_at(self.episodes_done))
         state, mask = env.reset()
@@ -1067,7 +1070,7 @@ class Trainer:
                                                           if isinstance(v, (int, float, str))},
         }, sort_keys=True)
         metadata = build_metadata(self.command, os.path.abspath(os.path.join(self.out_dir, CHECKPOINT)), note,
-                                  self.provenance)
+                                  self.provenance, self._state_parameters)
         export_model(copy.deepcopy(self.agent.online).cpu().eval(), path, self._normalization or {}, metadata)
         return path
 
@@ -1094,6 +1097,7 @@ class Trainer:
             "model_config": self.agent.online.config() if hasattr(self.agent.online, "config") else {},
             "command": self.command,
             "provenance": dict(self.provenance),
+            "state_parameters": self._state_parameters,
             "counters": {"episodes_done": self.episodes_done, "env_steps": self.env_steps,
                          "update_credit": self.update_credit, "wall_s": self.wall_s, "best_eval": self.best_eval},
             "timing": dict(self._timing),

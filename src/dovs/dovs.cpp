@@ -117,6 +117,11 @@ const std::vector<std::string>& dovsParameterNames() {
   return names;
 }
 
+std::string dovsParameter(const DovsConfig& config, const std::string& name) {
+  if (const std::optional<std::string> text = namedFieldText(dovsFields(), config, name)) return *text;
+  throw DovsError("unknown DOVS parameter '" + name + "'");
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // VelocitySpace queries
 // ---------------------------------------------------------------------------------------------------------------

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "dqn_dovs/common/parse.h"
 #include "dqn_dovs/dovs/actions.h"
 
 namespace dqn_dovs {
@@ -480,6 +481,62 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
   for (float r : routePoints(obs, norm)) s(at++) = r;
   for (float t : personTokens(obs, norm, history)) s(at++) = t;
   return s;
+}
+
+namespace {
+
+// (name, value) of every state parameter, in stateParametersText's order.
+std::vector<std::pair<std::string, std::string>> stateParameters(const RobotLimits& limits, const DovsConfig& dovs) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const std::string& name : dovsParameterNames()) out.emplace_back("dovs/" + name, dovsParameter(dovs, name));
+  out.emplace_back("robot/a_v", formatRoundTrip(limits.a_v));
+  out.emplace_back("robot/a_w", formatRoundTrip(limits.a_w));
+  out.emplace_back("robot/dt", formatRoundTrip(limits.dt));
+  out.emplace_back("robot/radius", formatRoundTrip(limits.radius));
+  return out;
+}
+
+}  // namespace
+
+std::string stateParametersText(const RobotLimits& limits, const DovsConfig& dovs) {
+  std::string text;
+  for (const auto& [name, value] : stateParameters(limits, dovs))
+    text += (text.empty() ? "" : " ") + name + "=" + value;
+  return text;
+}
+
+std::string stateParametersMismatch(const std::string& metadata, const RobotLimits& limits, const DovsConfig& dovs,
+                                    double rel_tol) {
+  const std::string key = std::string(kStateParametersKey) + ":";
+  std::istringstream lines(metadata);
+  std::string line, trained;
+  bool found = false;
+  while (std::getline(lines, line)) {
+    if (line.rfind(key, 0) == 0) {
+      trained = line.substr(key.size());
+      found = true;
+    }
+  }
+  if (!found) return {};
+  const auto here = stateParameters(limits, dovs);
+  std::istringstream words(trained);
+  std::string word, problems;
+  while (words >> word) {
+    const size_t eq = word.find('=');
+    const std::string name = eq == std::string::npos ? word : word.substr(0, eq);
+    const auto it = std::find_if(here.begin(), here.end(), [&](const auto& p) { return p.first == name; });
+    const std::optional<double> was = eq == std::string::npos ? std::nullopt : parseNumber(word.substr(eq + 1));
+    if (it == here.end() || !was) {
+      problems += (problems.empty() ? "" : "; ") + std::string("'") + word + "' cannot be read";
+      continue;
+    }
+    const double now = *parseNumber(it->second);
+    if (std::abs(now - *was) > rel_tol * std::max(1.0, std::abs(*was))) {
+      problems += (problems.empty() ? "" : "; ") + name + " is " + it->second + " here, the model was trained with " +
+                  word.substr(eq + 1);
+    }
+  }
+  return problems;
 }
 
 StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfig& dovs) {

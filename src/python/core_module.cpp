@@ -308,6 +308,13 @@ class VecEnv {
   int stateSizeOf() const { return state_size_; }
   int gridChannels() const { return (state_size_ - kNumFeatures) / kStateGridCells; }
 
+  /// Everything the state depends on beyond its normalisation and layout (stateParametersText): the trainer writes it
+  /// into every exported network, and planner_node refuses a network trained with other values.
+  std::string stateParameters() const {
+    const EpisodeConfig& c = variants_.front().config;
+    return stateParametersText(c.world.robot, c.dovs);
+  }
+
   py::dict normalization() const {
     py::dict d;
     for (const auto& [name, value] : envs_.front()->ep().normalization().fields()) d[py::str(name)] = value;
@@ -570,6 +577,19 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "dqn_dovs C++ core: vectorised training environment (simulator -> LIDAR -> tracker -> DOVS -> state)";
   m.attr("STATE_SIZE") = kStateSize;
   m.attr("NUM_ACTIONS") = kNumActions;
+  m.def(
+      "state_parameters",
+      [](const std::map<std::string, std::string>& dovs_parameters) {
+        DovsConfig dovs;
+        for (const auto& [name, value] : dovs_parameters) {
+          if (const std::string e = setDovsParameter(dovs, name, value); !e.empty()) throw std::invalid_argument(e);
+        }
+        if (const std::string e = dovs.validate(); !e.empty()) throw std::invalid_argument("dovs: " + e);
+        return stateParametersText(RobotLimits{}, dovs);
+      },
+      py::arg("dovs_parameters") = std::map<std::string, std::string>{},
+      "The `state parameters:` metadata line's text for the robot's default limits and these DOVS parameters by "
+      "name (config/dovs.yaml's dovs/* names) over the defaults.");
   m.def("reward_parameter_names", &rewardParameterNames,
         "Every reward parameter name (RewardConfig; the trainer config's reward: section).");
   m.def("shield_parameter_names", &shieldParameterNames,
@@ -607,6 +627,9 @@ PYBIND11_MODULE(_core, m) {
       .def("reset", &VecEnv::reset)
       .def("step", &VecEnv::step, py::arg("actions"))
       .def("normalization", &VecEnv::normalization)
+      .def("state_parameters", &VecEnv::stateParameters,
+           "The parameters the state depends on beyond its normalisation (dovs/*, robot/a_v, a_w, dt, radius), as "
+           "the `state parameters:` metadata line holds them.")
       .def("action_velocities", &VecEnv::actionVelocities,
            "The 8 action velocities of each environment's current state, float64 [n, 8, 2] (v, w).")
       .def("teacher_actions", &VecEnv::teacherActions, py::arg("teacher"), py::arg("which"),

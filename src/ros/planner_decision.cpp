@@ -32,7 +32,8 @@ PlannerDecision::PlannerDecision(ros::NodeHandle nh, ros::NodeHandle pnh, const 
   network_ = std::make_unique<QNetwork>(QNetwork::load(model_path));  // throws WeightFileError naming the field
   // At start, against the robot's limits (and any dovs/* given to the planner); each Dovs message carries the
   // normalisation dovs_node really used, checked again before the network runs (chooseAction).
-  const StateNormalization expected = stateNormalization(limits_, loadDovsConfig(pnh));
+  const DovsConfig dovs = loadDovsConfig(pnh);
+  const StateNormalization expected = stateNormalization(limits_, dovs);
   std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
   if (mismatch.empty()) mismatch = network_->gridChannelsMismatch(expected.grid_channels);
   if (mismatch.empty()) mismatch = network_->previousActionMismatch(expected.previous_action != 0);
@@ -41,6 +42,11 @@ PlannerDecision::PlannerDecision(ros::NodeHandle nh, ros::NodeHandle pnh, const 
   if (!mismatch.empty()) {
     throw ParameterError("model '" + model_path +
                          "' was trained with another state normalisation or layout: " + mismatch);
+  }
+  // Everything else the state depends on (the DOVS model, the dynamic window, the radius), when the model names it.
+  if (const std::string other = stateParametersMismatch(network_->metadata(), limits_, dovs); !other.empty()) {
+    throw ParameterError("model '" + model_path + "' was trained with other state parameters (its metadata's '" +
+                         kStateParametersKey + "'): " + other);
   }
   // dovs.yaml's action shield is dovs_node's; read here too, so that a bad value is refused by both nodes alike.
   (void)loadActionShieldConfig(pnh);

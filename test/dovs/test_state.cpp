@@ -668,5 +668,31 @@ TEST(RoutePoints, TheStateCarriesThemBetweenTheRaysAndTheTokens) {
   EXPECT_NE(config.validate().find("route_points"), std::string::npos);
 }
 
+TEST(StateParameters, EveryDovsAndRobotParameterIsNamedAndHeldAgainstTheModels) {
+  const RobotLimits limits;
+  DovsConfig dovs;
+  const std::string text = stateParametersText(limits, dovs);
+  for (const std::string& name : dovsParameterNames()) {
+    EXPECT_NE(text.find("dovs/" + name + "="), std::string::npos) << name;
+  }
+  EXPECT_NE(text.find("dovs/safety_factor=1.1 "), std::string::npos) << text;
+  EXPECT_NE(text.find("robot/a_v=0.5 robot/a_w=2 robot/dt=0.2 robot/radius=0.2"), std::string::npos) << text;
+  const std::string metadata = "training command: x\nstate parameters: " + text + "\nnote: y";
+  EXPECT_EQ(stateParametersMismatch(metadata, limits, dovs), "");
+  EXPECT_EQ(stateParametersMismatch("training command: x", limits, dovs), "") << "an older model names none";
+  DovsConfig other = dovs;
+  other.safety_factor = 1.5;
+  other.num_trajectories = 33;
+  const std::string why = stateParametersMismatch(metadata, limits, other);
+  EXPECT_NE(why.find("dovs/safety_factor is 1.5 here, the model was trained with 1.1"), std::string::npos) << why;
+  EXPECT_NE(why.find("dovs/num_trajectories is 33 here"), std::string::npos) << why;
+  RobotLimits slower = limits;
+  slower.a_v = 0.4;
+  EXPECT_NE(stateParametersMismatch(metadata, slower, dovs).find("robot/a_v is 0.4 here"), std::string::npos);
+  EXPECT_NE(stateParametersMismatch("state parameters: dovs/nonsense=3 dovs/safety_factor", limits, dovs)
+                .find("'dovs/nonsense=3' cannot be read"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace dqn_dovs

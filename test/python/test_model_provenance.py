@@ -111,7 +111,7 @@ def test_set_rewrites_only_the_metadata(tmp_path):
     # The lines that were not provenance stay, in their order; the old layout's revision line is gone.
     others = [line for line in old_metadata.splitlines()
               if line.partition(": ")[0] not in (*provenance.KEYS, provenance.NOTE_KEY)]
-    assert len(others) == 4  # training command, exported, checkpoint, note
+    assert len(others) == 5  # training command, exported, checkpoint, note, state parameters
     assert [line for line in text.splitlines() if line in others] == others
     assert text.splitlines()[1].startswith("exported: ")
     assert text.splitlines()[2] == "config: config/finetune_crowd.yaml"
@@ -174,6 +174,41 @@ def test_the_trainer_writes_its_provenance(tmp_path):
                 "init from": f"models/dqn_dovs.dqnw sha256 {_sha256(start)}"}
     for name in ("model.dqnw", "best.dqnw", "model.onnx"):
         assert provenance.read(out / name) == expected, name
-    # The checkpoint carries it, so an export of the checkpoint writes it too.
+    # The checkpoint carries it, so an export of the checkpoint writes it too; the state parameters likewise (the
+    # environments' dovs/* and robot/*: the defaults here).
     assert export_main([str(out / "checkpoint.pt"), str(tmp_path / "again.dqnw"), "--no-onnx"]) == 0
     assert provenance.read(tmp_path / "again.dqnw") == expected
+    line = f"state parameters: {_core.state_parameters()}"
+    for name in ("model.dqnw", "best.dqnw"):
+        assert line in load_weights(out / name).metadata.splitlines(), name
+    assert line in load_weights(tmp_path / "again.dqnw").metadata.splitlines()
+
+
+def test_the_shipped_network_names_the_robots_state_parameters(tmp_path):
+    """The deployed network's `state parameters:` line is what config/dovs.yaml and config/robot.yaml give
+    (planner_node refuses it otherwise), and `provenance state` writes such a line, replacing the old one only."""
+    try:
+        from dqn_dovs_py import _core  # noqa: PLC0415
+    except ImportError as error:
+        if os.environ.get("DQN_DOVS_REQUIRE_CORE") == "1":
+            pytest.fail(f"dqn_dovs_py._core cannot be imported ({error}) [DQN_DOVS_REQUIRE_CORE=1]")
+        pytest.skip(f"dqn_dovs_py._core cannot be imported ({error})")
+    dovs = yaml.safe_load((REPO / "config" / "dovs.yaml").read_text())["dovs"]
+    robot = yaml.safe_load((REPO / "config" / "robot.yaml").read_text())["robot"]
+    line = [x for x in load_weights(MODELS / "dqn_dovs.dqnw").metadata.splitlines()
+            if x.startswith("state parameters: ")]
+    assert len(line) == 1
+    words = dict(w.split("=") for w in line[0].split(": ", 1)[1].split())
+    for name, value in dovs.items():
+        assert float(words[f"dovs/{name}"]) == float(value), name
+    for name in ("a_v", "a_w", "dt", "radius"):
+        assert float(words[f"robot/{name}"]) == float(robot[name]), name
+    copy = tmp_path / "net.dqnw"
+    shutil.copy(MODELS / "dqn_dovs.dqnw", copy)
+    assert provenance.main(["state", str(copy), "--dovs", "safety_factor=1.5"]) == 0
+    text = load_weights(copy).metadata.splitlines()
+    assert sum(x.startswith("state parameters: ") for x in text) == 1
+    assert "dovs/safety_factor=1.5" in [x for x in text if x.startswith("state parameters: ")][0]
+    assert [x for x in text if not x.startswith("state parameters: ")] == \
+        [x for x in load_weights(MODELS / "dqn_dovs.dqnw").metadata.splitlines() if not x.startswith("state param")]
+    assert provenance.main(["state", str(tmp_path / "x.dqnp")]) == 2

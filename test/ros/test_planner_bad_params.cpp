@@ -244,6 +244,15 @@ TEST(PlannerBadParams, MisspeltKeysAreRefusedByEveryNodeWithTheNearestName) {
   }
 }
 
+TEST(PlannerBadParams, AModelTrainedWithOtherStateParametersIsFatalAndNamed) {
+  // The shipped model names the DOVS and robot parameters of its training (its metadata's `state parameters:`): a
+  // robot whose dovs/* or robot/* differ builds states the model never saw.
+  const std::string model = "_model_path:=" + modelPath() + " ";
+  expectFatal(runPlanner("planner_other_safety", model + "_dovs/safety_factor:=1.5"),
+              "dovs/safety_factor is 1.5 here, the model was trained with 1.1", "dovs/safety_factor 1.5");
+  expectFatal(runPlanner("planner_other_dt", model + "_robot/a_w:=1.5"), "robot/a_w is 1.5 here", "robot/a_w 1.5");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {

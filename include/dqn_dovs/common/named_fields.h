@@ -52,6 +52,20 @@ std::string setNamedField(const std::vector<NamedField<Config>>& fields, Config&
   return "unknown " + what + " '" + name + "' " + unknown_hint;
 }
 
+/// The value of the field called `name` as setNamedField reads it back ("true"/"false", an integer, a number written to
+/// round-trip), std::nullopt for an unknown name.
+template <typename Config>
+std::optional<std::string> namedFieldText(const std::vector<NamedField<Config>>& fields, const Config& config,
+                                          const std::string& name) {
+  for (const NamedField<Config>& f : fields) {
+    if (name != f.name) continue;
+    if (f.flag != nullptr) return std::string(config.*f.flag ? "true" : "false");
+    if (f.integer != nullptr) return std::to_string(config.*f.integer);
+    return formatRoundTrip(config.*f.real);
+  }
+  return std::nullopt;
+}
+
 /// The names of a field table, in its order.
 template <typename Config>
 std::vector<std::string> namedFieldNames(const std::vector<NamedField<Config>>& fields) {

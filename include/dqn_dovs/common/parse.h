@@ -1,6 +1,7 @@
 // Reading numbers from text (parameters given by name, scenario files).
 #pragma once
 
+#include <cstdio>
 #include <exception>
 #include <optional>
 #include <string>
@@ -19,6 +20,17 @@ inline std::optional<double> parseNumber(const std::string& text) {
   }
   if (used == 0 || used != text.size()) return std::nullopt;
   return x;
+}
+
+/// `x` written with the fewest digits (up to 17) that parseNumber reads back as exactly `x` ("0.5", "4", "1.2").
+inline std::string formatRoundTrip(double x) {
+  char buf[40];
+  for (int digits = 1; digits <= 17; ++digits) {
+    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
+    if (const std::optional<double> back = parseNumber(buf); back && *back == x) return buf;
+  }
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
 }
 
 }  // namespace dqn_dovs

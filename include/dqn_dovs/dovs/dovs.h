@@ -93,6 +93,10 @@ std::string setDovsParameter(DovsConfig& config, const std::string& name, const 
 /// Every name setDovsParameter accepts, in config-file order.
 const std::vector<std::string>& dovsParameterNames();
 
+/// The value of the DOVS parameter `name` as setDovsParameter reads it back (a number written to round-trip, an
+/// integer); throws DovsError for an unknown name.
+std::string dovsParameter(const DovsConfig& config, const std::string& name);
+
 /// The most grid channels a network state has (DovsConfig::grid_channels, docs/dovs.md "Grid channels"), and the
 /// rule every check of a channel count states: the DOVS configuration, the state normalisation and the weight file.
 constexpr int kMaxStateGridChannels = 3;

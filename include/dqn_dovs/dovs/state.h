@@ -149,6 +149,20 @@ struct StateNormalization {
 /// scales are the robot's limits, the clearance scale the DOVS's obstacle range, the rest the defaults above.
 /// The one place it is made: evaluation, training, the nodes and the planner's check of the weight file all
 /// call it, so a model's stored normalisation is compared with what its states will really be.
+/// The metadata key of a network's state parameters (docs/weight_format.md, "Provenance").
+constexpr const char* kStateParametersKey = "state parameters";
+/// Everything the network state depends on beyond its normalisation and layout (which the weight file's header and
+/// normalisation entries hold): every DOVS parameter (`dovs/NAME`, dovsParameterNames) and the robot's acceleration
+/// limits, control period and radius (`robot/a_v`, `robot/a_w`, `robot/dt`, `robot/radius`; the dynamic window and
+/// the inflation), as "NAME=VALUE" words separated by spaces, values written to round-trip. The trainer writes it
+/// into every network's metadata as `state parameters: ...`.
+std::string stateParametersText(const RobotLimits& limits, const DovsConfig& dovs);
+/// Empty when `metadata` (a weight file's text) has no `state parameters:` line, or when every parameter it names
+/// equals this configuration's within `rel_tol`; otherwise a message naming each one that differs, with both values
+/// ("dovs/safety_factor is 1.2 here, the model was trained with 1.5"), or a word that cannot be read.
+std::string stateParametersMismatch(const std::string& metadata, const RobotLimits& limits, const DovsConfig& dovs,
+                                    double rel_tol = 1e-6);
+
 StateNormalization stateNormalization(const RobotLimits& limits, const DovsConfig& dovs);
 
 /// Thrown by the state functions for bad input (NaN/inf robot state or goal, wrong grid size, bad
