@@ -71,6 +71,19 @@ std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string&
   throw PlannerError("unknown planner '" + name + "' (known planners: " + list + ")");
 }
 
+const std::vector<std::string>& robotPlannerNames() {
+  static const std::vector<std::string> names = {"dqn_dovs", "s_dovs", "dwa", "orca_diffdrive"};
+  return names;
+}
+
+std::string robotPlannerFault(const std::string& name) {
+  for (const std::string& n : robotPlannerNames())
+    if (n == name) return {};
+  std::string list;
+  for (const std::string& n : robotPlannerNames()) list += (list.empty() ? "" : ", ") + n;
+  return "planner '" + name + "' cannot run on the robot (the robot's planners: " + list + ")";
+}
+
 std::vector<std::string> plannerNames() {
   std::vector<std::string> names;
   for (const auto& entry : registry()) names.push_back(entry.first);

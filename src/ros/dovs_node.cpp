@@ -8,6 +8,7 @@
 
 #include <boost/make_shared.hpp>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "conversions.h"
@@ -55,6 +56,14 @@ DovsNode::DovsNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   use_map_ = param<bool>(pnh_, "use_map", false);
   map_range_m_ = paramInRange(pnh_, "map_range", 4.0, 0.5, 50.0);
   map_unknown_is_occupied_ = param<bool>(pnh_, "map_unknown_is_occupied", false);
+  planner_name_ = param<std::string>(pnh_, "planner", "dqn_dovs");
+  if (const std::string why = robotPlannerFault(planner_name_); !why.empty()) {
+    throw ParameterError("parameter '" + pnh_.resolveName("planner") + "': " + why);
+  }
+  if (planner_name_ != "dqn_dovs") {
+    planner_ = makePlanner(planner_name_, "", &shield_, &normalization_);  // the registry's, as the evaluation's
+    ROS_INFO("dovs: %s decides on each velocity space (the Dovs message carries its command)", planner_name_.c_str());
+  }
   // Every parameter is read above: a key under this node that none of them names is a typo (ParameterError).
   refuseUnknownParameters(pnh_);
   if (use_map_) map_sub_ = nh_.subscribe("map", 1, &DovsNode::onMap, this);
@@ -103,6 +112,7 @@ void DovsNode::onGoal(const geometry_msgs::PoseStamped::ConstPtr& msg) {
   goal_stamp_ = msg->header.stamp;
   // The planner republishes its goal every control period (re-transformed, or the next point of a route) with
   // the stamp it gave the goal: only a new stamp is a new goal worth a log line.
+  if (!same_goal && planner_) planner_->reset();
   if (same_goal) {
     ROS_DEBUG("dovs: goal moved to (%.2f, %.2f) in '%s'", goal_->x(), goal_->y(), fixed_frame_.c_str());
   } else {
@@ -201,6 +211,25 @@ void DovsNode::onObstacles(const TrackedObstacleArray::ConstPtr& msg) {
   } catch (const std::exception& e) {
     ROS_ERROR_THROTTLE(2.0, "dovs: cannot build the velocity space: %s", e.what());
     return;
+  }
+  step.msg.planner = planner_name_;
+  if (planner_ && goal_) {
+    PlannerInput input;
+    input.observation = &step.observation;
+    input.dovs = &dovs_;
+    input.actions = &step.actions;
+    input.limits = limits_;
+    try {
+      const PlannerDecision d = planner_->decide(input);
+      step.msg.planner_v = d.command.v;
+      step.msg.planner_w = d.command.w;
+      step.msg.planner_action = static_cast<int8_t>(d.action);
+      step.msg.planner_note = d.note;
+    } catch (const std::exception& e) {  // planner_node halts on a non-finite command, with the note as the reason
+      step.msg.planner_v = step.msg.planner_w = std::numeric_limits<double>::quiet_NaN();
+      step.msg.planner_action = -1;
+      step.msg.planner_note = std::string("planner error: ") + e.what();
+    }
   }
   // The goal it was built for: the planner acts only on velocity spaces of its own goal.
   step.msg.goal_stamp = goal_stamp_;

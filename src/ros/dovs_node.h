@@ -22,6 +22,7 @@
 #include "dqn_dovs/dovs/dovs.h"
 #include "dqn_dovs/dovs/state.h"
 #include "dqn_dovs/perception/people_predictor.h"
+#include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/policy/action_shield.h"
 #include "transform_wait.h"
 
@@ -54,6 +55,10 @@ class DovsNode {
   VelocitySpace dovs_;
   std::unique_ptr<PredictedArcs> predicted_arcs_;  ///< people_predictor: moving tracks on their predicted arcs
   TrackHistory track_history_;  ///< where the tracks were, for the person tokens (dovs/person_tokens > 0)
+  // `planner` other than dqn_dovs (s_dovs, dwa, orca_diffdrive; the registry's): it decides on each velocity space
+  // here, where the observation is, and the Dovs message carries its command to planner_node.
+  std::string planner_name_ = "dqn_dovs";
+  std::unique_ptr<Planner> planner_;
 
   // The map's walls (map frame), when `use_map`: static geometry beside the scan's, for what the LIDAR cannot see.
   bool use_map_ = false;

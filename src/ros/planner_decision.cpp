@@ -3,6 +3,7 @@
 #include <std_msgs/Float64.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
@@ -12,10 +13,24 @@
 
 namespace dqn_dovs {
 
-PlannerDecision::PlannerDecision(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& fixed_frame,
-                                 const RobotLimits& limits, Supervisor& supervisor)
+PlannerDecisionAdapter::PlannerDecisionAdapter(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& fixed_frame,
+                                               const RobotLimits& limits, Supervisor& supervisor)
     : fixed_frame_(fixed_frame), limits_(limits), nh_(nh), supervisor_(supervisor) {
+  planner_ = param<std::string>(pnh, "planner", "dqn_dovs");
+  if (const std::string why = robotPlannerFault(planner_); !why.empty()) {
+    throw ParameterError("parameter '" + pnh.resolveName("planner") + "': " + why);
+  }
+  statics_ = loadStaticSafetyConfig(pnh);
+  const DovsConfig dovs = loadDovsConfig(pnh);
   const std::string model_path = param<std::string>(pnh, "model_path", "");
+  if (planner_ == "dqn_dovs") loadModel(pnh, model_path, dovs);
+  // dovs.yaml's action shield is dovs_node's; read here too, so that a bad value is refused by both nodes alike.
+  (void)loadActionShieldConfig(pnh);
+  latency_pub_ = nh_.advertise<std_msgs::Float64>("planner/latency", 20);
+}
+
+void PlannerDecisionAdapter::loadModel(const ros::NodeHandle& pnh, const std::string& model_path,
+                                       const DovsConfig& dovs) {
   if (model_path.empty()) throw ParameterError("parameter '" + pnh.resolveName("model_path") + "' is not set");
   {
     // The loader names the field that is wrong inside a weight file; what is wrong with the path itself is
@@ -28,11 +43,9 @@ PlannerDecision::PlannerDecision(ros::NodeHandle nh, ros::NodeHandle pnh, const 
     if (!std::filesystem::is_regular_file(status)) throw ParameterError(culprit + " is not a regular file");
     if (access(model_path.c_str(), R_OK) != 0) throw ParameterError(culprit + " is not readable");
   }
-  statics_ = loadStaticSafetyConfig(pnh);
   network_ = std::make_unique<QNetwork>(QNetwork::load(model_path));  // throws WeightFileError naming the field
   // At start, against the robot's limits (and any dovs/* given to the planner); each Dovs message carries the
   // normalisation dovs_node really used, checked again before the network runs (chooseAction).
-  const DovsConfig dovs = loadDovsConfig(pnh);
   const StateNormalization expected = stateNormalization(limits_, dovs);
   std::string mismatch = network_->normalizationMismatch(expected.fields(), 1e-4f);
   if (mismatch.empty()) mismatch = network_->gridChannelsMismatch(expected.grid_channels);
@@ -48,31 +61,29 @@ PlannerDecision::PlannerDecision(ros::NodeHandle nh, ros::NodeHandle pnh, const 
     throw ParameterError("model '" + model_path + "' was trained with other state parameters (its metadata's '" +
                          kStateParametersKey + "'): " + other);
   }
-  // dovs.yaml's action shield is dovs_node's; read here too, so that a bad value is refused by both nodes alike.
-  (void)loadActionShieldConfig(pnh);
-  latency_pub_ = nh_.advertise<std_msgs::Float64>("planner/latency", 20);
 }
 
-void PlannerDecision::start(const PlannerNavigation& navigation) {
+void PlannerDecisionAdapter::start(const PlannerNavigation& navigation) {
   navigation_ = &navigation;
-  dovs_sub_ = nh_.subscribe("dovs", 2, &PlannerDecision::onDovs, this, ros::TransportHints().tcpNoDelay());
+  dovs_sub_ = nh_.subscribe("dovs", 2, &PlannerDecisionAdapter::onDovs, this, ros::TransportHints().tcpNoDelay());
 }
 
-std::string PlannerDecision::spaceFault() const {
+std::string PlannerDecisionAdapter::spaceFault() const {
   if (navigation_ == nullptr) return "the planner is starting";
   if (!navigation_->goalFault().empty()) return navigation_->goalFault();
   if (!last_dovs_) return "dovs is stale or missing";
   if (const std::string other = navigation_->localGoalFault(*last_dovs_); !other.empty()) return other;
-  if (last_dovs_->state.size() != static_cast<size_t>(network_->stateSize())) return "dovs state has the wrong size";
+  if (network_ && last_dovs_->state.size() != static_cast<size_t>(network_->stateSize()))
+    return "dovs state has the wrong size";
   return {};
 }
 
-void PlannerDecision::forget() {
+void PlannerDecisionAdapter::forget() {
   last_dovs_.reset();
   chosen_for_.reset();
 }
 
-void PlannerDecision::onDovs(const Dovs::ConstPtr& msg) {
+void PlannerDecisionAdapter::onDovs(const Dovs::ConstPtr& msg) {
   last_dovs_ = msg;
   // Choose the action as soon as the velocity space arrives: the control timer then applies it without
   // running the network, and planner/latency reports how old the scan behind the choice is.
@@ -80,7 +91,7 @@ void PlannerDecision::onDovs(const Dovs::ConstPtr& msg) {
   if (supervisor_.hasGoal() && supervisor_.state() != GoalState::kReached &&
       navigation_->localGoalFault(*msg).empty()) {
     std::string why;
-    actionForLastDovs(why);
+    if (network_) actionForLastDovs(why);
     if (latency_pub_.getNumSubscribers() > 0) {
       std_msgs::Float64 latency;
       latency.data = (ros::Time::now() - msg->header.stamp).toSec();
@@ -89,7 +100,7 @@ void PlannerDecision::onDovs(const Dovs::ConstPtr& msg) {
   }
 }
 
-int PlannerDecision::actionForLastDovs(std::string& why) {
+int PlannerDecisionAdapter::actionForLastDovs(std::string& why) {
   if (chosen_for_ != last_dovs_) {
     // The message's decision fields, copied once per message; every control period until the next one reads them.
     chosen_decision_ = dovsDecisionFromMessage(*last_dovs_);
@@ -100,12 +111,34 @@ int PlannerDecision::actionForLastDovs(std::string& why) {
   return chosen_action_;
 }
 
-Choice PlannerDecision::choose(const Pose2& pose) {
+Choice PlannerDecisionAdapter::choose(const Pose2& pose) {
   Choice c;
-  const int a = actionForLastDovs(c.why);
-  if (a < 0) return c;
-  c.action = a;
-  c.target = limits_.clipToFeasible(choiceVelocity(chosen_decision_, a));
+  int a = -1;
+  if (network_) {
+    a = actionForLastDovs(c.why);
+    if (a < 0) return c;
+    c.action = a;
+    c.target = limits_.clipToFeasible(choiceVelocity(chosen_decision_, a));
+  } else {
+    // Another planner decided in dovs_node (the registry's, on the observation there): its command, then the same
+    // static last line.
+    const Dovs& d = *last_dovs_;
+    if (d.planner != planner_) {
+      c.why = "dovs was decided by '" + d.planner + "' (dovs_node's planner), this planner runs '" + planner_ + "'";
+      return c;
+    }
+    if (!std::isfinite(d.planner_v) || !std::isfinite(d.planner_w)) {
+      c.why = planner_ + ": " + (d.planner_note.empty() ? std::string("no finite command") : d.planner_note);
+      return c;
+    }
+    if (chosen_for_ != last_dovs_) {
+      chosen_decision_ = dovsDecisionFromMessage(d);  // the static geometry for the last line
+      chosen_for_ = last_dovs_;
+    }
+    a = d.planner_action;
+    c.action = d.planner_action >= 0 && d.planner_action < kNumActions ? d.planner_action : -1;
+    c.target = limits_.clipToFeasible({d.planner_v, d.planner_w});
+  }
   if (statics_.enabled) {
     // The last line (the core's, as the evaluation runs it): the target's braking trajectory, from where the robot
     // is now at the speed last sent, must keep clear of the static geometry the Dovs carries; otherwise the nearest

@@ -12,6 +12,8 @@
 
 #include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/common/robot_model.h"
+#include "dqn_dovs/dovs/dovs.h"
+#include "dqn_dovs/planning/planner.h"
 #include "dqn_dovs/policy/dovs_decision.h"
 #include "dqn_dovs/policy/qnetwork.h"
 #include "dqn_dovs/policy/static_safety.h"
@@ -20,17 +22,21 @@
 
 namespace dqn_dovs {
 
-class PlannerDecision {
+class PlannerDecisionAdapter {
  public:
   /// Reads model_path, static_safety/*, action_shield/* and dovs/* and loads the model; throws (ParameterError,
   /// WeightFileError) naming the culprit, also when the model was trained with another state normalisation or
   /// layout than dovs/* and robot/* give.
-  PlannerDecision(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& fixed_frame, const RobotLimits& limits,
-                  Supervisor& supervisor);
+  PlannerDecisionAdapter(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& fixed_frame,
+                         const RobotLimits& limits, Supervisor& supervisor);
   /// Subscribes to `dovs`, taking only velocity spaces built for `navigation`'s goal (which must outlive this).
   void start(const PlannerNavigation& navigation);
 
-  const QNetwork& network() const { return *network_; }
+  /// The network (planner dqn_dovs; null for another planner, which decides in dovs_node).
+  const QNetwork* network() const { return network_.get(); }
+  /// The `planner` parameter: dqn_dovs (the network here) or the registry planner dovs_node runs (s_dovs, dwa,
+  /// orca_diffdrive), whose command each Dovs message carries.
+  const std::string& planner() const { return planner_; }
 
   /// Why there is no velocity space to decide on now ("" when there is one): the goal cannot be placed, no Dovs yet,
   /// one built for another goal, or a state of the wrong size.
@@ -46,11 +52,14 @@ class PlannerDecision {
 
  private:
   void onDovs(const Dovs::ConstPtr& msg);
+  /// Loads model_path and checks it against the states dovs/* and robot/* give (ParameterError, WeightFileError).
+  void loadModel(const ros::NodeHandle& pnh, const std::string& model_path, const DovsConfig& dovs);
   /// The network's action for last_dovs_ (computed once per message); -1 with `why` when there is none.
   int actionForLastDovs(std::string& why);
 
   std::string fixed_frame_;
   RobotLimits limits_;
+  std::string planner_ = "dqn_dovs";
   ros::NodeHandle nh_;
   Supervisor& supervisor_;
   const PlannerNavigation* navigation_ = nullptr;

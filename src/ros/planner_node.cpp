@@ -87,7 +87,7 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   tf_timeout_s_ = paramInRange(pnh_, "tf_timeout", 0.05, 0.0, 1.0);
   scan_max_nan_fraction_ = paramInRange(pnh_, "scan_max_nan_fraction", 0.5, 0.0, 1.0);
   checkRobotDescription(nh_, limits_, base_frame_, param<std::string>(pnh_, "laser_frame", "laser"));
-  decision_ = std::make_unique<PlannerDecision>(nh_, pnh_, fixed_frame_, limits_, supervisor_);
+  decision_ = std::make_unique<PlannerDecisionAdapter>(nh_, pnh_, fixed_frame_, limits_, supervisor_);
   hooks_.robot_pose = [this](double wait_s) { return robotPose(wait_s); };
   hooks_.space_fault = [this]() { return decision_->spaceFault(); };
   hooks_.choose = [this](const Pose2& pose) { return decision_->choose(pose); };
@@ -107,7 +107,8 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   scan_sub_ = nh_.subscribe("scan", 2, &PlannerNode::onScan, this, ros::TransportHints().tcpNoDelay());
   safety_sub_ = nh_.subscribe("base_safety", 10, &PlannerNode::onBaseSafety, this, ros::TransportHints().tcpNoDelay());
   navigation_ = std::make_unique<PlannerNavigation>(nh_, pnh_, fixed_frame_, base_frame_, limits_,
-                                                    decision_->network().routePoints(), supervisor_, tf_buffer_);
+                                                    decision_->network() ? decision_->network()->routePoints() : 0,
+                                                    supervisor_, tf_buffer_);
   // Every parameter is read above: a key under this node that none of them names is a typo (ParameterError).
   refuseUnknownParameters(pnh_);
   decision_->start(*navigation_);
@@ -122,9 +123,14 @@ PlannerNode::PlannerNode(ros::NodeHandle nh, ros::NodeHandle pnh)
   reconfigure_route_server_->updateConfig(reconfigurableRoute());
   reconfigure_route_server_->setCallback(
       [this](PlannerRouteConfig& c, uint32_t level) { onReconfigureRoute(c, level); });
-  ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz",
-           param<std::string>(pnh_, "model_path", "").c_str(), decision_->network().metadata().c_str(), limits_.dt,
-           supervisor_.config().ramp_rate_hz);
+  if (decision_->network() != nullptr) {
+    ROS_INFO("planner: model '%s' (%s); control period %.2f s, ramp %.0f Hz",
+             param<std::string>(pnh_, "model_path", "").c_str(), decision_->network()->metadata().c_str(), limits_.dt,
+             supervisor_.config().ramp_rate_hz);
+  } else {
+    ROS_INFO("planner: %s (decided in dovs_node); control period %.2f s, ramp %.0f Hz", decision_->planner().c_str(),
+             limits_.dt, supervisor_.config().ramp_rate_hz);
+  }
   publishStatus(ros::Time::now(), 0.0);
 }
 

@@ -4,7 +4,7 @@
 // Supervisor (include/dqn_dovs/supervision/supervisor.h), and this class turns odom, scans, base safety, tf and
 // timers into its calls, publishes the commands, the status and the diagnostics, and runs the runtime tuning. Where
 // the robot goes is PlannerNavigation's (goals, the move_base action, routes); what it does on each velocity space is
-// PlannerDecision's (the network and the static last line).
+// PlannerDecisionAdapter's (the network and the static last line).
 #pragma once
 
 #include <dynamic_reconfigure/server.h>
@@ -68,7 +68,7 @@ class PlannerNode {
 
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  std::unique_ptr<PlannerDecision> decision_;
+  std::unique_ptr<PlannerDecisionAdapter> decision_;
   std::unique_ptr<PlannerNavigation> navigation_;
   ros::Subscriber odom_sub_, scan_sub_, safety_sub_;
   ros::Publisher cmd_pub_, cmd_stamped_pub_, status_pub_, action_pub_, diagnostics_pub_;

@@ -253,6 +253,17 @@ TEST(PlannerBadParams, AModelTrainedWithOtherStateParametersIsFatalAndNamed) {
   expectFatal(runPlanner("planner_other_dt", model + "_robot/a_w:=1.5"), "robot/a_w is 1.5 here", "robot/a_w 1.5");
 }
 
+TEST(PlannerBadParams, APlannerTheRobotCannotRunIsFatalAndNamed) {
+  // The oracle reads the world's truth, the holonomic ORCA drives another robot: neither node takes them.
+  expectFatal(runPlanner("planner_oracle", "_model_path:=" + modelPath() + " _planner:=oracle"),
+              "planner 'oracle' cannot run on the robot", "planner_node planner oracle");
+  expectFatal(runNode("dovs_node", "dovs_holonomic", "_planner:=orca_holonomic"),
+              "planner 'orca_holonomic' cannot run on the robot", "dovs_node planner orca_holonomic");
+  // Another planner needs no model: planner_node starts without one and keeps running.
+  const NodeRun r = runPlanner("planner_s_dovs", "_planner:=s_dovs", 3.0);
+  EXPECT_EQ(r.exit_code, 124) << "planner_node with planner s_dovs did not keep running:\n" << r.output;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "dqn_dovs/Dovs.h"
 #include "dqn_dovs/PlannerStatus.h"
 #include "dqn_dovs/SimStatus.h"
 
@@ -37,6 +38,8 @@ struct Watch {
   bool have_sim = false, have_planner = false, reached = false;
   double reached_at = 0.0;
   int commands = 0;
+  std::set<std::string> dovs_planners;          // the `planner` field of every Dovs message
+  int planner_commands = 0;                     // Dovs messages carrying a finite command of that planner
   double max_dv_step = 0.0, max_dw_step = 0.0;  // largest change between consecutive commands
   geometry_msgs::Twist last_cmd;
   void onSim(const dqn_dovs::SimStatus::ConstPtr& m) {
@@ -52,6 +55,11 @@ struct Watch {
       reached = true;
       reached_at = m->header.stamp.toSec();
     }
+  }
+  void onDovs(const dqn_dovs::Dovs::ConstPtr& m) {
+    std::lock_guard<std::mutex> l(mutex);
+    dovs_planners.insert(m->planner);
+    planner_commands += std::isfinite(m->planner_v) && std::isfinite(m->planner_w) && !m->planner_note.empty();
   }
   void onCmd(const geometry_msgs::Twist::ConstPtr& m) {
     std::lock_guard<std::mutex> l(mutex);
@@ -71,6 +79,7 @@ TEST(SimLaunch, ReachesTheGoalAndStops) {
   auto s1 = nh.subscribe("sim/status", 20, &Watch::onSim, &w);
   auto s2 = nh.subscribe("planner/status", 20, &Watch::onPlanner, &w);
   auto s3 = nh.subscribe("cmd_vel", 100, &Watch::onCmd, &w);
+  auto s4 = nh.subscribe("dovs", 20, &Watch::onDovs, &w);
   ros::AsyncSpinner spinner(2);
   spinner.start();
   ASSERT_TRUE(ros::Time::waitForValid(ros::WallDuration(30.0))) << "no /clock";
@@ -99,6 +108,13 @@ TEST(SimLaunch, ReachesTheGoalAndStops) {
     }
   }
   std::lock_guard<std::mutex> l(w.mutex);
+  // With expect_planner (planner:=s_dovs, say), every velocity space was decided by that planner in dovs_node, and
+  // planner_node drove on its commands.
+  const std::string planner = pnh.param<std::string>("expect_planner", "dqn_dovs");
+  EXPECT_EQ(w.dovs_planners, std::set<std::string>{planner});
+  if (planner != "dqn_dovs") {
+    EXPECT_GT(w.planner_commands, 20);
+  }
   ASSERT_TRUE(w.have_sim && w.have_planner) << "no status from simulator_node / planner_node";
   EXPECT_FALSE(w.sim.collided) << "collision at t = " << w.sim.episode_time;
   ASSERT_TRUE(settled) << "goal not reached: planner state " << int(w.planner.state) << " (" << w.planner.reason

@@ -66,4 +66,11 @@ std::unique_ptr<Planner> makePlanner(const std::string& name, const std::string&
 /// Names accepted by makePlanner.
 std::vector<std::string> plannerNames();
 
+/// The planners a differential-drive robot can run on what it senses (the nodes' `planner` parameter): dqn_dovs,
+/// s_dovs, dwa, orca_diffdrive. Not the DQN-DOVS ablations, the holonomic ORCA, or the oracle and the bound (they
+/// read the world's truth).
+const std::vector<std::string>& robotPlannerNames();
+/// "" when `name` is one of robotPlannerNames(), otherwise why not, listing them.
+std::string robotPlannerFault(const std::string& name);
+
 }  // namespace dqn_dovs
