@@ -242,10 +242,12 @@ class VecEnv:
                                    "by its mask")
         return out
 
-    def state_parameters(self) -> str:
+    def state_parameters(self) -> str | None:
         """The `state parameters:` metadata line's text: the dovs/* and robot/* values the states are built with
-        (beyond the normalisation), which planner_node holds its own against."""
-        return str(self._core.state_parameters())
+        (beyond the normalisation), which planner_node holds its own against; None from a core without a DOVS (the
+        small chain environments of the trainer's tests)."""
+        get = getattr(self._core, "state_parameters", None)
+        return str(get()) if get is not None else None
 
     def normalization(self) -> dict[str, float]:
         norm = self._core.normalization()

@@ -483,6 +483,15 @@ StateVector buildState(const VelocitySpace& dovs, const Observation& obs, const 
   return s;
 }
 
+void buildVelocitySpaceStep(const Observation& obs, const RobotLimits& limits, const StateNormalization& norm,
+                            DovsBuilder& builder, VelocitySpace& dovs, VelocitySpaceStep& out, TrackHistory* history,
+                            const std::vector<float>* previous_grid, int previous_choice) {
+  builder.build(obs, dovs);
+  out.actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
+  if (history != nullptr && norm.person_tokens > 0) history->update(obs.stamp_s, obs.obstacles);
+  out.state = buildState(dovs, obs, norm, previous_grid, previous_choice, history);
+}
+
 namespace {
 
 // (name, value) of every state parameter, in stateParametersText's order.

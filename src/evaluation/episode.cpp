@@ -310,16 +310,16 @@ void Episode::buildContext() {
     if (normalization_.route_points > 0)  // the state's route points; the straight line to the goal without a route
       observation_.route_ahead = route_guide_.ahead(kRoutePointSpacing_m * normalization_.route_points);
   }
-  dovs_builder_.build(observation_, dovs_);
-  const Vec2 goal_local = observation_.robot_pose.toLocal(observation_.goal);
-  actions_ = computeActions(observation_.robot_twist, goal_local, config_.world.robot);
-  if (normalization_.person_tokens > 0) {
-    if (config_.perfect_info)  // the world's bodies in a fixed order: their index is their id
-      for (size_t k = 0; k < observation_.obstacles.size(); ++k) observation_.obstacles[k].id = static_cast<int>(k);
-    track_history_.update(observation_.stamp_s, observation_.obstacles);
+  if (normalization_.person_tokens > 0 && config_.perfect_info) {
+    // The world's bodies in a fixed order: their index is their id (the person tokens' history).
+    for (size_t k = 0; k < observation_.obstacles.size(); ++k) observation_.obstacles[k].id = static_cast<int>(k);
   }
-  state_ = buildState(dovs_, observation_, normalization_, previous_grid_.empty() ? nullptr : &previous_grid_,
-                      previous_choice_, &track_history_);
+  // The velocity space, the actions and the state, as dovs_node builds them (dovs/state.h).
+  VelocitySpaceStep step;
+  buildVelocitySpaceStep(observation_, config_.world.robot, normalization_, dovs_builder_, dovs_, step, &track_history_,
+                         previous_grid_.empty() ? nullptr : &previous_grid_, previous_choice_);
+  actions_ = step.actions;
+  state_ = std::move(step.state);
   if (normalization_.grid_channels == kHistoryGridChannels)  // one step of history: this decision's first channel
     previous_grid_.assign(state_.data(), state_.data() + kStateGridCells);
 }

@@ -70,7 +70,7 @@ PlannerDecision DqnDovsPlanner::decide(const PlannerInput& input) {
   shielded.mask = input.actions->valid;
   if (config_.shield.enabled) {
     if (input.dovs == nullptr) return decelerate("the action shield has no DOVS");
-    shielded = shieldActions(*input.actions, *input.dovs, obs, config_.shield);
+    shielded = shieldStep(*input.actions, *input.dovs, obs, config_.shield);
   }
   const DovsDecision fields = decisionFields(*input.state, config_.normalization, *input.actions, shielded, obs,
                                              input.limits, config_.shield.statics);

@@ -37,6 +37,15 @@ std::string staticObservation(const DovsDecision& dovs, const Pose2& robot_pose,
   return {};
 }
 
+ShieldedMask shieldStep(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
+                        const ActionShieldConfig& shield, bool has_goal) {
+  if (has_goal) return shieldActions(actions, dovs, observation, shield);
+  // Without a goal there is no goal line: the shield chooses among the window actions only.
+  ActionSet choosable = actions;
+  for (size_t i = static_cast<size_t>(kActionGoalHigh); i < choosable.valid.size(); ++i) choosable.valid[i] = false;
+  return shieldActions(choosable, dovs, observation, shield);
+}
+
 DovsDecision decisionFields(const StateVector& state, const StateNormalization& normalization, const ActionSet& actions,
                             const ShieldedMask& shielded, const Observation& observation, const RobotLimits& limits,
                             const StaticSafetyConfig& statics) {

@@ -24,6 +24,7 @@
 #include "dqn_dovs/evaluation/eval.h"
 #include "dqn_dovs/evaluation/oracle.h"
 #include "dqn_dovs/policy/action_shield.h"
+#include "dqn_dovs/policy/dovs_decision.h"
 #include "dqn_dovs/sim/errors.h"
 #include "dqn_dovs/sim/scenario.h"
 #include "dqn_dovs/sim/worlds.h"
@@ -532,7 +533,7 @@ class VecEnv {
   // function the DQN-DOVS planner applies on the robot and in evaluation), and the shield's escape if boxed in.
   void copyMask(Env& env, bool* dst) const {
     const Episode& ep = env.ep();
-    const ShieldedMask m = shieldActions(ep.actions(), ep.dovs(), ep.observation(), shield_);
+    const ShieldedMask m = shieldStep(ep.actions(), ep.dovs(), ep.observation(), shield_);
     for (int k = 0; k < kNumActions; ++k) dst[k] = m.mask[static_cast<size_t>(k)];
     env.mask = m.mask;
     env.has_escape = m.has_escape;

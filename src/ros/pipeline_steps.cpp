@@ -76,18 +76,14 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
     predictArcs(*predicted_arcs, obs.obstacles, 0, ids, obs.stamp_s, obs.segments);
   }
 
-  builder.build(obs, dovs);
-  out.actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
+  // The velocity space, the actions, the state and the shield, as the evaluation's Episode and planner make them.
+  VelocitySpaceStep step;
+  buildVelocitySpaceStep(obs, limits, normalization, builder, dovs, step, history);
+  out.actions = step.actions;
   const ActionSet& actions = out.actions;
-  // Without a goal there is no goal line: the shield chooses among the window actions only.
-  ActionSet choosable = actions;
-  if (!goal) {
-    for (size_t i = static_cast<size_t>(kActionGoalHigh); i < choosable.valid.size(); ++i) choosable.valid[i] = false;
-  }
-  const ShieldedMask shielded = shieldActions(choosable, dovs, obs, shield);
+  const StateVector& state = step.state;
+  const ShieldedMask shielded = shieldStep(actions, dovs, obs, shield, goal.has_value());
   out.shield_level = shielded.level;
-  if (history != nullptr && normalization.person_tokens > 0) history->update(obs.stamp_s, obs.obstacles);
-  const StateVector state = buildState(dovs, obs, normalization, nullptr, kNoPreviousChoice, history);
   // The decision fields, as the evaluation's DQN-DOVS planner makes them (policy/dovs_decision.h).
   const DovsDecision fields = decisionFields(state, normalization, actions, shielded, obs, limits, shield.statics);
 

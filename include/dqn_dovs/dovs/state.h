@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dqn_dovs/common/types.h"
+#include "dqn_dovs/dovs/actions.h"
 #include "dqn_dovs/dovs/dovs.h"
 
 namespace dqn_dovs {
@@ -149,6 +150,20 @@ struct StateNormalization {
 /// scales are the robot's limits, the clearance scale the DOVS's obstacle range, the rest the defaults above.
 /// The one place it is made: evaluation, training, the nodes and the planner's check of the weight file all
 /// call it, so a model's stored normalisation is compared with what its states will really be.
+/// One decision's velocity space, actions and network state, as every front end builds them from its observation
+/// (dovs_node, the evaluation's and the training's Episode): the DOVS of `obs` built into `dovs` by `builder`, the 8
+/// actions around the robot's velocity towards obs.goal, and the state (buildState with `previous_grid`,
+/// `previous_choice` and `history`; with person tokens `history` first takes this observation's tracks).
+class TrackHistory;
+struct VelocitySpaceStep {
+  ActionSet actions;
+  StateVector state;
+};
+void buildVelocitySpaceStep(const Observation& obs, const RobotLimits& limits, const StateNormalization& norm,
+                            DovsBuilder& builder, VelocitySpace& dovs, VelocitySpaceStep& out,
+                            TrackHistory* history = nullptr, const std::vector<float>* previous_grid = nullptr,
+                            int previous_choice = kNoPreviousChoice);
+
 /// The metadata key of a network's state parameters (docs/weight_format.md, "Provenance").
 constexpr const char* kStateParametersKey = "state parameters";
 /// Everything the network state depends on beyond its normalisation and layout (which the weight file's header and

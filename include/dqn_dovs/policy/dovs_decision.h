@@ -53,6 +53,11 @@ DovsDecision dovsDecisionFromMessage(const Message& m) {
   return d;
 }
 
+/// The shield's step of a decision: `actions`' validity mask narrowed by the action shield (shieldActions; with
+/// shield.enabled false, the validity mask), the goal-line actions masked first when there is no goal.
+ShieldedMask shieldStep(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
+                        const ActionShieldConfig& shield, bool has_goal = true);
+
 /// The decision fields of one velocity space, as dovs_node sends them in its Dovs message and the evaluation's
 /// DQN-DOVS planner hands them on: `state` and the normalisation it was built with, the 8 actions' velocities under
 /// the shield's mask (`shielded`), its escape, and with statics.enabled the static geometry of `observation` (the one
