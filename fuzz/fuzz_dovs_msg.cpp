@@ -51,8 +51,8 @@ bool lengthsFit(const std::uint8_t* data, std::size_t size) {
   if (!array(1) || !array(4) || !array(4)) return false;
   // trajectory_curvature, trajectory_pure_rotation, v_top, w_top, interval_begin, interval_lo, interval_hi
   if (!array(4) || !array(1) || !array(4) || !array(4) || !array(4) || !array(4) || !array(4)) return false;
-  if (!skip(2 + 2)) return false;                   // grid_rows, grid_cols
-  if (!array(4) || !array(4)) return false;         // state, state_normalization
+  if (!skip(2 + 2)) return false;                  // grid_rows, grid_cols
+  if (!array(4) || !array(4)) return false;        // state, state_normalization
   return array(1) && skip(8 + 8 + 1) && array(1);  // planner, planner_v, planner_w, planner_action, planner_note
 }
 

@@ -79,7 +79,10 @@ TEST(SimLaunch, ReachesTheGoalAndStops) {
   auto s1 = nh.subscribe("sim/status", 20, &Watch::onSim, &w);
   auto s2 = nh.subscribe("planner/status", 20, &Watch::onPlanner, &w);
   auto s3 = nh.subscribe("cmd_vel", 100, &Watch::onCmd, &w);
-  auto s4 = nh.subscribe("dovs", 20, &Watch::onDovs, &w);
+  // Only with expect_planner: a subscriber off the nodelet manager makes dovs_node serialise every Dovs message.
+  const std::string planner = pnh.param<std::string>("expect_planner", "");
+  ros::Subscriber s4;
+  if (!planner.empty()) s4 = nh.subscribe("dovs", 20, &Watch::onDovs, &w);
   ros::AsyncSpinner spinner(2);
   spinner.start();
   ASSERT_TRUE(ros::Time::waitForValid(ros::WallDuration(30.0))) << "no /clock";
@@ -110,10 +113,11 @@ TEST(SimLaunch, ReachesTheGoalAndStops) {
   std::lock_guard<std::mutex> l(w.mutex);
   // With expect_planner (planner:=s_dovs, say), every velocity space was decided by that planner in dovs_node, and
   // planner_node drove on its commands.
-  const std::string planner = pnh.param<std::string>("expect_planner", "dqn_dovs");
-  EXPECT_EQ(w.dovs_planners, std::set<std::string>{planner});
-  if (planner != "dqn_dovs") {
-    EXPECT_GT(w.planner_commands, 20);
+  if (!planner.empty()) {
+    EXPECT_EQ(w.dovs_planners, std::set<std::string>{planner});
+    if (planner != "dqn_dovs") {
+      EXPECT_GT(w.planner_commands, 20);
+    }
   }
   ASSERT_TRUE(w.have_sim && w.have_planner) << "no status from simulator_node / planner_node";
   EXPECT_FALSE(w.sim.collided) << "collision at t = " << w.sim.episode_time;
