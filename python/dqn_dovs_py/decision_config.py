@@ -1,10 +1,11 @@
 """The decision step's parameters as the robot reads them, for the trainer.
 
 The nodes read the action shield from the parameter server, loaded from `config/dovs.yaml` (`action_shield/*`)
-and `config/static_safety.yaml` (`static_safety/*`). The trainer reads the same two files here and hands the
-values to the C++ environment by name (`dqn_dovs_py._core.VecEnv(..., shield_parameters=...)`, the names of
-`setShieldParameter` in include/dqn_dovs/policy/action_shield.h), so training never runs C++ defaults while the robot
-runs the YAML.
+and `config/static_safety.yaml` (`static_safety/*`), and the velocity-space model from `config/dovs.yaml`
+(`dovs/*`). The trainer reads the same files here and hands the values to the C++ environment by name
+(`dqn_dovs_py._core.VecEnv(..., shield_parameters=..., dovs_parameters=...)`, the names of `setShieldParameter` in
+include/dqn_dovs/policy/action_shield.h and of `setDovsParameter` in include/dqn_dovs/dovs/dovs.h), so training
+never runs C++ defaults while the robot runs the YAML.
 
     from dqn_dovs_py.decision_config import load_shield_parameters
     params = load_shield_parameters()            # the repository's config/
@@ -36,6 +37,39 @@ def _text(value) -> str:
     if isinstance(value, float):
         return repr(value)
     raise TypeError(f"{value!r} is not a boolean or a number")
+
+
+def _section(path: str, section: str) -> dict:
+    try:
+        with open(path) as f:
+            document = yaml.safe_load(f) or {}
+    except OSError as e:
+        raise DecisionConfigError(f"{path}: cannot be read ({e.strerror})") from None
+    except yaml.YAMLError as e:
+        raise DecisionConfigError(f"{path}: not valid YAML ({e})") from None
+    values = document.get(section) if isinstance(document, dict) else None
+    if not isinstance(values, dict):
+        raise DecisionConfigError(f"{path}: no '{section}' section")
+    return values
+
+
+def load_dovs_parameters(config_dir: str | None = None) -> dict[str, str]:
+    """The velocity-space model's parameters of `config_dir`'s dovs.yaml (default: the repository's config/), its
+    `dovs:` section, as name -> text (the names of setDovsParameter). Raises DecisionConfigError naming the file and
+    key for a missing file or section, an unknown name, or a value that is not a scalar."""
+    from . import env  # noqa: PLC0415 - the compiled module is needed only here
+
+    known = set(env.import_core().dovs_parameter_names())
+    path = os.path.join(config_dir or DEFAULT_CONFIG_DIR, "dovs.yaml")
+    out: dict[str, str] = {}
+    for key, value in _section(path, "dovs").items():
+        if str(key) not in known:
+            raise DecisionConfigError(f"{path}: 'dovs/{key}' is not a DOVS parameter")
+        try:
+            out[str(key)] = _text(value)
+        except TypeError as e:
+            raise DecisionConfigError(f"{path}: 'dovs/{key}': {e}") from None
+    return out
 
 
 def load_shield_parameters(config_dir: str | None = None) -> dict[str, str]:

@@ -27,7 +27,7 @@ import yaml
 
 from .agent import AgentConfig, DQNAgent
 from .curriculum import Curriculum, CurriculumError
-from .decision_config import DecisionConfigError, load_shield_parameters
+from .decision_config import DecisionConfigError, load_dovs_parameters, load_shield_parameters
 from .env import (OUTCOME_COLLISION, OUTCOME_NAMES, OUTCOME_SUCCESS, OUTCOME_TIMEOUT, EnvContractError, StepResult,
                   VecEnv, import_core)
 from .escape import one_action_masks
@@ -632,8 +632,12 @@ class Trainer:
         # The shield the robot runs, read from the same YAML files as the nodes (never the C++ defaults).
         self.shield_parameters = load_shield_parameters(config.decision_config or None) if env_factory is None else {}
         shield_parameters = self.shield_parameters
-        dovs_parameters = {name: repr(float(value)) if isinstance(value, float) else str(value)
-                           for name, value in config.dovs.items()}
+        # The DOVS model the robot runs (config/dovs.yaml's dovs: section, decision_config's folder), with the
+        # configuration's own `dovs` section over it (experiments on the state).
+        self.dovs_parameters = load_dovs_parameters(config.decision_config or None) if env_factory is None else {}
+        dovs_parameters = dict(self.dovs_parameters)
+        dovs_parameters.update({name: repr(float(value)) if isinstance(value, float) else str(value)
+                                for name, value in config.dovs.items()})
         reward_parameters = {name: repr(float(value)) if isinstance(value, float) else str(value)
                              for name, value in config.reward.items()}
         if (dovs_parameters or reward_parameters) and env_factory is None:
@@ -647,10 +651,11 @@ class Trainer:
             lambda n, seed, perfect: VecEnv(n, seed, perfect, action_shield=shield,
                                             shield_parameters=shield_parameters, dovs_parameters=dovs_parameters,
                                             reward_parameters=reward_parameters))
-        grid_channels = grid_channels_of(config.dovs)
-        feature_count = feature_count_of(config.dovs)
+        layout = {**self.dovs_parameters, **config.dovs}  # the state's layout, as the environments build it
+        grid_channels = grid_channels_of(layout)
+        feature_count = feature_count_of(layout)
         mc = config.model
-        wall_rays, person_tokens, route_points = tokens_of(config.dovs)
+        wall_rays, person_tokens, route_points = tokens_of(layout)
         self._model_factory = model_factory or (
             lambda: default_model_factory(grid_channels, feature_count, mc.quantiles, mc.cvar_alpha, wall_rays,
                                           person_tokens, route_points))

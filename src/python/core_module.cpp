@@ -593,6 +593,8 @@ PYBIND11_MODULE(_core, m) {
       "name (config/dovs.yaml's dovs/* names) over the defaults.");
   m.def("reward_parameter_names", &rewardParameterNames,
         "Every reward parameter name (RewardConfig; the trainer config's reward: section).");
+  m.def("dovs_parameter_names", &dovsParameterNames,
+        "Every DOVS parameter name (config/dovs.yaml dovs/*, setDovsParameter), in config-file order.");
   m.def("shield_parameter_names", &shieldParameterNames,
         "Every action shield parameter name (config/dovs.yaml action_shield/*, config/static_safety.yaml).");
   m.def(

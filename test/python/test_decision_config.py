@@ -92,3 +92,35 @@ def test_bad_files_and_values_are_named(core, tmp_path):
         VecEnv(1, 7, action_shield=True, shield_parameters={"escape_window_samples": "2.5"})
     with pytest.raises(ValueError, match="margin"):
         VecEnv(1, 7, action_shield=True, shield_parameters={"static_safety/margin": "-1"})
+
+
+def test_training_runs_the_dovs_model_of_the_robots_dovs_yaml(core, tmp_path):
+    """The trainer's environments build their velocity spaces with config/dovs.yaml's dovs: section (the folder of
+    decision_config), the configuration's own dovs section over it; every export names the values
+    (`state parameters:`)."""
+    from dqn_dovs_py.decision_config import DecisionConfigError, load_dovs_parameters  # noqa: PLC0415
+
+    robot = load_dovs_parameters()
+    assert robot["safety_factor"] == "1.1" and robot["obstacle_range"] == "4.0"
+    other = tmp_path / "config"
+    shutil.copytree(os.path.join(REPO, "config"), other)
+    text = (other / "dovs.yaml").read_text().replace("safety_factor: 1.1", "safety_factor: 1.3")
+    (other / "dovs.yaml").write_text(text)
+    assert load_dovs_parameters(str(other))["safety_factor"] == "1.3"
+    import yaml  # noqa: PLC0415
+
+    raw = yaml.safe_load(open(os.path.join(REPO, "config", "curriculum.yaml")).read())
+    raw["decision_config"] = str(other)
+    raw["dovs"] = {"time_horizon": 4.0}
+    trainer_config = tmp_path / "run.yaml"
+    trainer_config.write_text(yaml.safe_dump(raw))
+    from dqn_dovs_py.train import Trainer, load_config  # noqa: PLC0415
+
+    trainer = Trainer(load_config(str(trainer_config)), str(tmp_path / "out"))
+    assert trainer.dovs_parameters["safety_factor"] == "1.3"
+    env = trainer._env_factory(1, 0, False)
+    line = env.state_parameters()
+    assert "dovs/safety_factor=1.3 " in line and "dovs/time_horizon=4 " in line, line
+    (other / "dovs.yaml").write_text(text.replace("safety_factor: 1.3", "safety_factr: 1.3"))
+    with pytest.raises(DecisionConfigError, match="'dovs/safety_factr' is not a DOVS parameter"):
+        load_dovs_parameters(str(other))
