@@ -40,6 +40,8 @@ def _text(value) -> str:
 
 
 def _section(path: str, section: str) -> dict:
+    """The mapping `section` of the YAML file `path`; DecisionConfigError naming the file when it cannot be read,
+    is not YAML or has no such section."""
     try:
         with open(path) as f:
             document = yaml.safe_load(f) or {}
@@ -84,17 +86,7 @@ def load_shield_parameters(config_dir: str | None = None) -> dict[str, str]:
     out: dict[str, str] = {}
     for file_name, section, prefix in SOURCES:
         path = os.path.join(config_dir, file_name)
-        try:
-            with open(path) as f:
-                document = yaml.safe_load(f) or {}
-        except OSError as e:
-            raise DecisionConfigError(f"{path}: cannot be read ({e.strerror})") from None
-        except yaml.YAMLError as e:
-            raise DecisionConfigError(f"{path}: not valid YAML ({e})") from None
-        values = document.get(section) if isinstance(document, dict) else None
-        if not isinstance(values, dict):
-            raise DecisionConfigError(f"{path}: no '{section}' section")
-        for key, value in values.items():
+        for key, value in _section(path, section).items():
             name = prefix + str(key)
             if name not in known:
                 raise DecisionConfigError(f"{path}: '{section}/{key}' is not an action shield parameter")

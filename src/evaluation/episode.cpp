@@ -370,13 +370,7 @@ std::vector<Vec2> Episode::routeScanPoints() const {
     }
     return out;
   }
-  for (size_t k = 0; k < scan_.ranges.size(); ++k) {
-    const double r = scan_.ranges[k];
-    if (!std::isfinite(r) || r < scan_.range_min || r > scan_.range_max) continue;
-    const double a = scan_.angleOf(k);
-    out.push_back(scan_laser_.toWorld(Vec2(r * std::cos(a), r * std::sin(a))));
-  }
-  return out;
+  return scan_.returnsIn(scan_laser_);
 }
 
 PlannerInput Episode::plannerInput() const {

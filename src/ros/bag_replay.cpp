@@ -108,10 +108,7 @@ ReplayResult replayBag(const std::string& bag_path, const ReplayConfig& config) 
     if (m.getTopic() == config.route_ahead_topic) {
       const auto msg = m.instantiate<nav_msgs::Path>();
       if (!msg || (msg->header.frame_id != config.fixed_frame && !msg->poses.empty())) continue;
-      std::vector<Vec2> points;
-      for (const auto& p : msg->poses) points.emplace_back(p.pose.position.x, p.pose.position.y);
-      if (std::all_of(points.begin(), points.end(), [](const Vec2& p) { return p.allFinite(); }))
-        route_ahead = std::move(points);
+      if (std::vector<Vec2> points; pathPointsFromMsg(*msg, points).empty()) route_ahead = std::move(points);
       continue;
     }
     if (m.getTopic() == config.goal_topic) {

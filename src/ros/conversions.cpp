@@ -120,6 +120,32 @@ bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out) {
   return true;
 }
 
+nav_msgs::Path pathToMsg(const std::vector<Vec2>& points, const std_msgs::Header& header) {
+  nav_msgs::Path path;
+  path.header = header;
+  path.poses.reserve(points.size());
+  for (const Vec2& p : points) {
+    geometry_msgs::PoseStamped ps;
+    ps.header = header;
+    ps.pose.position.x = p.x();
+    ps.pose.position.y = p.y();
+    ps.pose.orientation.w = 1.0;
+    path.poses.push_back(ps);
+  }
+  return path;
+}
+
+std::string pathPointsFromMsg(const nav_msgs::Path& msg, std::vector<Vec2>& out) {
+  out.clear();
+  out.reserve(msg.poses.size());
+  for (size_t i = 0; i < msg.poses.size(); ++i) {
+    const Vec2 v(msg.poses[i].pose.position.x, msg.poses[i].pose.position.y);
+    if (!v.allFinite()) return "pose " + std::to_string(i) + " has a NaN/inf position";
+    out.push_back(v);
+  }
+  return {};
+}
+
 geometry_msgs::Pose poseToMsg(const Pose2& p) {
   geometry_msgs::Pose m;
   m.position.x = p.x;

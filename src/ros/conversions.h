@@ -5,6 +5,7 @@
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
 #include <sensor_msgs/LaserScan.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -38,6 +39,11 @@ nav_msgs::OccupancyGrid occupancyGridToMsg(const RouteGrid& grid);
 
 /// Planar pose of a transform (yaw only). Returns false when the transform has NaN/inf.
 bool poseFromTransform(const geometry_msgs::Transform& t, Pose2& out);
+
+/// `points` as a nav_msgs/Path under `header` (each pose at a point, heading along x).
+nav_msgs::Path pathToMsg(const std::vector<Vec2>& points, const std_msgs::Header& header);
+/// The positions of `msg`'s poses; "" when usable, else why not (a NaN/inf position, naming its index).
+std::string pathPointsFromMsg(const nav_msgs::Path& msg, std::vector<Vec2>& out);
 geometry_msgs::Pose poseToMsg(const Pose2& p);
 
 TrackedObstacleArray trackedSceneToMsg(const TrackedScene& scene);

@@ -127,13 +127,9 @@ void DovsNode::onRouteAhead(const nav_msgs::Path::ConstPtr& msg) {
     return;
   }
   std::vector<Vec2> points;
-  for (const auto& p : msg->poses) {
-    const Vec2 v(p.pose.position.x, p.pose.position.y);
-    if (!v.allFinite()) {
-      ROS_ERROR_THROTTLE(2.0, "dovs: planner/route_ahead ignored: a point has NaN/inf");
-      return;
-    }
-    points.push_back(v);
+  if (const std::string why = pathPointsFromMsg(*msg, points); !why.empty()) {
+    ROS_ERROR_THROTTLE(2.0, "dovs: planner/route_ahead ignored: %s", why.c_str());
+    return;
   }
   route_ahead_ = std::move(points);
   route_ahead_stamp_ = msg->header.stamp;

@@ -111,20 +111,9 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   }
   m.goal_curvature = actions.goal_line.curvature_1pm;
   m.goal_turn_sign = actions.goal_line.turn_sign;
-  for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
-    m.action_v[i] = fields.action_v[i];
-    m.action_w[i] = fields.action_w[i];
-    m.action_valid[i] = fields.action_valid[i];
-  }
-  m.escape = fields.escape;
-  m.escape_v = fields.escape_v;
-  m.escape_w = fields.escape_w;
+  dovsDecisionToMessage(fields, m);  // state, normalisation, actions and mask, escape, static geometry
   m.escape_tier = static_cast<uint8_t>(shielded.has_escape ? shielded.escape_tier : EscapeTier::kFree);
-  if (shield.statics.enabled) {
-    m.static_frame = obstacles.header.frame_id;
-    m.static_segments = fields.static_segments;
-    m.static_discs = fields.static_discs;
-  }
+  if (shield.statics.enabled) m.static_frame = obstacles.header.frame_id;
   const int n = dovs.numTrajectories();
   m.trajectory_curvature.reserve(static_cast<size_t>(n));
   m.interval_begin.reserve(static_cast<size_t>(n) + 1);
@@ -142,8 +131,6 @@ std::string buildDovsStep(const TrackedObstacleArray& obstacles, const Pose2& ro
   }
   m.interval_begin.push_back(static_cast<uint32_t>(m.interval_lo.size()));
   m.grid_rows = m.grid_cols = static_cast<uint16_t>(dovs.gridSize());
-  m.state = fields.state;
-  m.state_normalization = fields.state_normalization;
   return {};
 }
 

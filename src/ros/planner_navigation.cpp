@@ -183,18 +183,10 @@ void PlannerNavigation::refreshGoal(bool is_new) {
   route_ahead_fixed_.clear();
   const Vec2 target = is_new ? goal : localGoal(goal);
   if (route_ahead_pub_) {  // before the local goal: dovs_node takes the route ahead published under its stamp
-    nav_msgs::Path ahead;
-    ahead.header.stamp = goal_id_;
-    ahead.header.frame_id = fixed_frame_;
-    for (const Vec2& p : route_ahead_fixed_) {
-      geometry_msgs::PoseStamped ps;
-      ps.header = ahead.header;
-      ps.pose.position.x = p.x();
-      ps.pose.position.y = p.y();
-      ps.pose.orientation.w = 1.0;
-      ahead.poses.push_back(ps);
-    }
-    route_ahead_pub_.publish(ahead);
+    std_msgs::Header header;
+    header.stamp = goal_id_;
+    header.frame_id = fixed_frame_;
+    route_ahead_pub_.publish(pathToMsg(route_ahead_fixed_, header));
   }
   geometry_msgs::PoseStamped local;
   local.header.stamp = goal_id_;
@@ -306,13 +298,7 @@ std::vector<Vec2> PlannerNavigation::scanPointsInRouteFrame() {
   }
   Pose2 laser;
   if (!poseFromTransform(tf.transform, laser)) return out;
-  for (size_t k = 0; k < scan.ranges.size(); ++k) {
-    const double r = scan.ranges[k];
-    if (!std::isfinite(r) || r < scan.range_min || r > scan.range_max) continue;
-    const double a = scan.angleOf(k);
-    out.push_back(laser.toWorld(Vec2(r * std::cos(a), r * std::sin(a))));
-  }
-  return out;
+  return scan.returnsIn(laser);
 }
 
 std::string PlannerNavigation::planRoute() {
@@ -339,18 +325,10 @@ std::string PlannerNavigation::planRoute() {
 
 void PlannerNavigation::publishRoute() {
   const Route& route = route_guide_.route();
-  nav_msgs::Path path;
-  path.header.stamp = ros::Time::now();
-  path.header.frame_id = route_frame_;
-  for (const Vec2& p : route.points) {
-    geometry_msgs::PoseStamped ps;
-    ps.header = path.header;
-    ps.pose.position.x = p.x();
-    ps.pose.position.y = p.y();
-    ps.pose.orientation.w = 1.0;
-    path.poses.push_back(ps);
-  }
-  route_pub_.publish(path);
+  std_msgs::Header header;
+  header.stamp = ros::Time::now();
+  header.frame_id = route_frame_;
+  route_pub_.publish(pathToMsg(route.points, header));
   ROS_INFO("planner: route of %.1f m (%zu points) in '%s'", route.length_m, route.points.size(), route_frame_.c_str());
 }
 

@@ -30,14 +30,32 @@ Observation wallAhead() {
 
 QNetwork shippedNetwork() { return QNetwork::load(std::string(DQN_DOVS_SOURCE_DIR) + "/models/dqn_dovs.dqnw"); }
 
+/// The velocity space, actions and state of `wallAhead()` as every front end builds them (buildVelocitySpaceStep).
+struct Scene {
+  Observation obs = wallAhead();
+  RobotLimits limits;
+  StateNormalization norm;
+  VelocitySpace dovs;
+  VelocitySpaceStep step;
+  Scene() {
+    DovsBuilder builder(limits, DovsConfig{});
+    buildVelocitySpaceStep(obs, limits, norm, builder, dovs, step);
+  }
+};
+
 TEST(DovsDecision, TheFieldsAreWhatTheVelocitySpaceAndTheShieldGive) {
-  const Observation obs = wallAhead();
-  const RobotLimits limits;
-  const VelocitySpace dovs = buildDovs(obs, limits, DovsConfig{});
-  const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
-  const StateNormalization norm;
-  const StateVector state = buildState(dovs, obs, norm);
-  const ShieldedMask shielded = shieldActions(actions, dovs, obs, ActionShieldConfig{});
+  const Scene scene;
+  const Observation& obs = scene.obs;
+  const RobotLimits& limits = scene.limits;
+  const VelocitySpace& dovs = scene.dovs;
+  const ActionSet& actions = scene.step.actions;
+  const StateNormalization& norm = scene.norm;
+  const StateVector& state = scene.step.state;
+  EXPECT_EQ(state, buildState(dovs, obs, norm));
+  const ShieldedMask shielded = shieldStep(actions, dovs, obs, ActionShieldConfig{});
+  // Without a goal the goal-line actions are masked first.
+  const ShieldedMask no_goal = shieldStep(actions, dovs, obs, ActionShieldConfig{}, false);
+  for (size_t i = static_cast<size_t>(kActionGoalHigh); i < no_goal.mask.size(); ++i) EXPECT_FALSE(no_goal.mask[i]);
   StaticSafetyConfig statics;
   const DovsDecision d = decisionFields(state, norm, actions, shielded, obs, limits, statics);
   ASSERT_EQ(d.state.size(), static_cast<size_t>(state.size()));
@@ -68,14 +86,12 @@ TEST(DovsDecision, TheFieldsAreWhatTheVelocitySpaceAndTheShieldGive) {
 }
 
 TEST(DovsDecision, TheStaticLastLineBrakesBeforeTheWallAndOnlyWhenOn) {
-  const Observation obs = wallAhead();
-  const RobotLimits limits;
-  const VelocitySpace dovs = buildDovs(obs, limits, DovsConfig{});
-  const ActionSet actions = computeActions(obs.robot_twist, obs.robot_pose.toLocal(obs.goal), limits);
-  const StateNormalization norm;
-  const ShieldedMask open = shieldActions(actions, dovs, obs, ActionShieldConfig{});
+  const Scene scene;
+  const RobotLimits& limits = scene.limits;
+  const ShieldedMask open = shieldStep(scene.step.actions, scene.dovs, scene.obs, ActionShieldConfig{});
   const StaticSafetyConfig statics;
-  const DovsDecision d = decisionFields(buildState(dovs, obs, norm), norm, actions, open, obs, limits, statics);
+  const DovsDecision d =
+      decisionFields(scene.step.state, scene.norm, scene.step.actions, open, scene.obs, limits, statics);
   // 0.7 m/s straight at a wall 1 m ahead (0.8 m from the body) from 0.5 m/s: the braking trajectory reaches it.
   const Twist2 fast{0.7, 0.0};
   const Pose2 closer{0.4, 0.0, 0.0};

@@ -24,6 +24,17 @@ struct LaserScan2 {
   std::vector<float> ranges;
 
   double angleOf(size_t i) const { return angle_min + static_cast<double>(i) * angle_increment; }
+  /// The returns (finite ranges within [range_min, range_max]) as points placed by `laser_pose`, in beam order.
+  std::vector<Vec2> returnsIn(const Pose2& laser_pose) const {
+    std::vector<Vec2> out;
+    for (size_t k = 0; k < ranges.size(); ++k) {
+      const double r = ranges[k];
+      if (!std::isfinite(r) || r < range_min || r > range_max) continue;
+      const double a = angleOf(k);
+      out.push_back(laser_pose.toWorld(Vec2(r * std::cos(a), r * std::sin(a))));
+    }
+    return out;
+  }
 };
 
 /// A disc obstacle moving on its own constant-(v, w) motion model.

@@ -53,6 +53,23 @@ DovsDecision dovsDecisionFromMessage(const Message& m) {
   return d;
 }
 
+/// The inverse: `d`'s decision fields written into a message laid out like dqn_dovs/Dovs (dovs_node's).
+template <class Message>
+void dovsDecisionToMessage(const DovsDecision& d, Message& m) {
+  m.state.assign(d.state.begin(), d.state.end());
+  m.state_normalization.assign(d.state_normalization.begin(), d.state_normalization.end());
+  for (size_t i = 0; i < static_cast<size_t>(kNumActions); ++i) {
+    m.action_v[i] = d.action_v[i];
+    m.action_w[i] = d.action_w[i];
+    m.action_valid[i] = d.action_valid[i];
+  }
+  m.escape = d.escape;
+  m.escape_v = d.escape_v;
+  m.escape_w = d.escape_w;
+  m.static_segments.assign(d.static_segments.begin(), d.static_segments.end());
+  m.static_discs.assign(d.static_discs.begin(), d.static_discs.end());
+}
+
 /// The shield's step of a decision: `actions`' validity mask narrowed by the action shield (shieldActions; with
 /// shield.enabled false, the validity mask), the goal-line actions masked first when there is no goal.
 ShieldedMask shieldStep(const ActionSet& actions, const VelocitySpace& dovs, const Observation& observation,
